@@ -1,0 +1,35 @@
+"""simcore: nonsmooth multibody simulation of a ball bearing inside a crank-slider.
+
+Public API
+----------
+load_config(path=None, overrides=())  -> validated configuration dict
+run(config)                           -> xarray.Dataset of one run (SPEC section 5)
+write_netcdf(ds, path)                -> atomic netCDF writing
+"""
+
+from importlib.metadata import PackageNotFoundError, version
+
+from .config import ConfigError, load_config, load_schema, validate_config
+
+try:
+    __version__ = version("bearingsim")
+except PackageNotFoundError:  # running from a source tree without installation
+    __version__ = "0.0.0+unknown"
+
+
+def run(config, progress=False):
+    """Simulate one run; see :func:`simcore.simulate.run`."""
+    from .simulate import run as _run
+
+    return _run(config, progress=progress)
+
+
+def write_netcdf(ds, path, complevel=4):
+    """Write a dataset atomically; see :func:`simcore.io.write_netcdf`."""
+    from .io import write_netcdf as _write
+
+    return _write(ds, path, complevel=complevel)
+
+
+__all__ = ["ConfigError", "load_config", "load_schema", "validate_config", "run", "write_netcdf",
+           "__version__"]
