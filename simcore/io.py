@@ -57,3 +57,105 @@ def _attrs(units: str, long_name: str, **extra) -> dict:
 
 
 __all__ = ["write_netcdf", "np"]
+
+
+def _flatten(cfg: dict) -> dict:
+    out = {}
+    for section in ("model", "solver", "analysis"):
+        for key, value in cfg.get(section, {}).items():
+            if value is None:
+                continue
+            out[f"{section}.{key}"] = value if not isinstance(value, bool) else int(value)
+    return out
+
+
+def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
+    """Turn a :class:`simcore.model.Trajectory` of the crank-slider into the run dataset.
+
+    Every variable declares its dimensions, ``units`` and ``long_name`` here, where it is made.
+    """
+    from . import __version__
+
+    m = cfg["model"]
+    n_balls = int(m["n_balls"])
+    nbody = len(model.body_names)
+    q = traj.q.reshape(traj.q.shape[0], nbody, 3)
+    v = traj.v.reshape(traj.v.shape[0], nbody, 3)
+    # bearing journal: outer-race centre minus inner-race centre
+    from .integrator import body_point
+
+    jx = np.empty(q.shape[0])
+    jy = np.empty(q.shape[0])
+    for i in range(q.shape[0]):
+        ax, ay, _, _ = body_point(traj.q[i], layout.crank, *layout.crank_pin)
+        cx, cy, _, _ = body_point(traj.q[i], layout.rod, *layout.rod_big_end)
+        jx[i] = cx - ax
+        jy[i] = cy - ay
+    crank_angle = q[:, layout.crank, 2]
+    TC = ("time", "contact")
+    data = {
+        "Lambda_N": (TC, traj.lambda_N, _attrs(
+            "N s", "normal contact impulse of the velocity jump of the step ending at time")),
+        "Lambda_T": (TC, traj.lambda_T, _attrs(
+            "N s", "tangential contact impulse along t = e_z x n")),
+        "nu_N": (TC, traj.nu_N, _attrs(
+            "N s^2", "position-correction multiplier of the contact")),
+        "gap_N": (TC, traj.gap_N, _attrs("m", "normal gap after the step (negative: penetration)")),
+        "vn_pre": (TC, traj.vn_pre, _attrs(
+            "m s-1", "normal relative velocity at the start of the step (negative: approaching)")),
+        "vn_post": (TC, traj.vn_post, _attrs(
+            "m s-1", "normal relative velocity after the velocity jump (negative: approaching)")),
+        "q": (("time", "body", "dof"), q, _attrs(
+            "m or rad", "body positions (x [m], y [m], phi [rad]) of the centre of mass")),
+        "v": (("time", "body", "dof"), v, _attrs(
+            "m s-1 or rad s-1", "body velocities (vx, vy [m/s], omega [rad/s])")),
+        "crank_angle": (("time",), crank_angle, _attrs("rad", "crank angle, unwrapped")),
+        "slider_x": (("time",), q[:, layout.slider, 0], _attrs("m", "slider position")),
+        "slider_v": (("time",), v[:, layout.slider, 0], _attrs("m s-1", "slider velocity")),
+        "journal_x": (("time",), jx, _attrs(
+            "m", "outer-race centre minus inner-race centre, x (journal orbit)")),
+        "journal_y": (("time",), jy, _attrs(
+            "m", "outer-race centre minus inner-race centre, y (journal orbit)")),
+        "energy": (("time",), traj.energy, _attrs(
+            "J", "kinetic + gravitational + cage spring energy")),
+        "drive_torque": (("time",), traj.drive_torque, _attrs(
+            "N m", "torque of the constant-speed drive (0 for the free drive)")),
+        "iterations": (("time", "stage"), traj.iterations.astype(np.int32), _attrs(
+            "1", "Newton iterations of each sub-problem of the step")),
+        "converged": (("time",), traj.converged.astype(np.int8), _attrs(
+            "1", "1 where every sub-problem of the step converged")),
+    }
+    contact = np.arange(2 * n_balls)
+    coords = {
+        "time": ("time", traj.time, _attrs("s", "time")),
+        "contact": ("contact", contact, {"long_name": "ball-race contact index"}),
+        "ball": ("contact", np.concatenate([np.arange(n_balls)] * 2),
+                 {"long_name": "ball index"}),
+        "race": ("contact", np.array(["inner"] * n_balls + ["outer"] * n_balls, dtype=object),
+                 {"long_name": "race of the contact"}),
+        "body": ("body", np.array(model.body_names, dtype=object), {"long_name": "body name"}),
+        "dof": ("dof", np.array(["x", "y", "phi"], dtype=object),
+                {"long_name": "planar degree of freedom"}),
+        "stage": ("stage", np.array(["smooth", "position", "velocity"], dtype=object),
+                  {"long_name": "sub-problem of the nonsmooth generalized-alpha step"}),
+        "clearance": ((), float(m["clearance"]), _attrs("m", "radial clearance")),
+        "mu": ((), float(m["mu"]), _attrs("1", "friction coefficient")),
+        "omega0": ((), float(m["omega0"]), _attrs("rad s-1", "crank speed")),
+        "e_N": ((), float(m["e_N"]), _attrs("1", "normal restitution coefficient")),
+    }
+    attrs = {
+        "Conventions": "CF-1.10",
+        "title": "Ball bearing (SKF 6012) in a crank-slider: nonsmooth generalized-alpha run",
+        "source": f"bearingsim {__version__} (simcore)",
+        "outer_radius": layout.outer_radius,
+        "pitch_radius": layout.pitch_radius,
+        "initial_cage_speed": layout.cage_speed,
+        "initial_ball_spin": layout.ball_spin,
+        "position_tolerance_m": cfg["solver"]["tol"] * cfg["solver"]["dt"],
+        "contact_set_velocity_problem": "contacts with nu_N > 0 or gap_N <= tol*dt after the "
+                                        "position correction",
+        "wall_time_s": float(traj.wall_time_s),
+        "n_unconverged_steps": int(np.sum(traj.converged == 0)),
+    }
+    attrs.update(_flatten(cfg))
+    return xr.Dataset(data, coords=coords, attrs=attrs)

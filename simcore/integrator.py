@@ -1,0 +1,893 @@
+"""Numba kernels: planar rigid bodies, joints, springs, unilateral contacts and the decoupled
+nonsmooth generalized-alpha step (SPEC section 4).
+
+Every kernel works on plain NumPy arrays. They call each other, so they live in this one module:
+Numba's on-disk cache does not notice edits to functions in other modules.
+
+Conventions
+-----------
+- ``q``, ``v``: generalized coordinates and velocities, 3 per body: (x [m], y [m], phi [rad]).
+- The mass matrix is diagonal: (m, m, Izz) per body, about the body's centre of mass.
+- Body index -1 is the ground; its "local" points are world points.
+- A contact pairs a surface body ``a`` (plane, race) with a sphere on body ``b`` (ball). Its gap
+  ``g_N`` is positive when open; its rows ``wN``/``wT`` hold the 3 + 3 Jacobian entries of bodies
+  a and b, so that ``dg_N/dt = wN . (v_a, v_b)`` and the tangential slip is ``wT . (v_a, v_b)``
+  with ``t = e_z x n`` and ``n`` the element's normal (SPEC section 3).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+# element codes shared with simcore.model
+JOINT_REVOLUTE = 0
+JOINT_PRISMATIC = 1
+JOINT_ANGLE = 2
+CONTACT_PLANE = 0
+CONTACT_OUTSIDE = 1
+CONTACT_INSIDE = 2
+
+# layout of the per-step statistics written by integrate_chunk
+STAGE_SMOOTH = 0
+STAGE_POSITION = 1
+STAGE_VELOCITY = 2
+
+
+# ----------------------------------------------------------------------------------------------
+# kinematics of body points
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def body_point(q, body, px, py):
+    """World position (x, y) and lever arm (ax, ay) = R(phi) p of a body-fixed point [m]."""
+    if body < 0:
+        return px, py, 0.0, 0.0
+    phi = q[3 * body + 2]
+    c = np.cos(phi)
+    s = np.sin(phi)
+    ax = c * px - s * py
+    ay = s * px + c * py
+    return q[3 * body] + ax, q[3 * body + 1] + ay, ax, ay
+
+
+@njit(cache=True)
+def body_omega(v, body):
+    """Angular velocity of a body [rad/s] (0 for the ground)."""
+    if body < 0:
+        return 0.0
+    return v[3 * body + 2]
+
+
+# ----------------------------------------------------------------------------------------------
+# bilateral joints
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def joint_row_count(jt_type):
+    """Number of constraint rows of each joint and in total."""
+    n = 0
+    for j in range(jt_type.shape[0]):
+        n += 1 if jt_type[j] == JOINT_ANGLE else 2
+    return n
+
+
+@njit(cache=True)
+def bilateral(q, v, t, jt_type, jt_body, jt_geom, g, G, gamma, dgdt):
+    """Evaluate all bilateral constraints.
+
+    Fills ``g`` (position residual [m or rad]), ``G`` (rows x ndof Jacobian), ``gamma``
+    (the velocity-squared term of the acceleration constraint, G a + gamma = 0) and ``dgdt``
+    (explicit time derivative, rheonomic joints) in place.
+    """
+    G[:, :] = 0.0
+    row = 0
+    for j in range(jt_type.shape[0]):
+        bi = jt_body[j, 0]
+        bj = jt_body[j, 1]
+        p = jt_geom[j]
+        kind = jt_type[j]
+        if kind == JOINT_REVOLUTE:
+            xi, yi, aix, aiy = body_point(q, bi, p[0], p[1])
+            xj, yj, ajx, ajy = body_point(q, bj, p[2], p[3])
+            wi = body_omega(v, bi)
+            wj = body_omega(v, bj)
+            g[row] = xi - xj
+            g[row + 1] = yi - yj
+            gamma[row] = -aix * wi * wi + ajx * wj * wj
+            gamma[row + 1] = -aiy * wi * wi + ajy * wj * wj
+            dgdt[row] = 0.0
+            dgdt[row + 1] = 0.0
+            if bi >= 0:
+                G[row, 3 * bi] += 1.0
+                G[row, 3 * bi + 2] += -aiy
+                G[row + 1, 3 * bi + 1] += 1.0
+                G[row + 1, 3 * bi + 2] += aix
+            if bj >= 0:
+                G[row, 3 * bj] -= 1.0
+                G[row, 3 * bj + 2] -= -ajy
+                G[row + 1, 3 * bj + 1] -= 1.0
+                G[row + 1, 3 * bj + 2] -= ajx
+            row += 2
+        elif kind == JOINT_PRISMATIC:
+            # body bi slides along the ground axis through (p[2], p[3]) at angle p[4];
+            # its rotation is locked at p[5]
+            xi, yi, aix, aiy = body_point(q, bi, p[0], p[1])
+            nx = -np.sin(p[4])
+            ny = np.cos(p[4])
+            wi = body_omega(v, bi)
+            g[row] = nx * (xi - p[2]) + ny * (yi - p[3])
+            g[row + 1] = q[3 * bi + 2] - p[5]
+            gamma[row] = -(nx * aix + ny * aiy) * wi * wi
+            gamma[row + 1] = 0.0
+            dgdt[row] = 0.0
+            dgdt[row + 1] = 0.0
+            G[row, 3 * bi] = nx
+            G[row, 3 * bi + 1] = ny
+            G[row, 3 * bi + 2] = aix * ny - aiy * nx
+            G[row + 1, 3 * bi + 2] = 1.0
+            row += 2
+        else:
+            # prescribed rotation phi = p[0] + p[1] t (rheonomic)
+            g[row] = q[3 * bi + 2] - p[0] - p[1] * t
+            gamma[row] = 0.0
+            dgdt[row] = -p[1]
+            G[row, 3 * bi + 2] = 1.0
+            row += 1
+
+
+# ----------------------------------------------------------------------------------------------
+# smooth forces: gravity and linear spring-dampers between body points
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def spring_state(q, v, k, sp_body, sp_geom):
+    """Length [m], its rate [m/s], unit direction and lever arms of spring ``k``."""
+    bi = sp_body[k, 0]
+    bj = sp_body[k, 1]
+    p = sp_geom[k]
+    xi, yi, aix, aiy = body_point(q, bi, p[0], p[1])
+    xj, yj, ajx, ajy = body_point(q, bj, p[2], p[3])
+    dx = xj - xi
+    dy = yj - yi
+    length = np.sqrt(dx * dx + dy * dy)
+    if length > 1e-300:
+        nx = dx / length
+        ny = dy / length
+    else:
+        nx = 1.0
+        ny = 0.0
+    wi = body_omega(v, bi)
+    wj = body_omega(v, bj)
+    vix = 0.0
+    viy = 0.0
+    vjx = 0.0
+    vjy = 0.0
+    if bi >= 0:
+        vix = v[3 * bi] - wi * aiy
+        viy = v[3 * bi + 1] + wi * aix
+    if bj >= 0:
+        vjx = v[3 * bj] - wj * ajy
+        vjy = v[3 * bj + 1] + wj * ajx
+    rate = nx * (vjx - vix) + ny * (vjy - viy)
+    return length, rate, nx, ny, aix, aiy, ajx, ajy
+
+
+@njit(cache=True)
+def smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, tangent):
+    """Gravity plus spring-damper forces ``f`` [N, N m]; with ``tangent`` also the stiffness
+    ``K = -df/dq`` and damping ``C = -df/dv`` matrices (the small second-derivative term of the
+    lever arms is left out of K: Newton stays convergent, only the rate changes)."""
+    nb = mass.shape[0]
+    for b in range(nb):
+        f[3 * b] = mass[b] * gvec[0]
+        f[3 * b + 1] = mass[b] * gvec[1]
+        f[3 * b + 2] = 0.0
+    if tangent:
+        K[:, :] = 0.0
+        C[:, :] = 0.0
+    w = np.zeros(6)
+    P = np.zeros((2, 6))
+    idx = np.zeros(6, dtype=np.int64)
+    for k in range(sp_body.shape[0]):
+        bi = sp_body[k, 0]
+        bj = sp_body[k, 1]
+        stiff = sp_geom[k, 4]
+        damp = sp_geom[k, 5]
+        rest = sp_geom[k, 6]
+        length, rate, nx, ny, aix, aiy, ajx, ajy = spring_state(q, v, k, sp_body, sp_geom)
+        tension = stiff * (length - rest) + damp * rate
+        # w = d(length)/d(q_i, q_j)
+        w[0] = -nx
+        w[1] = -ny
+        w[2] = -(aix * ny - aiy * nx)
+        w[3] = nx
+        w[4] = ny
+        w[5] = ajx * ny - ajy * nx
+        for a in range(3):
+            idx[a] = 3 * bi + a
+            idx[3 + a] = 3 * bj + a
+        for a in range(6):
+            body = bi if a < 3 else bj
+            if body >= 0:
+                f[idx[a]] -= tension * w[a]
+        if tangent:
+            # point Jacobians for the geometric stiffness (tension / length) (I - n n^T)
+            P[:, :] = 0.0
+            P[0, 0] = -1.0
+            P[1, 1] = -1.0
+            P[0, 2] = aiy
+            P[1, 2] = -aix
+            P[0, 3] = 1.0
+            P[1, 4] = 1.0
+            P[0, 5] = -ajy
+            P[1, 5] = ajx
+            geo = tension / length if length > 1e-300 else 0.0
+            m00 = geo * (1.0 - nx * nx)
+            m01 = -geo * nx * ny
+            m11 = geo * (1.0 - ny * ny)
+            for a in range(6):
+                ba = bi if a < 3 else bj
+                if ba < 0:
+                    continue
+                for c in range(6):
+                    bc = bi if c < 3 else bj
+                    if bc < 0:
+                        continue
+                    kgeo = (P[0, a] * (m00 * P[0, c] + m01 * P[1, c])
+                            + P[1, a] * (m01 * P[0, c] + m11 * P[1, c]))
+                    K[idx[a], idx[c]] += stiff * w[a] * w[c] + kgeo
+                    C[idx[a], idx[c]] += damp * w[a] * w[c]
+
+
+@njit(cache=True)
+def total_energy(q, v, mdiag, mass, gvec, sp_body, sp_geom):
+    """Kinetic + gravitational + spring energy [J]."""
+    e = 0.0
+    for i in range(q.shape[0]):
+        e += 0.5 * mdiag[i] * v[i] * v[i]
+    for b in range(mass.shape[0]):
+        e -= mass[b] * (gvec[0] * q[3 * b] + gvec[1] * q[3 * b + 1])
+    for k in range(sp_body.shape[0]):
+        length, rate, nx, ny, aix, aiy, ajx, ajy = spring_state(q, v, k, sp_body, sp_geom)
+        e += 0.5 * sp_geom[k, 4] * (length - sp_geom[k, 6]) ** 2
+    return e
+
+
+# ----------------------------------------------------------------------------------------------
+# contact elements
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT):
+    """Gap ``g_N`` [m] of contact ``k`` and its normal / tangential Jacobian entries.
+
+    ``wN[0:3]``, ``wT[0:3]`` belong to body a (surface), ``wN[3:6]``, ``wT[3:6]`` to body b
+    (sphere). Elements (SPEC section 3):
+
+    - plane: n is the plane normal, g = n.(c_b - c_a) - r_b;
+    - outside (sphere on sphere): n = (c_b - c_a)/|.|, g = |c_b - c_a| - r_a - r_b;
+    - inside (sphere in sphere): n = (c_b - c_a)/|.|, g = r_a - r_b - |c_b - c_a|.
+
+    The tangent is t = e_z x n; the slip is the velocity of the sphere's material point at the
+    contact minus that of body a's material point there (taken at the race radius r_a).
+    """
+    ia = ct_body[k, 0]
+    ib = ct_body[k, 1]
+    p = ct_geom[k]
+    cax, cay, aax, aay = body_point(q, ia, p[0], p[1])
+    cbx, cby, abx, aby = body_point(q, ib, p[2], p[3])
+    rb = p[5]
+    dx = cbx - cax
+    dy = cby - cay
+    kind = ct_type[k]
+    if kind == CONTACT_PLANE:
+        ang = p[4]
+        if ia >= 0:
+            ang += q[3 * ia + 2]
+        nx = np.cos(ang)
+        ny = np.sin(ang)
+        g = nx * dx + ny * dy - rb
+        tx = -ny
+        ty = nx
+        # normal rows: d/dt [n.(c_b - c_a)], n turns with body a
+        wN[0] = -nx
+        wN[1] = -ny
+        wN[2] = -(aax * ny - aay * nx) + (dx * tx + dy * ty)
+        wN[3] = nx
+        wN[4] = ny
+        wN[5] = abx * ny - aby * nx
+        # contact point on the sphere and on the plane, relative to the body origins
+        rbx = abx - rb * nx
+        rby = aby - rb * ny
+        rax = aax + dx - (rb + g) * nx
+        ray = aay + dy - (rb + g) * ny
+    else:
+        dist = np.sqrt(dx * dx + dy * dy)
+        if dist > 1e-300:
+            nx = dx / dist
+            ny = dy / dist
+        else:
+            nx = 1.0
+            ny = 0.0
+        tx = -ny
+        ty = nx
+        sign = 1.0
+        if kind == CONTACT_OUTSIDE:
+            g = dist - p[4] - rb
+            rbx = abx - rb * nx
+            rby = aby - rb * ny
+        else:
+            g = p[4] - rb - dist
+            sign = -1.0
+            rbx = abx + rb * nx
+            rby = aby + rb * ny
+        rax = aax + p[4] * nx
+        ray = aay + p[4] * ny
+        wN[0] = -sign * nx
+        wN[1] = -sign * ny
+        wN[2] = -sign * (aax * ny - aay * nx)
+        wN[3] = sign * nx
+        wN[4] = sign * ny
+        wN[5] = sign * (abx * ny - aby * nx)
+    wT[0] = -tx
+    wT[1] = -ty
+    wT[2] = -(rax * ty - ray * tx)
+    wT[3] = tx
+    wT[4] = ty
+    wT[5] = rbx * ty - rby * tx
+    return g
+
+
+@njit(cache=True)
+def _scatter_row(row, w, ia, ib):
+    """Write the 6 element entries of ``w`` into a dense generalized row."""
+    row[:] = 0.0
+    if ia >= 0:
+        for a in range(3):
+            row[3 * ia + a] += w[a]
+    if ib >= 0:
+        for a in range(3):
+            row[3 * ib + a] += w[3 + a]
+
+
+@njit(cache=True)
+def _row_dot(w, ia, ib, x):
+    s = 0.0
+    if ia >= 0:
+        for a in range(3):
+            s += w[a] * x[3 * ia + a]
+    if ib >= 0:
+        for a in range(3):
+            s += w[3 + a] * x[3 * ib + a]
+    return s
+
+
+@njit(cache=True)
+def contact_velocities(q, v, ct_type, ct_body, ct_geom, gap, vn, vt):
+    """Gaps [m], normal and tangential relative velocities [m/s] of every contact."""
+    wN = np.zeros(6)
+    wT = np.zeros(6)
+    for k in range(ct_type.shape[0]):
+        gap[k] = contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT)
+        vn[k] = _row_dot(wN, ct_body[k, 0], ct_body[k, 1], v)
+        vt[k] = _row_dot(wT, ct_body[k, 0], ct_body[k, 1], v)
+
+
+# ----------------------------------------------------------------------------------------------
+# generalized-alpha coefficients
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def alpha_coefficients(rho_inf):
+    """(alpha_m, alpha_f, gamma, beta) of generalized-alpha for a spectral radius rho_inf."""
+    am = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0)
+    af = rho_inf / (rho_inf + 1.0)
+    gam = 0.5 + af - am
+    beta = 0.25 * (gam + 0.5) ** 2
+    return am, af, gam, beta
+
+
+@njit(cache=True)
+def initial_acceleration(q, v, t, mdiag, mass, gvec, sp_body, sp_geom, jt_type, jt_body,
+                         jt_geom, vdot, lam):
+    """Smooth acceleration at t = 0 from M vdot = f + G^T lam, G vdot + gamma = 0."""
+    n = q.shape[0]
+    m = joint_row_count(jt_type)
+    f = np.zeros(n)
+    K = np.zeros((n, n))
+    C = np.zeros((n, n))
+    smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, False)
+    g = np.zeros(m)
+    G = np.zeros((m, n))
+    gam = np.zeros(m)
+    dgdt = np.zeros(m)
+    bilateral(q, v, t, jt_type, jt_body, jt_geom, g, G, gam, dgdt)
+    A = np.zeros((n + m, n + m))
+    rhs = np.zeros(n + m)
+    for i in range(n):
+        A[i, i] = mdiag[i]
+        rhs[i] = f[i]
+    for r in range(m):
+        for i in range(n):
+            A[i, n + r] = -G[r, i]
+            A[n + r, i] = G[r, i]
+        rhs[n + r] = -gam[r]
+    x = np.linalg.solve(A, rhs)
+    vdot[:] = x[:n]
+    lam[:] = x[n:]
+
+
+# ----------------------------------------------------------------------------------------------
+# stage 1: smooth step
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, mdiag, mass, gvec, sp_body,
+                sp_geom, jt_type, jt_body, jt_geom, q_t, v_t, acc1, vdot1, f_t, K_t, C_t):
+    """Generalized-alpha prediction with smooth forces and bilateral joints (velocity level).
+
+    Newton on ``vdot1``; fills q_t, v_t, acc1, vdot1, lam and the forces/tangents at (q_t, v_t).
+    Returns (iterations, converged).
+    """
+    am, af, gam, beta = coef
+    n = q.shape[0]
+    m = lam.shape[0]
+    ca = (1.0 - af) / (1.0 - am)
+    g = np.zeros(m)
+    G = np.zeros((m, n))
+    gm = np.zeros(m)
+    dgdt = np.zeros(m)
+    A = np.zeros((n + m, n + m))
+    rhs = np.zeros(n + m)
+    vdot1[:] = vdot
+    iters = 0
+    converged = False
+    for it in range(max_iter + 1):
+        for i in range(n):
+            acc1[i] = ((1.0 - af) * vdot1[i] + af * vdot[i] - am * acc[i]) / (1.0 - am)
+            q_t[i] = q[i] + h * v[i] + h * h * (0.5 - beta) * acc[i] + h * h * beta * acc1[i]
+            v_t[i] = v[i] + h * (1.0 - gam) * acc[i] + h * gam * acc1[i]
+        smooth_forces(q_t, v_t, mass, gvec, sp_body, sp_geom, f_t, K_t, C_t, True)
+        bilateral(q_t, v_t, t1, jt_type, jt_body, jt_geom, g, G, gm, dgdt)
+        scale = 1e-300
+        res_f = 0.0
+        for i in range(n):
+            react = 0.0
+            for r in range(m):
+                react += G[r, i] * lam[r]
+            rhs[i] = -(mdiag[i] * vdot1[i] - f_t[i] - react)
+            res_f = max(res_f, abs(rhs[i]))
+            scale = max(scale, abs(f_t[i]), abs(mdiag[i] * vdot1[i]), abs(react))
+        res_c = 0.0
+        for r in range(m):
+            c = dgdt[r]
+            for i in range(n):
+                c += G[r, i] * v_t[i]
+            rhs[n + r] = -c
+            res_c = max(res_c, abs(c))
+        if res_f <= tol * scale and res_c <= tol:
+            converged = True
+            break
+        if it == max_iter:
+            break
+        iters += 1
+        for i in range(n):
+            for j in range(n):
+                A[i, j] = (C_t[i, j] * h * gam + K_t[i, j] * h * h * beta) * ca
+            A[i, i] += mdiag[i]
+        for r in range(m):
+            for i in range(n):
+                A[i, n + r] = -G[r, i]
+                A[n + r, i] = G[r, i] * h * gam * ca
+            for s in range(m):
+                A[n + r, n + s] = 0.0
+        dx = np.linalg.solve(A, rhs)
+        for i in range(n):
+            vdot1[i] += dx[i]
+        for r in range(m):
+            lam[r] += dx[n + r]
+    return iters, converged
+
+
+# ----------------------------------------------------------------------------------------------
+# stage 2: position correction
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def _position_residual(q_t, U, nu_b, nu_c, t1, h, mdiag, Ap, jt_type, jt_body, jt_geom,
+                       ct_type, ct_body, ct_geom, r_c, gb, Gb, gap, GN, q1):
+    """Scaled residual [m] of the position problem at (U, nu): joints, complementarity in the
+    augmented-Lagrangian form (nu - max(0, nu - r g))/r, and equilibrium M^-1 (Ap U - G^T nu).
+    Also refreshes joint and contact rows at q1 = q_t + U."""
+    n = q_t.shape[0]
+    for i in range(n):
+        q1[i] = q_t[i] + U[i]
+    gm = np.zeros(gb.shape[0])
+    dgdt = np.zeros(gb.shape[0])
+    bilateral(q1, U, t1, jt_type, jt_body, jt_geom, gb, Gb, gm, dgdt)
+    wN = np.zeros(6)
+    wT = np.zeros(6)
+    res = 0.0
+    for r in range(gb.shape[0]):
+        res = max(res, abs(gb[r]))
+    for k in range(ct_type.shape[0]):
+        gap[k] = contact_rows(q1, k, ct_type, ct_body, ct_geom, wN, wT)
+        _scatter_row(GN[k], wN, ct_body[k, 0], ct_body[k, 1])
+        rk = r_c[k]
+        val = nu_c[k] - max(0.0, nu_c[k] - rk * gap[k])
+        res = max(res, abs(val) / rk)
+    eq = Ap @ U - Gb.T @ nu_b - GN.T @ nu_c
+    for i in range(n):
+        res = max(res, abs(eq[i]) / mdiag[i])
+    return res
+
+
+@njit(cache=True)
+def position_step(q_t, t1, h, tol, max_iter, eta, mdiag, K_t, jt_type, jt_body, jt_geom,
+                  ct_type, ct_body, ct_geom, q1, nu_c, gap):
+    """Position correction: M U = G^T nu (with the spring stiffness h^2 K in the metric),
+    joints g(q_t + U) = 0 and 0 <= g_N ⊥ nu_N >= 0 for every contact.
+
+    Semismooth Newton with Delassus-scaled augmentation r_j = 1/(G_j A^-1 G_j^T), a proximal
+    term (eta/r)(nu - nu_k) on active rows for redundant (pinched) contacts, and a backtracking
+    line search on the scaled residual. Returns (iterations, converged)."""
+    n = q_t.shape[0]
+    nbil = joint_row_count(jt_type)
+    nc = ct_type.shape[0]
+    Ap = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            Ap[i, j] = h * h * K_t[i, j]
+        Ap[i, i] += mdiag[i]
+    Ainv = np.linalg.inv(Ap)
+    U = np.zeros(n)
+    nu_b = np.zeros(nbil)
+    nu_c[:] = 0.0
+    gb = np.zeros(nbil)
+    Gb = np.zeros((nbil, n))
+    GN = np.zeros((nc, n))
+    r_c = np.ones(nc)
+    # Delassus scaling from the rows at the predicted configuration
+    res = _position_residual(q_t, U, nu_b, nu_c, t1, h, mdiag, Ap, jt_type, jt_body, jt_geom,
+                             ct_type, ct_body, ct_geom, r_c, gb, Gb, gap, GN, q1)
+    for k in range(nc):
+        dkk = GN[k] @ (Ainv @ GN[k])
+        r_c[k] = 1.0 / dkk if dkk > 0.0 else 1.0
+    res = _position_residual(q_t, U, nu_b, nu_c, t1, h, mdiag, Ap, jt_type, jt_body, jt_geom,
+                             ct_type, ct_body, ct_geom, r_c, gb, Gb, gap, GN, q1)
+    target = tol * h
+    iters = 0
+    converged = res <= target
+    active = np.zeros(nc, dtype=np.bool_)
+    U_try = np.zeros(n)
+    nub_try = np.zeros(nbil)
+    nuc_try = np.zeros(nc)
+    gb_try = np.zeros(nbil)
+    Gb_try = np.zeros((nbil, n))
+    gap_try = np.zeros(nc)
+    GN_try = np.zeros((nc, n))
+    q_try = np.zeros(n)
+    while not converged and iters < max_iter:
+        iters += 1
+        na = 0
+        for k in range(nc):
+            active[k] = nu_c[k] - r_c[k] * gap[k] > 0.0
+            if active[k]:
+                na += 1
+        m = nbil + na
+        Gr = np.empty((m, n))
+        rhs = np.empty(m)
+        reg = np.zeros(m)
+        for r in range(nbil):
+            Gr[r] = Gb[r]
+            rhs[r] = -gb[r] + Gb[r] @ U
+        row = nbil
+        for k in range(nc):
+            if active[k]:
+                Gr[row] = GN[k]
+                reg[row] = eta / r_c[k]
+                rhs[row] = -gap[k] + GN[k] @ U + reg[row] * nu_c[k]
+                row += 1
+        AG = Ainv @ Gr.T
+        D = Gr @ AG
+        for r in range(m):
+            D[r, r] += reg[r]
+        sol = np.linalg.solve(D, rhs)
+        U_new = AG @ sol
+        nub_new = sol[:nbil]
+        nuc_new = np.zeros(nc)
+        row = nbil
+        for k in range(nc):
+            if active[k]:
+                nuc_new[k] = sol[row]
+                row += 1
+        # backtracking line search on the scaled residual
+        theta = 1.0
+        best = -1.0
+        best_theta = 1.0
+        for _ls in range(12):
+            for i in range(n):
+                U_try[i] = U[i] + theta * (U_new[i] - U[i])
+            for r in range(nbil):
+                nub_try[r] = nu_b[r] + theta * (nub_new[r] - nu_b[r])
+            for k in range(nc):
+                nuc_try[k] = nu_c[k] + theta * (nuc_new[k] - nu_c[k])
+            res_try = _position_residual(q_t, U_try, nub_try, nuc_try, t1, h, mdiag, Ap,
+                                         jt_type, jt_body, jt_geom, ct_type, ct_body, ct_geom,
+                                         r_c, gb_try, Gb_try, gap_try, GN_try, q_try)
+            if best < 0.0 or res_try < best:
+                best = res_try
+                best_theta = theta
+            if res_try <= (1.0 - 1e-4 * theta) * res:
+                break
+            theta *= 0.5
+        theta = best_theta
+        for i in range(n):
+            U[i] += theta * (U_new[i] - U[i])
+        for r in range(nbil):
+            nu_b[r] += theta * (nub_new[r] - nu_b[r])
+        for k in range(nc):
+            nu_c[k] += theta * (nuc_new[k] - nu_c[k])
+        res = _position_residual(q_t, U, nu_b, nu_c, t1, h, mdiag, Ap, jt_type, jt_body,
+                                 jt_geom, ct_type, ct_body, ct_geom, r_c, gb, Gb, gap, GN, q1)
+        converged = res <= target
+    return iters, converged
+
+
+# ----------------------------------------------------------------------------------------------
+# stage 3: velocity jump with Newton's impact law and Coulomb friction
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def _velocity_residual(lam, xi, kind, r, mu_row, pair, F):
+    """Scaled residual [m/s] of the velocity problem, row by row.
+
+    kind: 0 bilateral, 1 normal, 2 tangential (pair = index of its normal row)."""
+    res = 0.0
+    for i in range(lam.shape[0]):
+        if kind[i] == 0:
+            F[i] = xi[i]
+        elif kind[i] == 1:
+            F[i] = (lam[i] - max(0.0, lam[i] - r[i] * xi[i])) / r[i]
+        else:
+            bound = mu_row[i] * max(lam[pair[i]], 0.0)
+            z = lam[i] - r[i] * xi[i]
+            proj = min(max(z, -bound), bound)
+            F[i] = (lam[i] - proj) / r[i]
+        res = max(res, abs(F[i]))
+    return res
+
+
+@njit(cache=True)
+def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
+    """Solve xi = D lam + c with xi_b = 0 (joints), Newton's law 0 <= xi_N ⊥ lam_N >= 0 and
+    Coulomb's law |lam_T| <= mu lam_N (stick xi_T = 0, else lam_T opposes xi_T).
+
+    Semismooth Newton with Delassus-scaled augmentation, proximal regularisation and a line
+    search; projected Gauss-Seidel as fallback. ``lam`` holds the warm start on entry and the
+    solution on exit. Returns (iterations, converged)."""
+    m = lam.shape[0]
+    r = np.ones(m)
+    for i in range(m):
+        if D[i, i] > 0.0:
+            r[i] = 1.0 / D[i, i]
+    F = np.zeros(m)
+    F_try = np.zeros(m)
+    xi = D @ lam + c
+    res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
+    iters = 0
+    J = np.zeros((m, m))
+    lam_try = np.zeros(m)
+    while res > tol and iters < max_iter:
+        iters += 1
+        J[:, :] = 0.0
+        for i in range(m):
+            if kind[i] == 0:
+                J[i] = D[i]
+            elif kind[i] == 1:
+                if lam[i] - r[i] * xi[i] > 0.0:
+                    J[i] = D[i]
+                    J[i, i] += eta * D[i, i]
+                else:
+                    J[i, i] = 1.0 / r[i]
+            else:
+                bound = mu_row[i] * max(lam[pair[i]], 0.0)
+                z = lam[i] - r[i] * xi[i]
+                if abs(z) < bound:
+                    J[i] = D[i]
+                    J[i, i] += eta * D[i, i]
+                else:
+                    J[i, i] = 1.0 / r[i]
+                    if lam[pair[i]] > 0.0:
+                        s = 1.0 if z > 0.0 else -1.0
+                        J[i, pair[i]] = -mu_row[i] * s / r[i]
+        dl = np.linalg.solve(J, -F)
+        theta = 1.0
+        best = -1.0
+        best_theta = 1.0
+        for _ls in range(12):
+            lam_try[:] = lam + theta * dl
+            xi_try = D @ lam_try + c
+            res_try = _velocity_residual(lam_try, xi_try, kind, r, mu_row, pair, F_try)
+            if best < 0.0 or res_try < best:
+                best = res_try
+                best_theta = theta
+            if res_try <= (1.0 - 1e-4 * theta) * res:
+                break
+            theta *= 0.5
+        lam += best_theta * dl
+        xi = D @ lam + c
+        res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
+    if res > tol:
+        # projected Gauss-Seidel fallback: slow but monotone on this problem class
+        for _sweep in range(20 * max_iter):
+            iters += 1
+            for i in range(m):
+                xi_i = D[i] @ lam + c[i]
+                if kind[i] == 0:
+                    new = lam[i] - r[i] * xi_i
+                elif kind[i] == 1:
+                    new = max(0.0, lam[i] - r[i] * xi_i)
+                else:
+                    bound = mu_row[i] * max(lam[pair[i]], 0.0)
+                    new = min(max(lam[i] - r[i] * xi_i, -bound), bound)
+                lam[i] = new
+            xi = D @ lam + c
+            res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
+            if res <= tol:
+                break
+    return iters, res <= tol
+
+
+@njit(cache=True)
+def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, mdiag, mass, gvec,
+                  sp_body, sp_geom, jt_type, jt_body, jt_geom, ct_type, ct_body, ct_geom,
+                  ct_law, f_t, nu_c, gap, vn_minus, vt_minus, v1, lamN, lamT, lam_b):
+    """Velocity jump W = v1 - v_t with impulses Lambda on the joints and on the contacts closed
+    after the position correction (nu_N > 0 or g_N <= gap_close). ``lamN``/``lamT`` hold the
+    previous step's impulses (warm start) on entry. Returns (iterations, converged)."""
+    n = q1.shape[0]
+    nbil = joint_row_count(jt_type)
+    nc = ct_type.shape[0]
+    f1 = np.zeros(n)
+    K1 = np.zeros((n, n))
+    C1 = np.zeros((n, n))
+    smooth_forces(q1, v_t, mass, gvec, sp_body, sp_geom, f1, K1, C1, True)
+    Av = np.empty((n, n))
+    b = np.empty(n)
+    for i in range(n):
+        for j in range(n):
+            Av[i, j] = h * C1[i, j]
+        Av[i, i] += mdiag[i]
+        b[i] = h * (f1[i] - f_t[i])
+    Ainv = np.linalg.inv(Av)
+    gb = np.zeros(nbil)
+    Gb = np.zeros((nbil, n))
+    gm = np.zeros(nbil)
+    dgdt = np.zeros(nbil)
+    bilateral(q1, v_t, t1, jt_type, jt_body, jt_geom, gb, Gb, gm, dgdt)
+    closed = np.zeros(nc, dtype=np.bool_)
+    n_rows = nbil
+    for k in range(nc):
+        closed[k] = nu_c[k] > 0.0 or gap[k] <= gap_close
+        if closed[k]:
+            n_rows += 2 if ct_law[k, 0] > 0.0 else 1
+    G = np.zeros((n_rows, n))
+    off = np.zeros(n_rows)
+    kind = np.zeros(n_rows, dtype=np.int64)
+    mu_row = np.zeros(n_rows)
+    pair = np.zeros(n_rows, dtype=np.int64)
+    lam = np.zeros(n_rows)
+    row_of = np.full(nc, -1, dtype=np.int64)
+    for r in range(nbil):
+        G[r] = Gb[r]
+        off[r] = dgdt[r]
+        lam[r] = lam_b[r] if lam_b.shape[0] == nbil else 0.0
+    wN = np.zeros(6)
+    wT = np.zeros(6)
+    row = nbil
+    for k in range(nc):
+        lamN_prev = lamN[k]
+        lamT_prev = lamT[k]
+        lamN[k] = 0.0
+        lamT[k] = 0.0
+        if not closed[k]:
+            continue
+        contact_rows(q1, k, ct_type, ct_body, ct_geom, wN, wT)
+        _scatter_row(G[row], wN, ct_body[k, 0], ct_body[k, 1])
+        off[row] = ct_law[k, 1] * vn_minus[k]
+        kind[row] = 1
+        lam[row] = lamN_prev
+        row_of[k] = row
+        row += 1
+        if ct_law[k, 0] > 0.0:
+            _scatter_row(G[row], wT, ct_body[k, 0], ct_body[k, 1])
+            off[row] = ct_law[k, 2] * vt_minus[k]
+            kind[row] = 2
+            mu_row[row] = ct_law[k, 0]
+            pair[row] = row - 1
+            lam[row] = lamT_prev
+            row += 1
+    AG = Ainv @ G.T
+    D = G @ AG
+    c = G @ (v_t + Ainv @ b) + off
+    iters, ok = solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta)
+    W = Ainv @ b + AG @ lam
+    for i in range(n):
+        v1[i] = v_t[i] + W[i]
+    for r in range(nbil):
+        lam_b[r] = lam[r]
+    for k in range(nc):
+        rk = row_of[k]
+        if rk >= 0:
+            lamN[k] = lam[rk]
+            if ct_law[k, 0] > 0.0:
+                lamT[k] = lam[rk + 1]
+    return iters, ok
+
+
+# ----------------------------------------------------------------------------------------------
+# the time loop
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def integrate_chunk(k0, k1, h, rho_inf, tol, max_iter, eta, drive_row,
+                    mdiag, mass, gvec, jt_type, jt_body, jt_geom, sp_body, sp_geom,
+                    ct_type, ct_body, ct_geom, ct_law,
+                    q, v, acc, vdot, lam_s, lam_b, lamN_prev, lamT_prev, vn_prev, vt_prev,
+                    out_q, out_v, out_lamN, out_lamT, out_nu, out_gap, out_vn_pre, out_vn_post,
+                    out_energy, out_iter, out_conv, out_torque):
+    """Advance steps k0 .. k1-1 (state at time k0*h on entry, at k1*h on exit), writing the
+    outputs of each step at index k+1. The state arrays are updated in place.
+
+    Returns the index of the first step whose sub-problems did not all converge, or -1."""
+    n = q.shape[0]
+    nc = ct_type.shape[0]
+    coef = alpha_coefficients(rho_inf)
+    q_t = np.zeros(n)
+    v_t = np.zeros(n)
+    acc1 = np.zeros(n)
+    vdot1 = np.zeros(n)
+    f_t = np.zeros(n)
+    K_t = np.zeros((n, n))
+    C_t = np.zeros((n, n))
+    q1 = np.zeros(n)
+    v1 = np.zeros(n)
+    nu_c = np.zeros(nc)
+    gap = np.zeros(nc)
+    vn = np.zeros(nc)
+    vt = np.zeros(nc)
+    gap_close = tol * h
+    first_bad = -1
+    for k in range(k0, k1):
+        t1 = (k + 1) * h
+        it_s, ok_s = smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, tol, max_iter, mdiag,
+                                 mass, gvec, sp_body, sp_geom, jt_type, jt_body, jt_geom,
+                                 q_t, v_t, acc1, vdot1, f_t, K_t, C_t)
+        it_p, ok_p = position_step(q_t, t1, h, tol, max_iter, eta, mdiag, K_t, jt_type,
+                                   jt_body, jt_geom, ct_type, ct_body, ct_geom, q1, nu_c, gap)
+        it_v, ok_v = velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, mdiag,
+                                   mass, gvec, sp_body, sp_geom, jt_type, jt_body, jt_geom,
+                                   ct_type, ct_body, ct_geom, ct_law, f_t, nu_c, gap,
+                                   vn_prev, vt_prev, v1, lamN_prev, lamT_prev, lam_b)
+        # accept the step
+        for i in range(n):
+            q[i] = q1[i]
+            v[i] = v1[i]
+            acc[i] = acc1[i]
+            vdot[i] = vdot1[i]
+        contact_velocities(q, v, ct_type, ct_body, ct_geom, gap, vn, vt)
+        out_q[k + 1] = q
+        out_v[k + 1] = v
+        for j in range(nc):
+            out_lamN[k + 1, j] = lamN_prev[j]
+            out_lamT[k + 1, j] = lamT_prev[j]
+            out_nu[k + 1, j] = nu_c[j]
+            out_gap[k + 1, j] = gap[j]
+            out_vn_pre[k + 1, j] = vn_prev[j]
+            out_vn_post[k + 1, j] = vn[j]
+            vn_prev[j] = vn[j]
+            vt_prev[j] = vt[j]
+        out_energy[k + 1] = total_energy(q, v, mdiag, mass, gvec, sp_body, sp_geom)
+        out_iter[k + 1, STAGE_SMOOTH] = it_s
+        out_iter[k + 1, STAGE_POSITION] = it_p
+        out_iter[k + 1, STAGE_VELOCITY] = it_v
+        ok = ok_s and ok_p and ok_v
+        out_conv[k + 1] = 1 if ok else 0
+        if drive_row >= 0:
+            out_torque[k + 1] = lam_s[drive_row] + lam_b[drive_row] / h
+        if not ok and first_bad < 0:
+            first_bad = k
+    return first_bad

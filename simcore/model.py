@@ -1,0 +1,355 @@
+"""A small planar multibody model builder and the Python driver of the time loop.
+
+The builder collects bodies, joints, spring-dampers and contacts, checks their inputs and hands
+flat arrays to the Numba kernels of :mod:`simcore.integrator`. Scenes (the crank-slider bearing,
+the validation cases) are builder functions on top of it, see :mod:`simcore.mechanism`.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import integrator as nb
+
+CONTACT_KINDS = {"plane": nb.CONTACT_PLANE, "outside": nb.CONTACT_OUTSIDE,
+                 "inside": nb.CONTACT_INSIDE}
+
+
+class SolverError(RuntimeError):
+    """A sub-problem of a step did not converge (with ``on_nonconvergence = "error"``)."""
+
+
+def _finite(name, value, positive=False, nonneg=False):
+    value = float(value)
+    if not np.isfinite(value):
+        raise ValueError(f"{name}: {value!r} is not allowed; allowed: a finite number")
+    if positive and value <= 0.0:
+        raise ValueError(f"{name}: {value!r} is not allowed; allowed: > 0")
+    if nonneg and value < 0.0:
+        raise ValueError(f"{name}: {value!r} is not allowed; allowed: >= 0")
+    return value
+
+
+@dataclass
+class Trajectory:
+    """Plain-array result of :meth:`Model.simulate` (one row per time, t = 0 included)."""
+
+    time: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    lambda_N: np.ndarray
+    lambda_T: np.ndarray
+    nu_N: np.ndarray
+    gap_N: np.ndarray
+    vn_pre: np.ndarray
+    vn_post: np.ndarray
+    energy: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+    drive_torque: np.ndarray
+    wall_time_s: float = 0.0
+    first_unconverged_step: int = -1
+    extras: dict = field(default_factory=dict)
+
+
+class Model:
+    """Planar rigid bodies (x, y, phi) with joints, spring-dampers and frictional contacts.
+
+    Examples
+    --------
+    >>> m = Model(gravity=9.81)
+    >>> ball = m.add_body("ball", mass=1.0, inertia=0.004, q0=(0.0, 1.0, 0.0))
+    >>> m.add_contact("plane", -1, (0.0, 0.0), np.pi / 2, ball, (0.0, 0.0), 0.1,
+    ...               mu=0.0, e_N=0.5)
+    0
+    """
+
+    def __init__(self, gravity: float = 9.81):
+        self.gravity = _finite("gravity", gravity, nonneg=True)
+        self.body_names: list[str] = []
+        self.mass: list[float] = []
+        self.inertia: list[float] = []
+        self.q0: list[tuple[float, float, float]] = []
+        self.v0: list[tuple[float, float, float]] = []
+        self.joints: list[tuple[int, int, int, tuple]] = []
+        self.springs: list[tuple[int, int, tuple]] = []
+        self.contacts: list[tuple[int, int, int, tuple, tuple]] = []
+        self.contact_names: list[str] = []
+
+    # -- elements ----------------------------------------------------------------------------
+    def add_body(self, name, mass, inertia, q0=(0.0, 0.0, 0.0), v0=(0.0, 0.0, 0.0)) -> int:
+        """Add a rigid body.
+
+        Parameters
+        ----------
+        name : str
+            Body name (unique).
+        mass : float
+            Mass [kg], > 0.
+        inertia : float
+            Moment of inertia about the centre of mass, z axis [kg m^2], > 0.
+        q0, v0 : tuple of 3 floats
+            Initial (x [m], y [m], phi [rad]) and (vx [m/s], vy [m/s], omega [rad/s]).
+
+        Returns
+        -------
+        int
+            Body index.
+        """
+        if name in self.body_names:
+            raise ValueError(f"body name {name!r} is used twice")
+        self.body_names.append(str(name))
+        self.mass.append(_finite(f"{name}.mass", mass, positive=True))
+        self.inertia.append(_finite(f"{name}.inertia", inertia, positive=True))
+        self.q0.append(tuple(_finite(f"{name}.q0", x) for x in q0))
+        self.v0.append(tuple(_finite(f"{name}.v0", x) for x in v0))
+        return len(self.body_names) - 1
+
+    def _check_body(self, b, allow_ground=True):
+        lo = -1 if allow_ground else 0
+        if not (lo <= int(b) < len(self.body_names)):
+            raise ValueError(f"body index {b} does not exist")
+        return int(b)
+
+    def add_revolute(self, body_i, point_i, body_j, point_j) -> int:
+        """Pin body_i's local point_i [m] to body_j's local point_j (-1: ground, world point)."""
+        bi = self._check_body(body_i, allow_ground=False)
+        bj = self._check_body(body_j)
+        geom = (point_i[0], point_i[1], point_j[0], point_j[1], 0.0, 0.0)
+        self.joints.append((nb.JOINT_REVOLUTE, bi, bj, geom))
+        return len(self.joints) - 1
+
+    def add_prismatic(self, body, point, origin=(0.0, 0.0), angle=0.0, phi=0.0) -> int:
+        """Let ``body`` slide along the ground axis through ``origin`` [m] at ``angle`` [rad],
+        its rotation locked at ``phi`` [rad]; ``point`` [m] is the body point kept on the axis."""
+        b = self._check_body(body, allow_ground=False)
+        geom = (point[0], point[1], origin[0], origin[1], angle, phi)
+        self.joints.append((nb.JOINT_PRISMATIC, b, -1, geom))
+        return len(self.joints) - 1
+
+    def add_prescribed_rotation(self, body, phi0, rate) -> int:
+        """Rheonomic drive: phi(t) = phi0 [rad] + rate [rad/s] * t."""
+        b = self._check_body(body, allow_ground=False)
+        geom = (_finite("phi0", phi0), _finite("rate", rate), 0.0, 0.0, 0.0, 0.0)
+        self.joints.append((nb.JOINT_ANGLE, b, -1, geom))
+        return len(self.joints) - 1
+
+    def add_spring(self, body_i, point_i, body_j, point_j, stiffness, damping, rest_length=None):
+        """Linear spring-damper between two body points.
+
+        Parameters
+        ----------
+        stiffness : float
+            [N/m], >= 0.
+        damping : float
+            [N s/m], >= 0.
+        rest_length : float, optional
+            [m]; default: the initial distance.
+        """
+        bi = self._check_body(body_i)
+        bj = self._check_body(body_j)
+        k = _finite("stiffness", stiffness, nonneg=True)
+        c = _finite("damping", damping, nonneg=True)
+        if rest_length is None:
+            q = np.array(self.q0, dtype=float).ravel()
+            xi, yi, _, _ = nb.body_point(q, bi, float(point_i[0]), float(point_i[1]))
+            xj, yj, _, _ = nb.body_point(q, bj, float(point_j[0]), float(point_j[1]))
+            rest_length = float(np.hypot(xj - xi, yj - yi))
+        rest = _finite("rest_length", rest_length, nonneg=True)
+        self.springs.append((bi, bj, (point_i[0], point_i[1], point_j[0], point_j[1], k, c, rest)))
+        return len(self.springs) - 1
+
+    def add_contact(self, kind, body_a, point_a, radius_a, body_b, point_b, radius_b,
+                    mu=0.0, e_N=0.0, e_T=0.0, name=None) -> int:
+        """Unilateral frictional contact between a surface on body a and a sphere on body b.
+
+        Parameters
+        ----------
+        kind : {"plane", "outside", "inside"}
+            plane: ``radius_a`` is the plane's normal angle in body a's frame [rad] and
+            ``point_a`` a point of the plane; outside: sphere b on sphere a; inside: sphere b
+            inside the hollow sphere (ring) a of radius ``radius_a`` [m].
+        body_a, body_b : int
+            Body indices (-1: ground, for body a only).
+        point_a, point_b : tuple
+            Centres (or the plane point) in body coordinates [m].
+        radius_b : float
+            Sphere radius [m].
+        mu, e_N, e_T : float
+            Friction coefficient, normal and tangential restitution.
+        """
+        if kind not in CONTACT_KINDS:
+            raise ValueError(f"contact kind {kind!r} is not allowed; allowed: "
+                             + ", ".join(CONTACT_KINDS))
+        a = self._check_body(body_a)
+        b = self._check_body(body_b, allow_ground=False)
+        ra = _finite("radius_a", radius_a) if kind == "plane" else _finite(
+            "radius_a", radius_a, positive=True)
+        rb = _finite("radius_b", radius_b, positive=True)
+        mu = _finite("mu", mu, nonneg=True)
+        for nm, e in (("e_N", e_N), ("e_T", e_T)):
+            e = _finite(nm, e)
+            if not 0.0 <= e <= 1.0:
+                raise ValueError(f"{nm}: {e!r} is not allowed; allowed: in [0, 1]")
+        if kind == "inside" and rb >= ra:
+            raise ValueError(f"radius_b: {rb} must be smaller than the ring radius {ra}")
+        geom = (point_a[0], point_a[1], point_b[0], point_b[1], ra, rb)
+        self.contacts.append((CONTACT_KINDS[kind], a, b, geom, (mu, float(e_N), float(e_T))))
+        self.contact_names.append(name or f"contact{len(self.contacts) - 1}")
+        return len(self.contacts) - 1
+
+    # -- arrays for the kernels --------------------------------------------------------------
+    def arrays(self) -> dict:
+        """Flat arrays of the model, as the kernels take them."""
+        nbody = len(self.body_names)
+        if nbody == 0:
+            raise ValueError("the model has no body")
+        mass = np.array(self.mass, dtype=np.float64)
+        inertia = np.array(self.inertia, dtype=np.float64)
+        mdiag = np.empty(3 * nbody)
+        mdiag[0::3] = mass
+        mdiag[1::3] = mass
+        mdiag[2::3] = inertia
+        jt_type = np.array([j[0] for j in self.joints], dtype=np.int64)
+        jt_body = np.array([[j[1], j[2]] for j in self.joints], dtype=np.int64).reshape(-1, 2)
+        jt_geom = np.array([j[3] for j in self.joints], dtype=np.float64).reshape(-1, 6)
+        sp_body = np.array([[s[0], s[1]] for s in self.springs], dtype=np.int64).reshape(-1, 2)
+        sp_geom = np.array([s[2] for s in self.springs], dtype=np.float64).reshape(-1, 7)
+        ct_type = np.array([c[0] for c in self.contacts], dtype=np.int64)
+        ct_body = np.array([[c[1], c[2]] for c in self.contacts], dtype=np.int64).reshape(-1, 2)
+        ct_geom = np.array([c[3] for c in self.contacts], dtype=np.float64).reshape(-1, 6)
+        ct_law = np.array([c[4] for c in self.contacts], dtype=np.float64).reshape(-1, 3)
+        return dict(mdiag=mdiag, mass=mass, gvec=np.array([0.0, -self.gravity]),
+                    jt_type=jt_type, jt_body=jt_body, jt_geom=jt_geom, sp_body=sp_body,
+                    sp_geom=sp_geom, ct_type=ct_type, ct_body=ct_body, ct_geom=ct_geom,
+                    ct_law=ct_law)
+
+    def initial_state(self):
+        """(q0, v0) as flat arrays."""
+        return (np.array(self.q0, dtype=np.float64).ravel(),
+                np.array(self.v0, dtype=np.float64).ravel())
+
+    def drive_row(self) -> int:
+        """Constraint row of the first prescribed rotation (the drive), or -1."""
+        row = 0
+        for kind, *_ in self.joints:
+            if kind == nb.JOINT_ANGLE:
+                return row
+            row += 1 if kind == nb.JOINT_ANGLE else 2
+        return -1
+
+    # -- time loop ---------------------------------------------------------------------------
+    def simulate(self, dt, t_end, rho_inf=0.0, tol=1e-5, max_iter=50, proximal=1e-6,
+                 on_nonconvergence="error", progress=False, chunk=500) -> Trajectory:
+        """Integrate with the decoupled nonsmooth generalized-alpha scheme.
+
+        Parameters
+        ----------
+        dt : float
+            Time step h [s].
+        t_end : float
+            End time [s]; the number of steps is round(t_end / dt).
+        rho_inf : float
+            Spectral radius at infinity, in [0, 1].
+        tol : float
+            Newton tolerance (SPEC section 4: m/s for velocities, |g|/h for gaps, relative for
+            the smooth residual).
+        max_iter : int
+            Iteration cap per sub-problem.
+        proximal : float
+            Proximal regularisation eta of active contact rows [-].
+        on_nonconvergence : {"error", "warn"}
+            Raise :class:`SolverError` at the first unconverged step, or warn and flag it.
+        progress : bool
+            Print a progress bar on stderr.
+        chunk : int
+            Steps per kernel call (the progress bar and the error check run between calls).
+        """
+        dt = _finite("solver.dt", dt, positive=True)
+        t_end = _finite("solver.t_end", t_end, positive=True)
+        if t_end < dt:
+            raise ValueError(f"solver.t_end: {t_end} is not allowed; allowed: >= solver.dt")
+        if on_nonconvergence not in ("error", "warn"):
+            raise ValueError(f"solver.on_nonconvergence: {on_nonconvergence!r} is not allowed; "
+                             "allowed: 'error', 'warn'")
+        n_steps = int(round(t_end / dt))
+        arr = self.arrays()
+        q, v = self.initial_state()
+        ndof = q.size
+        nc = arr["ct_type"].size
+        nbil = int(nb.joint_row_count(arr["jt_type"]))
+        acc = np.zeros(ndof)
+        vdot = np.zeros(ndof)
+        lam_s = np.zeros(nbil)
+        nb.initial_acceleration(q, v, 0.0, arr["mdiag"], arr["mass"], arr["gvec"],
+                                arr["sp_body"], arr["sp_geom"], arr["jt_type"], arr["jt_body"],
+                                arr["jt_geom"], vdot, lam_s)
+        acc[:] = vdot
+        lam_b = np.zeros(nbil)
+        lamN = np.zeros(nc)
+        lamT = np.zeros(nc)
+        gap0 = np.zeros(nc)
+        vn0 = np.zeros(nc)
+        vt0 = np.zeros(nc)
+        nb.contact_velocities(q, v, arr["ct_type"], arr["ct_body"], arr["ct_geom"], gap0, vn0,
+                              vt0)
+        out = Trajectory(
+            time=np.arange(n_steps + 1) * dt,
+            q=np.zeros((n_steps + 1, ndof)), v=np.zeros((n_steps + 1, ndof)),
+            lambda_N=np.zeros((n_steps + 1, nc)), lambda_T=np.zeros((n_steps + 1, nc)),
+            nu_N=np.zeros((n_steps + 1, nc)), gap_N=np.zeros((n_steps + 1, nc)),
+            vn_pre=np.zeros((n_steps + 1, nc)), vn_post=np.zeros((n_steps + 1, nc)),
+            energy=np.zeros(n_steps + 1), iterations=np.zeros((n_steps + 1, 3), np.int64),
+            converged=np.ones(n_steps + 1, np.int8), drive_torque=np.zeros(n_steps + 1))
+        out.q[0] = q
+        out.v[0] = v
+        out.gap_N[0] = gap0
+        out.vn_pre[0] = vn0
+        out.vn_post[0] = vn0
+        drive_row = self.drive_row()
+        if drive_row >= 0:
+            out.drive_torque[0] = lam_s[drive_row]
+        out.energy[0] = nb.total_energy(q, v, arr["mdiag"], arr["mass"], arr["gvec"],
+                                        arr["sp_body"], arr["sp_geom"])
+        start = time.perf_counter()
+        show = progress and sys.stderr.isatty()
+        k = 0
+        first_bad = -1
+        while k < n_steps:
+            k_next = min(n_steps, k + chunk)
+            bad = nb.integrate_chunk(
+                k, k_next, dt, float(rho_inf), float(tol), int(max_iter), float(proximal),
+                drive_row, arr["mdiag"], arr["mass"], arr["gvec"], arr["jt_type"],
+                arr["jt_body"], arr["jt_geom"], arr["sp_body"], arr["sp_geom"], arr["ct_type"],
+                arr["ct_body"], arr["ct_geom"], arr["ct_law"], q, v, acc, vdot, lam_s, lam_b,
+                lamN, lamT, vn0, vt0, out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N,
+                out.gap_N, out.vn_pre, out.vn_post, out.energy, out.iterations, out.converged,
+                out.drive_torque)
+            if bad >= 0 and first_bad < 0:
+                first_bad = int(bad)
+                stages = [s for s, it in zip(("smooth", "position", "velocity"),
+                                             out.iterations[bad + 1]) if it >= max_iter]
+                msg = (f"solver did not converge at step {bad + 1} (t = {(bad + 1) * dt:.6g} s)"
+                       f"; stage(s) at the iteration cap: {', '.join(stages) or 'fallback'}"
+                       f" (solver.max_iter = {max_iter}, solver.tol = {tol})")
+                if on_nonconvergence == "error":
+                    raise SolverError(msg)
+                warnings.warn(msg + "; flagged in `converged`", RuntimeWarning, stacklevel=2)
+            if not np.all(np.isfinite(q)):
+                raise SolverError(f"non-finite state at step {k_next} (t = {k_next * dt:.6g} s)")
+            k = k_next
+            if show:
+                frac = k / n_steps
+                bar = "#" * int(30 * frac)
+                sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f}%  t = {k * dt:.4f} s")
+                sys.stderr.flush()
+        if show:
+            sys.stderr.write("\n")
+        out.wall_time_s = time.perf_counter() - start
+        out.first_unconverged_step = first_bad
+        return out

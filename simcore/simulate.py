@@ -1,0 +1,40 @@
+"""One run of the crank-slider from a validated configuration: build, integrate, wrap."""
+
+from __future__ import annotations
+
+from .config import validate_config
+from .mechanism import crank_slider
+from .model import SolverError  # noqa: F401  (re-exported)
+
+
+def run(config: dict, progress: bool = False):
+    """Simulate the crank-slider bearing of ``config`` and return its dataset (SPEC section 5).
+
+    Parameters
+    ----------
+    config : dict
+        A configuration (validated here again, defaults filled).
+    progress : bool
+        Show a progress bar on stderr when it is a terminal.
+
+    Returns
+    -------
+    xarray.Dataset
+
+    Raises
+    ------
+    simcore.ConfigError
+        On bad input, before any work.
+    simcore.SolverError
+        When a step does not converge and ``solver.on_nonconvergence`` is ``"error"``.
+    """
+    from .io import trajectory_dataset
+
+    cfg = validate_config(config)
+    solver = cfg["solver"]
+    model, layout = crank_slider(cfg["model"])
+    traj = model.simulate(solver["dt"], solver["t_end"], rho_inf=solver["rho_inf"],
+                          tol=solver["tol"], max_iter=solver["max_iter"],
+                          proximal=solver["proximal"],
+                          on_nonconvergence=solver["on_nonconvergence"], progress=progress)
+    return trajectory_dataset(traj, model, layout, cfg)
