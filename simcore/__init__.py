@@ -10,6 +10,7 @@ write_netcdf(ds, path)                -> atomic netCDF writing
 from importlib.metadata import PackageNotFoundError, version
 
 from .config import ConfigError, load_config, load_schema, validate_config
+from .model import SolverError
 
 try:
     __version__ = version("bearingsim")
@@ -31,5 +32,5 @@ def write_netcdf(ds, path, complevel=4):
     return _write(ds, path, complevel=complevel)
 
 
-__all__ = ["ConfigError", "load_config", "load_schema", "validate_config", "run", "write_netcdf",
+__all__ = ["ConfigError", "SolverError", "load_config", "load_schema", "validate_config", "run", "write_netcdf",
            "__version__"]

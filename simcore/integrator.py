@@ -561,7 +561,9 @@ def position_step(q_t, t1, h, tol, max_iter, eta, mdiag, K_t, jt_type, jt_body, 
     gap_try = np.zeros(nc)
     GN_try = np.zeros((nc, n))
     q_try = np.zeros(n)
-    while not converged and iters < max_iter:
+    # at least one Newton step, so that the joints are restored to round-off at every step
+    # (a drift below tol*h would otherwise accumulate up to that level)
+    while (not converged or iters == 0) and iters < max_iter:
         iters += 1
         na = 0
         for k in range(nc):
@@ -671,7 +673,10 @@ def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
     iters = 0
     J = np.zeros((m, m))
     lam_try = np.zeros(m)
-    while res > tol and iters < max_iter:
+    # at least one Newton step: the problem is piecewise linear, so one step on the right
+    # active set is exact, while a warm start that merely meets the tolerance leaves velocity
+    # errors of order tol that show up as force chatter in persistent contact (tol m / h)
+    while (res > tol or iters == 0) and iters < max_iter and m > 0:
         iters += 1
         J[:, :] = 0.0
         for i in range(m):

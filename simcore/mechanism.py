@@ -150,7 +150,8 @@ def pinched_balls(n_balls=3, load=50.0, inner_radius=0.033745, ball_radius=0.005
 
     The inner race is the ground; the outer race (zero clearance) may only translate
     vertically (prismatic joint) and carries a weight ``load`` [N] plus its own. The balls sit
-    at the bottom, between the races, spread over +-20 degrees around -y. Every ball touches
+    at the top of the inner race, where the descending outer race presses them on it, spread
+    over +-20 degrees around +y. Every ball touches
     both races: with more than one ball the contact rows are redundant (the outer race has one
     degree of freedom and 2 n contacts act on it through the balls).
     """
@@ -161,8 +162,8 @@ def pinched_balls(n_balls=3, load=50.0, inner_radius=0.033745, ball_radius=0.005
     outer = m.add_body("outer", outer_mass + load / gravity, 1e-4, q0=(0.0, 0.0, 0.0))
     m.add_prismatic(outer, (0.0, 0.0), origin=(0.0, 0.0), angle=np.pi / 2, phi=0.0)
     spread = np.radians(20.0)
-    angles = [-np.pi / 2] if n_balls == 1 else list(
-        -np.pi / 2 + np.linspace(-spread, spread, n_balls))
+    angles = [np.pi / 2] if n_balls == 1 else list(
+        np.pi / 2 + np.linspace(-spread, spread, n_balls))
     for k, a in enumerate(angles):
         b = m.add_body(f"ball{k}", ball_mass, 0.4 * ball_mass * ball_radius**2,
                        q0=(pitch * np.cos(a), pitch * np.sin(a), 0.0))

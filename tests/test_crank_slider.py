@@ -1,0 +1,127 @@
+"""The paper's crank-slider with its ball bearing: invariants and the ideal mechanism."""
+
+import numpy as np
+import pytest
+
+import simcore
+from simcore import integrator as nb
+from simcore.mechanism import crank_slider
+
+
+def _run(**overrides):
+    items = [f"{k.replace('__', '.')}={v}" for k, v in overrides.items()]
+    return simcore.run(simcore.load_config(overrides=items))
+
+
+@pytest.fixture(scope="module")
+def paper_short():
+    return _run(solver__t_end=0.05)
+
+
+def _joint_residuals(ds, cfg_model):
+    model, _ = crank_slider(cfg_model)
+    arr = model.arrays()
+    m = nb.joint_row_count(arr["jt_type"])
+    n = arr["mdiag"].size
+    worst = 0.0
+    for i in range(ds.sizes["time"]):
+        q = ds["q"].values[i].ravel()
+        g, G, gam, dgdt = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)
+        nb.bilateral(q, np.zeros(n), float(ds.time[i]), arr["jt_type"], arr["jt_body"],
+                     arr["jt_geom"], g, G, gam, dgdt)
+        worst = max(worst, np.abs(g).max())
+    return worst
+
+
+def test_initial_state_matches_ideal_kinematics(paper_short):
+    ds = paper_short
+    L1, L2, w0 = 0.11, 0.225, 50.0
+    v0 = ds["v"].isel(time=0)
+    assert float(v0.sel(body="crank", dof="phi")) == pytest.approx(w0)
+    assert float(v0.sel(body="rod", dof="phi")) == pytest.approx(-w0 * L1 / L2)
+    assert float(v0.sel(body="slider", dof="x")) == 0.0
+    # no slip at either race at t = 0, as the element measures it
+    model, _ = crank_slider(simcore.load_config()["model"])
+    arr = model.arrays()
+    q0, vel0 = model.initial_state()
+    nc = arr["ct_type"].size
+    gap, vn, vt = np.zeros(nc), np.zeros(nc), np.zeros(nc)
+    nb.contact_velocities(q0, vel0, arr["ct_type"], arr["ct_body"], arr["ct_geom"], gap, vn, vt)
+    np.testing.assert_allclose(vt, 0.0, atol=1e-12)
+    np.testing.assert_allclose(gap, 0.0002, rtol=1e-9)  # centred: half the clearance each side
+
+
+def test_no_penetration_and_every_step_converged(paper_short):
+    ds = paper_short
+    assert int(ds["converged"].min()) == 1
+    # a 40,000th of the clearance
+    assert float(ds["gap_N"].min()) >= -1e-8
+    # the impulses are non-negative and only on closed contacts
+    assert float(ds["Lambda_N"].min()) >= 0.0
+    assert float(ds["Lambda_N"].isel(time=0).max()) == 0.0
+
+
+def test_bilateral_joints_hold(paper_short):
+    # Newton converges quadratically on the joints: far below the position tolerance tol*h
+    assert _joint_residuals(paper_short, simcore.load_config()["model"]) <= 1e-12
+
+
+def test_small_clearance_follows_the_ideal_slider_crank():
+    clearance = 1e-6
+    ds = _run(model__clearance=clearance, solver__t_end=0.15)
+    assert int(ds["converged"].min()) == 1
+    L1, L2 = 0.11, 0.225
+    th = ds["crank_angle"].values
+    ideal = L1 * np.cos(th) + np.sqrt(L2**2 - L1**2 * np.sin(th) ** 2)
+    err = np.abs(ds["slider_x"].values - ideal)
+    # the big end may sit off the pin by the clearance (slightly more between two balls)
+    assert err.max() <= 3 * clearance, err.max()
+    assert float(ds["gap_N"].min()) >= -1e-8
+
+
+def test_free_drive_energy_never_rises(paper_short):
+    e = paper_short["energy"].values
+    assert paper_short.attrs["model.drive"] == "free"
+    assert e.max() <= e[0] * (1 + 1e-3)
+    assert e[-1] < e[0]  # dampers, restitution < 1 and friction dissipate
+
+
+def test_runs_are_deterministic():
+    a = _run(solver__t_end=0.01)
+    b = _run(solver__t_end=0.01)
+    for name in ("q", "v", "Lambda_N", "Lambda_T", "nu_N", "gap_N", "iterations"):
+        np.testing.assert_array_equal(a[name].values, b[name].values)
+
+
+def test_constant_drive_holds_the_crank_speed():
+    ds = _run(model__drive="constant", solver__t_end=0.02)
+    w = ds["v"].sel(body="crank", dof="phi").values
+    np.testing.assert_allclose(w, 50.0, atol=1e-9)
+    np.testing.assert_allclose(ds["crank_angle"].values, 50.0 * ds.time.values, atol=1e-9)
+    assert np.abs(ds["drive_torque"].values).max() > 0.0
+
+
+def test_dataset_contract(paper_short):
+    ds = paper_short
+    n = 8
+    assert ds.sizes["contact"] == 2 * n and ds.sizes["stage"] == 3 and ds.sizes["dof"] == 3
+    assert list(ds["race"].values[:n]) == ["inner"] * n
+    assert list(ds["race"].values[n:]) == ["outer"] * n
+    for name in ("clearance", "mu", "omega0", "e_N"):
+        assert ds[name].ndim == 0 and name in ds.coords
+    for name in ("Lambda_N", "Lambda_T", "nu_N", "gap_N", "vn_pre", "vn_post", "q", "v",
+                 "crank_angle", "slider_x", "slider_v", "energy", "iterations", "converged"):
+        assert "units" in ds[name].attrs and "long_name" in ds[name].attrs, name
+    for key in ("Conventions", "title", "source", "wall_time_s", "model.clearance",
+                "solver.dt"):
+        assert key in ds.attrs
+
+
+@pytest.mark.slow
+def test_paper_case_full_length():
+    ds = _run()
+    assert int(ds["converged"].min()) == 1
+    assert float(ds["gap_N"].min()) >= -1e-8
+    e = ds["energy"].values
+    assert e.max() <= e[0] * (1 + 1e-3)
+    assert _joint_residuals(ds, simcore.load_config()["model"]) <= 1e-12

@@ -1,0 +1,194 @@
+"""The Snakemake study workflow: dry runs, configuration checks, file names, the summary."""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from analysis.summary import summarize
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def snakemake(*args, timeout=120):
+    """Run Snakemake in the repository root; return the completed process (text output)."""
+    cmd = [sys.executable, "-m", "snakemake", "--nolock", *args]
+    return subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+
+
+def job_counts(output: str) -> dict[str, int]:
+    """The 'Job stats' table of a Snakemake run as {rule: count}."""
+    table = output.split("Job stats:", 1)[1]
+    counts = {}
+    for line in table.splitlines()[3:]:
+        parts = line.split()
+        if len(parts) != 2 or not parts[1].isdigit():
+            break
+        counts[parts[0]] = int(parts[1])
+    return counts
+
+
+def test_dry_run_default_study():
+    proc = snakemake("-n", "--forceall")
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    counts = job_counts(proc.stdout + proc.stderr)
+    # 3 x 3 x 3 x 3 grid, one job per (clearance, mu) batch
+    assert counts["simulate"] == 9 and counts["impacts"] == 9
+    assert counts["summarize"] == 1 and counts["figures"] == 1
+    assert len(set(re.findall(r"results/runs/\S+?\.nc", proc.stdout + proc.stderr))) == 81
+
+
+def test_dry_run_smoke_study():
+    proc = snakemake("-n", "--forceall", "--configfile", "config/smoke.yaml")
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    out = proc.stdout + proc.stderr
+    assert job_counts(out)["simulate"] == 4
+    assert len(set(re.findall(r"results/smoke/runs/\S+?\.nc", out))) == 4
+
+
+def test_one_run_per_job_when_no_batch_axes():
+    proc = snakemake("-n", "--forceall", "--configfile", "config/smoke.yaml",
+                     "--config", "study={'batch_axes': [], 'results_dir': 'results/smoke'}",
+                     "sweep={'clearance': [1.0e-4], 'mu': [0.0], 'omega0': [25.0, 50.0], "
+                     "'e_N': [0.8, 0.9]}")
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    assert job_counts(proc.stdout + proc.stderr)["simulate"] == 4
+
+
+@pytest.mark.parametrize(
+    "override, key",
+    [
+        ("model={'clearance': -1.0e-4}", "model.clearance"),
+        ("sweep={'e_N': [0.9, 1.5]}", "sweep.e_N"),
+        ("model={'e_N': 1.2}", "model.e_N"),
+        ("model={'bogus': 1}", "model.bogus: unknown key"),
+        ("sweep={'mu': []}", "sweep.mu"),
+        ("sweep={'mu': [0.01, 0.0100000000001]}", "sweep.mu"),
+        ("study={'batch_axes': ['omega']}", "study.batch_axes"),
+    ],
+)
+def test_bad_config_stops_before_any_job(tmp_path, override, key):
+    results = tmp_path / "res"
+    # not a dry run: if the check came late, jobs would start and write into `results`
+    proc = snakemake("-j1", "--config", override, f"study={{'results_dir': '{results}'}}")
+    message = proc.stdout + proc.stderr
+    assert proc.returncode != 0
+    assert key in message, message
+    assert "invalid configuration" in message
+    assert not results.exists()
+    assert "rule simulate" not in message
+
+
+def test_file_names_carry_no_float_noise():
+    sweep = "sweep={'clearance': [4.0e-4], 'mu': [0.30000000000000004, 0.1], " \
+            "'omega0': [50.00000000000001], 'e_N': [0.9]}"
+    proc = snakemake("-n", "--forceall", "--configfile", "config/smoke.yaml", "--config", sweep)
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    names = set(re.findall(r"runs/(\S+?)\.nc", proc.stdout + proc.stderr))
+    assert names == {"clearance~0.0004_mu~0.1_omega0~50.0_e_N~0.9",
+                     "clearance~0.0004_mu~0.3_omega0~50.0_e_N~0.9"}
+
+
+@pytest.mark.skipif(importlib.util.find_spec("snakemake_executor_plugin_slurm") is None,
+                    reason="snakemake-executor-plugin-slurm is not installed ('.[slurm]')")
+def test_slurm_profile_dry_run():
+    proc = snakemake("--profile", "profiles/slurm", "-n", "--forceall")
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0, out
+    assert "Group job runs" in out  # short runs are packed into few cluster jobs
+    assert job_counts(out)["simulate"] == 9
+
+
+def test_lint_is_clean():
+    proc = snakemake("--lint")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+# --- the summary, on small synthetic files ----------------------------------------------------
+
+def _fake_run(path, point, failed=False, lam_max=1e-3):
+    coords = dict(point)
+    if failed:
+        ds = xr.Dataset(coords=coords, attrs={"failed": 1, "error": "did not converge"})
+    else:
+        n = 5
+        lam = np.zeros((n, 2))
+        lam[2, 1] = lam_max
+        iterations = np.array([[0, 0, 0], [2, 3, 1], [2, 5, 2], [3, 4, 1], [2, 3, 1]])
+        ds = xr.Dataset(
+            {
+                "Lambda_N": (("time", "contact"), lam),
+                "iterations": (("time", "stage"), iterations),
+                "converged": ("time", np.array([1, 1, 1, 0, 1], dtype="i1")),
+            },
+            coords={"time": np.arange(n) * 1e-4, "contact": [0, 1],
+                    "stage": ["smooth", "position", "velocity"], **coords},
+            attrs={"wall_time_s": 1.5},
+        )
+    ds.to_netcdf(path)
+
+
+def _fake_impacts(path, point, forces, failed=False):
+    attrs = {"failed": 1} if failed else {"n_simple": 2, "n_persistent": len(forces) - 2}
+    if failed:
+        ds = xr.Dataset(coords=dict(point), attrs=attrs)
+    else:
+        kind = ["simple", "simple"] + ["persistent"] * (len(forces) - 2)
+        ds = xr.Dataset({"F_max": ("impact", np.asarray(forces, dtype=float)),
+                         "kind": ("impact", kind)}, coords=dict(point), attrs=attrs)
+    ds.to_netcdf(path)
+
+
+def test_summarize_grid_and_failed_point(tmp_path):
+    runs, impacts = [], []
+    for clearance in (1e-4, 4e-4):
+        for mu in (0.0, 0.01):
+            point = {"clearance": clearance, "mu": mu, "omega0": 50.0, "e_N": 0.9}
+            name = f"c{clearance}_m{mu}.nc"
+            failed = clearance == 4e-4 and mu == 0.01
+            _fake_run(tmp_path / f"run_{name}", point, failed=failed)
+            forces = [100.0, np.nan, 300.0, 200.0, 50.0] if clearance == 1e-4 else [10.0, 20.0]
+            _fake_impacts(tmp_path / f"imp_{name}", point, forces, failed=failed)
+            runs.append(tmp_path / f"run_{name}")
+            impacts.append(tmp_path / f"imp_{name}")
+    s = summarize(runs, impacts, scheduler="synchronous")
+    assert s["peak_force"].dims == ("clearance", "mu", "omega0", "e_N")
+    assert s.sizes == {"clearance": 2, "mu": 2, "omega0": 1, "e_N": 1, "rank": 3, "stage": 3}
+    ok = dict(clearance=1e-4, mu=0.0, omega0=50.0, e_N=0.9)
+    bad = dict(clearance=4e-4, mu=0.01, omega0=50.0, e_N=0.9)
+    assert float(s["peak_force"].sel(ok)) == 300.0
+    np.testing.assert_array_equal(s["top3_force"].sel(ok), [300.0, 200.0, 100.0])
+    np.testing.assert_array_equal(
+        s["top3_force"].sel(clearance=4e-4, mu=0.0, omega0=50.0, e_N=0.9), [20.0, 10.0, np.nan])
+    assert float(s["n_persistent"].sel(ok)) == 3.0
+    np.testing.assert_array_equal(s["iter_max"].sel(ok), [3, 5, 2])
+    assert float(s["converged_fraction"].sel(ok)) == 0.75
+    assert float(s["max_Lambda_N"].sel(ok)) == 1e-3
+    # the failed point: flagged, and missing (NaN) everywhere else, not zero
+    assert float(s["failed"].sel(bad)) == 1.0 and int(s["failed"].sum()) == 1
+    for name in s.data_vars:
+        if name != "failed":
+            assert bool(s[name].sel(bad).isnull().all()), name
+    for name in s.data_vars:
+        assert s[name].attrs["units"] and s[name].attrs["long_name"]
+    assert s.attrs["n_failed"] == 1
+
+
+@pytest.mark.slow
+def test_smoke_study_end_to_end(tmp_path):
+    """The smoke study into a temporary folder, with one point made to fail."""
+    results = tmp_path / "res"
+    proc = snakemake("-j2", "--configfile", "config/smoke.yaml", "--config",
+                     f"study={{'results_dir': '{results}'}}", timeout=900)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    with xr.open_dataset(results / "summary.nc") as s:
+        assert {"clearance", "mu", "omega0", "e_N"} <= set(s.dims)
+        assert int(s["failed"].sum()) == 0
+    assert list((results / "figures").glob("*.png"))
