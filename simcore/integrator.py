@@ -166,15 +166,18 @@ def spring_state(q, v, k, sp_body, sp_geom):
     if bj >= 0:
         vjx = v[3 * bj] - wj * ajy
         vjy = v[3 * bj + 1] + wj * ajx
-    rate = nx * (vjx - vix) + ny * (vjy - viy)
-    return length, rate, nx, ny, aix, aiy, ajx, ajy
+    dvx = vjx - vix
+    dvy = vjy - viy
+    rate = nx * dvx + ny * dvy
+    return length, rate, nx, ny, aix, aiy, ajx, ajy, dvx, dvy
 
 
 @njit(cache=True)
 def smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, tangent):
     """Gravity plus spring-damper forces ``f`` [N, N m]; with ``tangent`` also the stiffness
-    ``K = -df/dq`` and damping ``C = -df/dv`` matrices (the small second-derivative term of the
-    lever arms is left out of K: Newton stays convergent, only the rate changes)."""
+    ``K = -df/dq`` and damping ``C = -df/dv`` matrices. K is exact for springs between body
+    origins (the cage); for off-centre points the lever arms' second derivative is left out
+    (Newton stays convergent, only its rate changes)."""
     nb = mass.shape[0]
     for b in range(nb):
         f[3 * b] = mass[b] * gvec[0]
@@ -192,7 +195,8 @@ def smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, tangent):
         stiff = sp_geom[k, 4]
         damp = sp_geom[k, 5]
         rest = sp_geom[k, 6]
-        length, rate, nx, ny, aix, aiy, ajx, ajy = spring_state(q, v, k, sp_body, sp_geom)
+        length, rate, nx, ny, aix, aiy, ajx, ajy, dvx, dvy = spring_state(q, v, k, sp_body,
+                                                                          sp_geom)
         tension = stiff * (length - rest) + damp * rate
         # w = d(length)/d(q_i, q_j)
         w[0] = -nx
@@ -223,6 +227,11 @@ def smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, tangent):
             m00 = geo * (1.0 - nx * nx)
             m01 = -geo * nx * ny
             m11 = geo * (1.0 - ny * ny)
+            # the damper's rate n.(dv) changes with the direction n: d(rate)/dq = dv_perp P / l
+            inv_l = 1.0 / length if length > 1e-300 else 0.0
+            proj = nx * dvx + ny * dvy
+            px = (dvx - proj * nx) * inv_l * damp
+            py = (dvy - proj * ny) * inv_l * damp
             for a in range(6):
                 ba = bi if a < 3 else bj
                 if ba < 0:
@@ -233,7 +242,8 @@ def smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, tangent):
                         continue
                     kgeo = (P[0, a] * (m00 * P[0, c] + m01 * P[1, c])
                             + P[1, a] * (m01 * P[0, c] + m11 * P[1, c]))
-                    K[idx[a], idx[c]] += stiff * w[a] * w[c] + kgeo
+                    K[idx[a], idx[c]] += (stiff * w[a] * w[c] + kgeo
+                                          + w[a] * (px * P[0, c] + py * P[1, c]))
                     C[idx[a], idx[c]] += damp * w[a] * w[c]
 
 
@@ -246,7 +256,7 @@ def total_energy(q, v, mdiag, mass, gvec, sp_body, sp_geom):
     for b in range(mass.shape[0]):
         e -= mass[b] * (gvec[0] * q[3 * b] + gvec[1] * q[3 * b + 1])
     for k in range(sp_body.shape[0]):
-        length, rate, nx, ny, aix, aiy, ajx, ajy = spring_state(q, v, k, sp_body, sp_geom)
+        length = spring_state(q, v, k, sp_body, sp_geom)[0]
         e += 0.5 * sp_geom[k, 4] * (length - sp_geom[k, 6]) ** 2
     return e
 

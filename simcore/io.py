@@ -81,16 +81,16 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
     nbody = len(model.body_names)
     q = traj.q.reshape(traj.q.shape[0], nbody, 3)
     v = traj.v.reshape(traj.v.shape[0], nbody, 3)
-    # bearing journal: outer-race centre minus inner-race centre
-    from .integrator import body_point
+    # bearing journal: outer-race centre minus inner-race centre (vectorised body points)
+    def centre(body, point):
+        phi = q[:, body, 2]
+        c, s = np.cos(phi), np.sin(phi)
+        return (q[:, body, 0] + c * point[0] - s * point[1],
+                q[:, body, 1] + s * point[0] + c * point[1])
 
-    jx = np.empty(q.shape[0])
-    jy = np.empty(q.shape[0])
-    for i in range(q.shape[0]):
-        ax, ay, _, _ = body_point(traj.q[i], layout.crank, *layout.crank_pin)
-        cx, cy, _, _ = body_point(traj.q[i], layout.rod, *layout.rod_big_end)
-        jx[i] = cx - ax
-        jy[i] = cy - ay
+    ax, ay = centre(layout.crank, layout.crank_pin)
+    cx, cy = centre(layout.rod, layout.rod_big_end)
+    jx, jy = cx - ax, cy - ay
     crank_angle = q[:, layout.crank, 2]
     TC = ("time", "contact")
     data = {

@@ -49,6 +49,8 @@ def test_initial_state_matches_ideal_kinematics(paper_short):
     nb.contact_velocities(q0, vel0, arr["ct_type"], arr["ct_body"], arr["ct_geom"], gap, vn, vt)
     np.testing.assert_allclose(vt, 0.0, atol=1e-12)
     np.testing.assert_allclose(gap, 0.0002, rtol=1e-9)  # centred: half the clearance each side
+    assert float(ds["journal_x"][0]) == pytest.approx(0.0, abs=1e-15)
+    assert float(ds["journal_y"][0]) == pytest.approx(0.0, abs=1e-15)
 
 
 def test_no_penetration_and_every_step_converged(paper_short):

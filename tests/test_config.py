@@ -1,0 +1,96 @@
+"""Bad input is refused before any work, with one line naming the key and what is allowed."""
+
+import subprocess
+import sys
+
+import pytest
+
+import simcore
+from simcore.config import ConfigError, load_config, read_yaml
+
+
+def test_defaults_are_the_paper_case():
+    cfg = load_config()
+    m, s = cfg["model"], cfg["solver"]
+    assert m["clearance"] == 4e-4 and m["mu"] == 0.01 and m["omega0"] == 50.0
+    assert m["e_N"] == 0.9 and m["n_balls"] == 8 and m["drive"] == "free"
+    assert s["dt"] == 1e-4 and s["t_end"] == 0.3 and s["rho_inf"] == 0.0 and s["tol"] == 1e-5
+
+
+def test_config_file_matches_defaults():
+    cfg = load_config("config/config.yaml")
+    assert cfg["model"] == load_config()["model"]
+
+
+def test_yaml_exponent_without_sign_is_a_number(tmp_path):
+    p = tmp_path / "c.yaml"
+    p.write_text("model:\n  cage_stiffness: 1.0e5\n")
+    assert read_yaml(p)["model"]["cage_stiffness"] == 1e5
+    assert load_config(p)["model"]["cage_stiffness"] == 1e5
+
+
+@pytest.mark.parametrize("override, key, allowed", [
+    ("model.clearance=-1e-4", "model.clearance", "(0, 0.005]"),
+    ("model.clearance=0", "model.clearance", "(0, 0.005]"),
+    ("model.e_N=1.5", "model.e_N", "[0, 1]"),
+    ("model.e_N=-0.1", "model.e_N", "[0, 1]"),
+    ("model.mu=-0.01", "model.mu", "[0, 2]"),
+    ("solver.dt=0", "solver.dt", "(0, 0.1]"),
+    ("solver.dt=-1e-4", "solver.dt", "(0, 0.1]"),
+    ("solver.t_end=1e-5", "solver.t_end", ">= solver.dt"),
+    ("model.clearence=1e-4", "model.clearence", "unknown key"),
+    ("solvr.dt=1e-4", "solvr", "unknown key"),
+    ("model.n_balls=40", "model.n_balls", "fit on the pitch circle"),
+    ("model.mu=abc", "model.mu", "a number"),
+    ("model.drive=fast", "model.drive", "'free', 'constant'"),
+    ("sweep.mu=[]", "sweep.mu", "non-empty"),
+    ("sweep.clearance=[4e-4, -1e-4]", "sweep.clearance.1", "(0, 0.005]"),
+])
+def test_bad_values_name_the_key(override, key, allowed):
+    with pytest.raises(ConfigError) as err:
+        load_config(overrides=[override])
+    msg = str(err.value)
+    assert msg.startswith(key + ":"), msg
+    assert allowed in msg, msg
+    assert "\n" not in msg
+
+
+def test_cli_refuses_bad_input_and_writes_nothing(tmp_path):
+    out = tmp_path / "run.nc"
+    res = subprocess.run([sys.executable, "-m", "simcore", "run", "--set", "model.e_N=2",
+                          "--out", str(out)], capture_output=True, text=True)
+    assert res.returncode != 0
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "model.e_N" in lines[0] and "[0, 1]" in lines[0]
+    assert not out.exists()
+
+
+def test_cli_runs_and_writes_atomically(tmp_path):
+    out = tmp_path / "run.nc"
+    out.write_text("previous content")
+    res = subprocess.run([sys.executable, "-m", "simcore", "run", "--set", "solver.t_end=0.002",
+                          "--out", str(out)], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    assert "largest Lambda_N" in res.stdout and "position" in res.stdout
+    import xarray as xr
+
+    with xr.open_dataset(out) as ds:
+        assert ds.sizes["time"] == 21
+    assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_nonconvergence_is_an_error_or_a_flag(tmp_path):
+    cfg = load_config(overrides=["solver.t_end=0.005", "solver.max_iter=1",
+                                 "solver.on_nonconvergence=error"])
+    with pytest.raises(simcore.SolverError, match=r"step \d+ \(t = "):
+        simcore.run(cfg)
+    cfg["solver"]["on_nonconvergence"] = "warn"
+    with pytest.warns(RuntimeWarning, match="did not converge"):
+        ds = simcore.run(cfg)
+    assert int(ds["converged"].min()) == 0
+    assert ds.attrs["n_unconverged_steps"] > 0
+    out = tmp_path / "x.nc"
+    res = subprocess.run([sys.executable, "-m", "simcore", "run", "--set", "solver.t_end=0.005",
+                          "--set", "solver.max_iter=1", "--out", str(out)],
+                         capture_output=True, text=True)
+    assert res.returncode != 0 and "did not converge" in res.stderr and not out.exists()
