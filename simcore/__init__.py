@@ -32,5 +32,5 @@ def write_netcdf(ds, path, complevel=4):
     return _write(ds, path, complevel=complevel)
 
 
-__all__ = ["ConfigError", "SolverError", "load_config", "load_schema", "validate_config", "run", "write_netcdf",
-           "__version__"]
+__all__ = ["ConfigError", "SolverError", "load_config", "load_schema", "validate_config", "run",
+           "write_netcdf", "__version__"]

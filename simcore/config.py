@@ -146,10 +146,11 @@ def _check_consistency(cfg: Mapping[str, Any]) -> None:
     model, solver = cfg["model"], cfg["solver"]
     for key in ("dt", "t_end"):
         if not math.isfinite(solver[key]):
-            raise ConfigError(f"solver.{key}: {solver[key]!r} is not allowed; allowed: a finite number")
+            raise ConfigError(
+                f"solver.{key}: {solver[key]!r} is not allowed; allowed: a finite number")
     if solver["t_end"] < solver["dt"]:
-        raise ConfigError(
-            f"solver.t_end: {solver['t_end']!r} is not allowed; allowed: >= solver.dt ({solver['dt']})")
+        raise ConfigError(f"solver.t_end: {solver['t_end']!r} is not allowed; "
+                          f"allowed: >= solver.dt ({solver['dt']})")
     if model["crank_length"] >= model["rod_length"]:
         raise ConfigError(
             f"model.crank_length: {model['crank_length']!r} is not allowed; allowed: "

@@ -333,7 +333,8 @@ class Model:
             if bad >= 0 and first_bad < 0:
                 first_bad = int(bad)
                 stages = [s for s, it in zip(("smooth", "position", "velocity"),
-                                             out.iterations[bad + 1]) if it >= max_iter]
+                                             out.iterations[bad + 1], strict=True)
+                          if it >= max_iter]
                 msg = (f"solver did not converge at step {bad + 1} (t = {(bad + 1) * dt:.6g} s)"
                        f"; stage(s) at the iteration cap: {', '.join(stages) or 'fallback'}"
                        f" (solver.max_iter = {max_iter}, solver.tol = {tol})")

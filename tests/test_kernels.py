@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from simcore import integrator as nb
-from simcore.mechanism import ball_on_plane, crank_slider, pinched_balls
 from simcore.config import load_config
+from simcore.mechanism import ball_on_plane, crank_slider, pinched_balls
 
 
 @pytest.fixture(scope="module")
