@@ -32,6 +32,7 @@ CONTACT_INSIDE = 2
 STAGE_SMOOTH = 0
 STAGE_POSITION = 1
 STAGE_VELOCITY = 2
+DEBUG = False
 
 
 # ----------------------------------------------------------------------------------------------
@@ -370,6 +371,59 @@ def _row_dot(w, ia, ib, x):
 
 
 @njit(cache=True)
+def contact_hessian(q, k, ct_type, ct_body, ct_geom, H):
+    """Second derivative of the gap of contact ``k`` with respect to (q_a, q_b), 6 x 6.
+
+    For the sphere elements g = s |c_b - c_a| + const (s = +1 outside, -1 inside):
+    H = s [P^T (I - n n^T) P / L + n . d2(c_b - c_a)]. It is the contact's geometric stiffness
+    in the position correction: a pinched ball carries multipliers large enough for it to
+    matter against the ball's mass. Left zero for the plane element (exact for a plane on the
+    ground and a sphere centred on its body)."""
+    H[:, :] = 0.0
+    kind = ct_type[k]
+    if kind == CONTACT_PLANE:
+        return
+    ia = ct_body[k, 0]
+    ib = ct_body[k, 1]
+    p = ct_geom[k]
+    cax, cay, aax, aay = body_point(q, ia, p[0], p[1])
+    cbx, cby, abx, aby = body_point(q, ib, p[2], p[3])
+    dx = cbx - cax
+    dy = cby - cay
+    dist = np.sqrt(dx * dx + dy * dy)
+    if dist <= 1e-300:
+        return
+    nx = dx / dist
+    ny = dy / dist
+    sign = 1.0 if kind == CONTACT_OUTSIDE else -1.0
+    P = np.zeros((2, 6))
+    P[0, 0] = -1.0
+    P[1, 1] = -1.0
+    P[0, 2] = aay
+    P[1, 2] = -aax
+    P[0, 3] = 1.0
+    P[1, 4] = 1.0
+    P[0, 5] = -aby
+    P[1, 5] = abx
+    m00 = (1.0 - nx * nx) / dist
+    m01 = -nx * ny / dist
+    m11 = (1.0 - ny * ny) / dist
+    for a in range(6):
+        for c in range(6):
+            H[a, c] = sign * (P[0, a] * (m00 * P[0, c] + m01 * P[1, c])
+                              + P[1, a] * (m01 * P[0, c] + m11 * P[1, c]))
+    if ia < 0:
+        for a in range(3):
+            for c in range(6):
+                H[a, c] = 0.0
+                H[c, a] = 0.0
+    else:
+        H[2, 2] += sign * (nx * aax + ny * aay)
+    if ib >= 0:
+        H[5, 5] -= sign * (nx * abx + ny * aby)
+
+
+@njit(cache=True)
 def contact_velocities(q, v, ct_type, ct_body, ct_geom, gap, vn, vt):
     """Gaps [m], normal and tangential relative velocities [m/s] of every contact."""
     wN = np.zeros(6)
@@ -571,6 +625,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, mdiag, K_t, jt_type, jt_body, 
     gap_try = np.zeros(nc)
     GN_try = np.zeros((nc, n))
     q_try = np.zeros(n)
+    Hloc = np.zeros((6, 6))
     # at least one Newton step, so that the joints are restored to round-off at every step
     # (a drift below tol*h would otherwise accumulate up to that level)
     while (not converged or iters == 0) and iters < max_iter:
@@ -594,12 +649,33 @@ def position_step(q_t, t1, h, tol, max_iter, eta, mdiag, K_t, jt_type, jt_body, 
                 reg[row] = eta / r_c[k]
                 rhs[row] = -gap[k] + GN[k] @ U + reg[row] * nu_c[k]
                 row += 1
-        AG = Ainv @ Gr.T
+        # Newton matrix of the equilibrium: A - sum nu_j d2g_j (contact geometric stiffness)
+        Hinv = Ainv
+        if nu_c.max() > 0.0:
+            Hm = Ap.copy()
+            for k in range(nc):
+                if nu_c[k] > 0.0:
+                    contact_hessian(q1, k, ct_type, ct_body, ct_geom, Hloc)
+                    for a in range(6):
+                        ba = ct_body[k, 0] if a < 3 else ct_body[k, 1]
+                        if ba < 0:
+                            continue
+                        for c in range(6):
+                            bc = ct_body[k, 0] if c < 3 else ct_body[k, 1]
+                            if bc < 0:
+                                continue
+                            Hm[3 * ba + a % 3, 3 * bc + c % 3] -= nu_c[k] * Hloc[a, c]
+            Hinv = np.linalg.inv(Hm)
+        AU = Ap @ U
+        HAU = Hinv @ AU
+        for r in range(m):
+            rhs[r] += Gr[r] @ HAU - Gr[r] @ U
+        AG = Hinv @ Gr.T
         D = Gr @ AG
         for r in range(m):
             D[r, r] += reg[r]
         sol = np.linalg.solve(D, rhs)
-        U_new = AG @ sol
+        U_new = U + AG @ sol - HAU
         nub_new = sol[:nbil]
         nuc_new = np.zeros(nc)
         row = nbil
@@ -636,6 +712,9 @@ def position_step(q_t, t1, h, tol, max_iter, eta, mdiag, K_t, jt_type, jt_body, 
             nu_c[k] += theta * (nuc_new[k] - nu_c[k])
         res = _position_residual(q_t, U, nu_b, nu_c, t1, h, mdiag, Ap, jt_type, jt_body,
                                  jt_geom, ct_type, ct_body, ct_geom, r_c, gb, Gb, gap, GN, q1)
+        if DEBUG:
+            print("pos it", iters, "res", res, "theta", theta, "active", np.nonzero(active)[0],
+                  "gap", gap.min(), "nu", nu_c.max())
         converged = res <= target
     return iters, converged
 
