@@ -32,7 +32,6 @@ CONTACT_INSIDE = 2
 STAGE_SMOOTH = 0
 STAGE_POSITION = 1
 STAGE_VELOCITY = 2
-DEBUG = False
 
 
 # ----------------------------------------------------------------------------------------------
@@ -712,9 +711,6 @@ def position_step(q_t, t1, h, tol, max_iter, eta, mdiag, K_t, jt_type, jt_body, 
             nu_c[k] += theta * (nuc_new[k] - nu_c[k])
         res = _position_residual(q_t, U, nu_b, nu_c, t1, h, mdiag, Ap, jt_type, jt_body,
                                  jt_geom, ct_type, ct_body, ct_geom, r_c, gb, Gb, gap, GN, q1)
-        if DEBUG:
-            print("pos it", iters, "res", res, "theta", theta, "active", np.nonzero(active)[0],
-                  "gap", gap.min(), "nu", nu_c.max())
         converged = res <= target
     return iters, converged
 
@@ -740,6 +736,44 @@ def _velocity_residual(lam, xi, kind, r, mu_row, pair, F):
             F[i] = (lam[i] - proj) / r[i]
         res = max(res, abs(F[i]))
     return res
+
+
+@njit(cache=True)
+def _local_frictional_contact(D, c, lam, i, mu):
+    """Solve one contact's rows (normal i, tangent i+1) exactly, the others held fixed."""
+    j = i + 1
+    bN = D[i] @ lam + c[i] - D[i, i] * lam[i] - D[i, j] * lam[j]
+    bT = D[j] @ lam + c[j] - D[j, i] * lam[i] - D[j, j] * lam[j]
+    wNN = D[i, i]
+    wNT = D[i, j]
+    wTN = D[j, i]
+    wTT = D[j, j]
+    if bN >= 0.0:
+        lam[i] = 0.0
+        lam[j] = 0.0
+        return
+    det = wNN * wTT - wNT * wTN
+    if det > 0.0:
+        ln = (-bN * wTT + bT * wNT) / det
+        lt = (-bT * wNN + bN * wTN) / det
+        if ln >= 0.0 and abs(lt) <= mu * ln:
+            lam[i] = ln
+            lam[j] = lt
+            return
+    for sigma in (1.0, -1.0):
+        den = wNN - sigma * mu * wNT
+        if den <= 0.0:
+            continue
+        ln = -bN / den
+        xt = (wTN - sigma * mu * wTT) * ln + bT
+        if ln >= 0.0 and sigma * xt >= 0.0:
+            lam[i] = ln
+            lam[j] = -sigma * mu * ln
+            return
+    # no consistent case (degenerate block): projected update
+    lam[i] = max(0.0, -bN / wNN) if wNN > 0.0 else 0.0
+    bound = mu * lam[i]
+    lam[j] = min(max(-(bT + wTN * lam[i]) / wTT if wTT > 0.0 else 0.0, -bound), bound)
 
 
 @njit(cache=True)
@@ -789,40 +823,61 @@ def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
                         s = 1.0 if z > 0.0 else -1.0
                         J[i, pair[i]] = -mu_row[i] * s / r[i]
         dl = np.linalg.solve(J, -F)
+        # backtracking on the squared 2-norm of the residual (the max-norm stalls)
+        merit = F @ F
         theta = 1.0
         best = -1.0
         best_theta = 1.0
         for _ls in range(12):
             lam_try[:] = lam + theta * dl
             xi_try = D @ lam_try + c
-            res_try = _velocity_residual(lam_try, xi_try, kind, r, mu_row, pair, F_try)
-            if best < 0.0 or res_try < best:
-                best = res_try
+            _velocity_residual(lam_try, xi_try, kind, r, mu_row, pair, F_try)
+            merit_try = F_try @ F_try
+            if best < 0.0 or merit_try < best:
+                best = merit_try
                 best_theta = theta
-            if res_try <= (1.0 - 1e-4 * theta) * res:
+            if merit_try <= (1.0 - 1e-4 * theta) * merit:
                 break
             theta *= 0.5
         lam += best_theta * dl
         xi = D @ lam + c
         res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
     if res > tol:
-        # projected Gauss-Seidel fallback: slow but monotone on this problem class
-        for _sweep in range(20 * max_iter):
+        # fallback: nonsmooth block Gauss-Seidel (each contact's normal/tangent pair solved
+        # exactly by enumerating open, stick and the two slip directions), slow but robust
+        # where redundant frictional contacts make the Newton iteration stall
+        for _sweep in range(200 * max_iter):
             iters += 1
-            for i in range(m):
+            i = 0
+            while i < m:
+                if kind[i] == 1 and i + 1 < m and kind[i + 1] == 2 and pair[i + 1] == i:
+                    _local_frictional_contact(D, c, lam, i, mu_row[i + 1])
+                    i += 2
+                    continue
                 xi_i = D[i] @ lam + c[i]
                 if kind[i] == 0:
-                    new = lam[i] - r[i] * xi_i
+                    lam[i] = lam[i] - r[i] * xi_i
                 elif kind[i] == 1:
-                    new = max(0.0, lam[i] - r[i] * xi_i)
+                    lam[i] = max(0.0, lam[i] - r[i] * xi_i)
                 else:
                     bound = mu_row[i] * max(lam[pair[i]], 0.0)
-                    new = min(max(lam[i] - r[i] * xi_i, -bound), bound)
-                lam[i] = new
+                    lam[i] = min(max(lam[i] - r[i] * xi_i, -bound), bound)
+                i += 1
             xi = D @ lam + c
             res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
             if res <= tol:
                 break
+    # the law holds to the tolerance; make the impulses admissible exactly (Lambda_N >= 0,
+    # |Lambda_T| <= mu Lambda_N), which moves the velocities by less than tol
+    for i in range(m):
+        if kind[i] == 1:
+            lam[i] = max(lam[i], 0.0)
+    for i in range(m):
+        if kind[i] == 2:
+            bound = mu_row[i] * lam[pair[i]]
+            lam[i] = min(max(lam[i], -bound), bound)
+    xi = D @ lam + c
+    res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
     return iters, res <= tol
 
 
@@ -898,7 +953,27 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, mdiag, mas
     AG = Ainv @ G.T
     D = G @ AG
     c = G @ (v_t + Ainv @ b) + off
-    iters, ok = solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta)
+    if nbil > 0 and n_rows > nbil:
+        # eliminate the joints (equalities) first: the contact problem then sees the
+        # mechanism's effective masses, and its Gauss-Seidel fallback converges
+        nct = n_rows - nbil
+        Dbb = D[:nbil, :nbil].copy()
+        Dbc = D[:nbil, nbil:].copy()
+        X = np.linalg.solve(Dbb, np.hstack((Dbc, c[:nbil].reshape(nbil, 1))))
+        Dc = D[nbil:, nbil:] - D[nbil:, :nbil] @ X[:, :nct]
+        cc = c[nbil:] - D[nbil:, :nbil] @ X[:, nct]
+        lam_c = lam[nbil:].copy()
+        iters, ok = solve_velocity_problem(Dc, cc, kind[nbil:], mu_row[nbil:],
+                                           pair[nbil:] - nbil, lam_c, tol, max_iter, eta)
+        lam[nbil:] = lam_c
+        lam[:nbil] = -(X[:, :nct] @ lam_c + X[:, nct])
+        # check the joints too (round-off only)
+        xi_b = D[:nbil] @ lam + c[:nbil]
+        for r in range(nbil):
+            if abs(xi_b[r]) > tol:
+                ok = False
+    else:
+        iters, ok = solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta)
     W = Ainv @ b + AG @ lam
     for i in range(n):
         v1[i] = v_t[i] + W[i]
