@@ -1,0 +1,42 @@
+"""analysis: the impulse filter, Flores peak forces, impact tables and figures.
+
+SPEC sections 6, 7 and 9.
+
+Public API
+----------
+split_impulses(lam, zero_tol, floor=1e-12, scale=None) -> (lam_fi, lam_s, lam_fisuv)
+split_dataset(run_ds, zero_tol=1e-4, zero_floor=1e-12) -> xarray.Dataset
+zero_threshold(lam=None, zero_tol=1e-4, floor=1e-12, scale=None) -> float [N s]
+hertz_stiffness(r1, r2, E1, nu1, E2, nu2, concave=False) -> K [N/m^1.5]
+peak_force(impulse, v_pre, e_N, K, F_static=0.0, h=None, details=False) -> F_max [N]
+extract_impacts(run_ds, zero_tol=1e-4, zero_floor=1e-12, r_eff="concave", v_min=1e-3)
+top_forces(impacts_ds, n=3, race="outer")
+analysis.figures.plot_run / plot_study (imported lazily: matplotlib is only loaded there)
+"""
+
+from .filtering import impact_masks, split_dataset, split_impulses, zero_threshold
+from .forces import (
+    PeakForce,
+    closed_form_elastic,
+    effective_radius,
+    flores_damping,
+    hertz_stiffness,
+    peak_force,
+)
+from .impacts import extract_impacts, run_geometry, top_forces
+
+__all__ = [
+    "split_impulses",
+    "split_dataset",
+    "zero_threshold",
+    "impact_masks",
+    "hertz_stiffness",
+    "effective_radius",
+    "flores_damping",
+    "closed_form_elastic",
+    "peak_force",
+    "PeakForce",
+    "extract_impacts",
+    "run_geometry",
+    "top_forces",
+]

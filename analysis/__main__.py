@@ -1,0 +1,178 @@
+"""Command line of the analysis package.
+
+    python -m analysis impacts RUN.nc --out IMPACTS.nc [--zero-tol 1e-4] [--r-eff concave]
+    python -m analysis filter RUN.nc --out FILTERED.nc
+    python -m analysis top-forces RUN.nc [-n 3]
+    python -m analysis figures RUN.nc --outdir DIR [--impacts IMPACTS.nc] [--prefix NAME]
+    python -m analysis study-figures SUMMARY.nc --outdir DIR
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+PAPER_TOP3_KN = (3.66, 5.22, 4.69)
+
+
+def _common(p):
+    p.add_argument("--zero-tol", type=float, default=1e-4,
+                   help="relative zero threshold of the filter [-] (default 1e-4)")
+    p.add_argument("--zero-floor", type=float, default=1e-12,
+                   help="absolute floor of the zero threshold [N s] (default 1e-12)")
+    p.add_argument("--v-min", type=float, default=1e-3,
+                   help="smallest approach speed for a Flores force [m/s] (default 1e-3)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``python -m analysis``."""
+    ap = argparse.ArgumentParser(prog="python -m analysis", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    p = sub.add_parser("impacts", help="write the impact table of a run")
+    p.add_argument("run")
+    p.add_argument("--out", required=True)
+    p.add_argument("--r-eff", choices=("concave", "paper"), default="concave")
+    _common(p)
+    p = sub.add_parser("filter", help="write Lambda_FI, Lambda_S, Lambda_FIsuv of a run")
+    p.add_argument("run")
+    p.add_argument("--out", required=True)
+    p.add_argument("--zero-tol", type=float, default=1e-4)
+    p.add_argument("--zero-floor", type=float, default=1e-12)
+    p = sub.add_parser("top-forces",
+                       help="print the largest F_max on the outer race for both R_eff forms")
+    p.add_argument("run")
+    p.add_argument("-n", type=int, default=3)
+    p.add_argument("--race", choices=("outer", "inner", "all"), default="outer")
+    _common(p)
+    p = sub.add_parser("figures", help="figures of one run")
+    p.add_argument("run")
+    p.add_argument("--outdir", required=True)
+    p.add_argument("--impacts", default=None, help="impact table (computed if not given)")
+    p.add_argument("--prefix", default=None)
+    p.add_argument("--r-eff", choices=("concave", "paper"), default="concave")
+    _common(p)
+    p = sub.add_parser("study-figures", help="figures of the study summary")
+    p.add_argument("summary")
+    p.add_argument("--outdir", required=True)
+    return ap
+
+
+def format_top_forces(run_ds, n=3, race="outer", zero_tol=1e-4, zero_floor=1e-12,
+                      v_min=1e-3) -> str:
+    """Text table of the ``n`` largest peak forces for r_eff = concave and r_eff = paper.
+
+    Parameters
+    ----------
+    run_ds : xarray.Dataset
+        One run.
+    n : int
+        How many forces.
+    race : {"outer", "inner", "all"}
+        Contacts to consider.
+    zero_tol, zero_floor, v_min : float
+        Filter and force settings (see :func:`analysis.extract_impacts`).
+
+    Returns
+    -------
+    str
+    """
+    from .figures import run_label
+    from .impacts import extract_impacts, top_forces
+
+    lines = [f"run: {run_label(run_ds)}"]
+    for r_eff in ("concave", "paper"):
+        imp = extract_impacts(run_ds, zero_tol, zero_floor, r_eff=r_eff, v_min=v_min)
+        top = top_forces(imp, n=n, race=None if race == "all" else race)
+        a = imp.attrs
+        lines.append(
+            f"\nr_eff = {r_eff}: K_outer = {a['K_outer']:.4g} N/m^1.5, zero threshold = "
+            f"{a['zero_threshold']:.3g} N s (zero_tol {a['zero_tol']:g}), impacts: "
+            f"{a['n_simple']} simple, {a['n_persistent']} persistent, "
+            f"{a['n_no_approach']} without approach")
+        lines.append(f"{'rank':>4} {'F_max [kN]':>10} {'contact':>7} {'ball':>4} {'race':>5} "
+                     f"{'time [s]':>9} {'kind':>10} {'impulse [N s]':>13} {'v_pre [m/s]':>11} "
+                     f"{'F_static [N]':>12}")
+        for i in range(top.sizes["impact"]):
+            row = top.isel(impact=i)
+            lines.append(
+                f"{i + 1:>4} {float(row.F_max) / 1e3:>10.4g} {int(row.contact):>7} "
+                f"{int(row.ball):>4} {str(row.race.values):>5} {float(row.time):>9.4f} "
+                f"{str(row.kind.values):>10} {float(row.impulse):>13.4g} "
+                f"{float(row.v_pre):>11.4g} {float(row.F_static):>12.4g}")
+        if top.sizes["impact"] == 0:
+            lines.append("   (no impact with a force)")
+        # the paper's way: the three largest impulses on the one outer contact carrying the
+        # largest impulse, whatever their force
+        outer = imp.where(imp["race"] == "outer", drop=True) if imp.sizes["impact"] else imp
+        if outer.sizes["impact"]:
+            c = int(outer["contact"].values[int(np.argmax(outer["impulse"].values))])
+            one = imp.isel(impact=np.flatnonzero(imp["contact"].values == c))
+            order = np.argsort(-one["impulse"].values, kind="stable")[:n]
+            forces = ", ".join(
+                f"{one['F_max'].values[k] / 1e3:.4g} kN (t = {one['time'].values[k]:.4f} s)"
+                for k in sorted(order, key=lambda k: one["time"].values[k]))
+            lines.append(f"     paper-style, {n} largest impulses on contact {c} in time order: "
+                         f"{forces}")
+    lines.append("\npaper (Fig. 7d, one ball-outer-race contact, printed R_eff): "
+                 + ", ".join(f"{v} kN" for v in PAPER_TOP3_KN))
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    """Entry point; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    import xarray as xr
+
+    try:
+        if args.cmd == "study-figures":
+            from .figures import plot_study
+
+            with xr.open_dataset(args.summary) as ds:
+                for p in plot_study(ds.load(), args.outdir):
+                    print(p)
+            return 0
+        with xr.open_dataset(args.run) as ds:
+            run_ds = ds.load()
+        if args.cmd == "impacts":
+            from simcore.io import write_netcdf
+
+            from .impacts import extract_impacts
+
+            imp = extract_impacts(run_ds, args.zero_tol, args.zero_floor, args.r_eff, args.v_min)
+            write_netcdf(imp, args.out)
+            print(f"{args.out}: {imp.attrs['n_simple']} simple, {imp.attrs['n_persistent']} "
+                  f"persistent, {imp.attrs['n_no_approach']} without approach "
+                  f"(zero threshold {imp.attrs['zero_threshold']:.3g} N s)")
+        elif args.cmd == "filter":
+            from simcore.io import write_netcdf
+
+            from .filtering import split_dataset
+
+            write_netcdf(split_dataset(run_ds, args.zero_tol, args.zero_floor), args.out)
+        elif args.cmd == "top-forces":
+            print(format_top_forces(run_ds, args.n, args.race, args.zero_tol, args.zero_floor,
+                                    args.v_min))
+        elif args.cmd == "figures":
+            from .figures import plot_run
+            from .impacts import extract_impacts
+
+            if args.impacts:
+                with xr.open_dataset(args.impacts) as d:
+                    imp = d.load()
+            else:
+                imp = extract_impacts(run_ds, args.zero_tol, args.zero_floor, args.r_eff,
+                                      args.v_min)
+            for p in plot_run(run_ds, imp, args.outdir, args.zero_tol, args.zero_floor,
+                              prefix=args.prefix):
+                print(p)
+    except (ValueError, KeyError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

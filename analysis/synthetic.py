@@ -1,0 +1,140 @@
+"""Synthetic run datasets with the layout of SPEC section 5, for tests, benchmarks and demos.
+
+They are not simulations: the impulse histories are hand-built (isolated impacts, a persistent
+contact train with impacts on top of it, noise), the kinematics is the ideal slider-crank plus a
+small perturbation. Use them to exercise the analysis without the solver.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+__all__ = ["make_run_dataset", "PAPER_MODEL"]
+
+PAPER_MODEL = {
+    "model.clearance": 4.0e-4,
+    "model.mu": 0.01,
+    "model.omega0": 50.0,
+    "model.e_N": 0.9,
+    "model.e_T": 0.0,
+    "model.n_balls": 8,
+    "model.ball_radius": 0.0055,
+    "model.inner_radius": 0.033745,
+    "model.youngs_modulus": 2.1e9,
+    "model.poisson_ratio": 0.3,
+    "model.crank_length": 0.11,
+    "model.rod_length": 0.225,
+    "solver.dt": 1.0e-4,
+}
+
+
+def make_run_dataset(n_steps=600, n_balls=8, seed=0, clearance=4.0e-4, mu=0.01, omega0=50.0,
+                     e_N=0.9, dt=1.0e-4, journal=True, lam_scale=1e-3):
+    """A synthetic run dataset (SPEC section 5 layout).
+
+    Parameters
+    ----------
+    n_steps : int
+        Number of steps (``time`` has n_steps + 1 samples).
+    n_balls : int
+        Balls; ``contact`` has 2 n_balls entries.
+    seed : int
+        Random seed.
+    clearance, mu, omega0, e_N : float
+        Study parameters, stored as scalar coordinates (and as ``model.*`` attrs).
+    dt : float
+        Time step [s].
+    journal : bool
+        Include ``journal_x``, ``journal_y``.
+    lam_scale : float
+        Size of the impulses [N s].
+
+    Returns
+    -------
+    xarray.Dataset
+        Lambda_N, Lambda_T, nu_N, gap_N, vn_pre, vn_post, q, v, crank_angle, slider_x, slider_v,
+        energy, iterations, converged (+ journal_x, journal_y). On the first outer-race contact
+        (index n_balls) there is an isolated impact at step 50 and a persistent train from step
+        100 to 300 with impacts on it at steps 150 and 220.
+    """
+    rng = np.random.default_rng(seed)
+    nc = 2 * n_balls
+    t = np.arange(n_steps + 1) * dt
+    lam = np.zeros((n_steps + 1, nc))
+    vn_pre = np.zeros((n_steps + 1, nc))
+    # random isolated impacts on every contact
+    for c in range(nc):
+        for k in rng.choice(np.arange(2, n_steps - 1, 4), size=min(5, n_steps // 8), replace=False):
+            lam[k, c] = lam_scale * rng.uniform(0.05, 0.5)
+            vn_pre[k, c] = -rng.uniform(0.01, 0.5)
+    c0 = n_balls  # first outer-race contact: the hand-built history
+    lam[:, c0] = 0.0
+    vn_pre[:, c0] = 0.0
+    if n_steps > 300:
+        lam[50, c0] = lam_scale
+        vn_pre[50, c0] = -0.3
+        k = np.arange(100, 301)
+        lam[k, c0] = 0.2 * lam_scale * (1.0 + 0.5 * np.sin(np.pi * (k - 100) / 200.0))
+        vn_pre[k, c0] = -1e-5
+        lam[150, c0] += 0.8 * lam_scale
+        vn_pre[150, c0] = -0.2
+        lam[220, c0] += 0.5 * lam_scale
+        vn_pre[220, c0] = -1e-4  # no approach: kept, F_max missing
+    vn_post = -e_N * vn_pre
+    theta = omega0 * t
+    L1, L2 = PAPER_MODEL["model.crank_length"], PAPER_MODEL["model.rod_length"]
+    x_ideal = L1 * np.cos(theta) + np.sqrt(L2**2 - (L1 * np.sin(theta)) ** 2)
+    bodies = ["crank", "rod", "slider"] + [f"ball{i}" for i in range(n_balls)]
+    nb = len(bodies)
+    q = rng.normal(0.0, 1e-3, (n_steps + 1, nb, 3))
+    ds = xr.Dataset(
+        {
+            "Lambda_N": (("time", "contact"), lam, {"units": "N s", "long_name": "normal impulse"}),
+            "Lambda_T": (("time", "contact"), 0.01 * lam,
+                         {"units": "N s", "long_name": "tangential impulse"}),
+            "nu_N": (("time", "contact"), np.zeros_like(lam),
+                     {"units": "N s", "long_name": "position-correction multiplier"}),
+            "gap_N": (("time", "contact"), np.where(lam > 0, 0.0, 1e-5),
+                      {"units": "m", "long_name": "normal gap"}),
+            "vn_pre": (("time", "contact"), vn_pre,
+                       {"units": "m s-1", "long_name": "normal relative velocity before jump"}),
+            "vn_post": (("time", "contact"), vn_post,
+                        {"units": "m s-1", "long_name": "normal relative velocity after jump"}),
+            "q": (("time", "body", "dof"), q, {"units": "", "long_name": "positions"}),
+            "v": (("time", "body", "dof"), np.zeros_like(q), {"units": "", "long_name": "vel"}),
+            "crank_angle": ("time", theta, {"units": "rad", "long_name": "crank angle"}),
+            "slider_x": ("time", x_ideal + 1e-5 * np.sin(7 * theta),
+                         {"units": "m", "long_name": "slider position"}),
+            "slider_v": ("time", np.gradient(x_ideal, t) if t.size > 1 else 0 * t,
+                         {"units": "m s-1", "long_name": "slider velocity"}),
+            "energy": ("time", np.full(t.size, 1.0), {"units": "J", "long_name": "energy"}),
+            "iterations": (("time", "stage"), np.ones((t.size, 3), dtype=np.int32),
+                           {"units": "1", "long_name": "Newton iterations"}),
+            "converged": ("time", np.ones(t.size, dtype=np.int8),
+                          {"units": "1", "long_name": "converged"}),
+        },
+        coords={
+            "time": ("time", t, {"units": "s", "long_name": "time"}),
+            "contact": np.arange(nc),
+            "ball": ("contact", np.tile(np.arange(n_balls), 2)),
+            "race": ("contact", np.array(["inner"] * n_balls + ["outer"] * n_balls)),
+            "body": bodies,
+            "dof": ["x", "y", "phi"],
+            "stage": ["smooth", "position", "velocity"],
+            "clearance": clearance,
+            "mu": mu,
+            "omega0": omega0,
+            "e_N": e_N,
+        },
+    )
+    if journal:
+        r = 0.8 * clearance * np.minimum(1.0, t / (t[-1] + dt) * 3)
+        ds["journal_x"] = ("time", r * np.cos(3 * theta), {"units": "m", "long_name": "journal x"})
+        ds["journal_y"] = ("time", r * np.sin(3 * theta), {"units": "m", "long_name": "journal y"})
+    attrs = dict(PAPER_MODEL)
+    attrs.update({"model.clearance": clearance, "model.mu": mu, "model.omega0": omega0,
+                  "model.e_N": e_N, "model.n_balls": n_balls, "solver.dt": dt,
+                  "title": "synthetic run (not a simulation)", "Conventions": "CF-1.8"})
+    ds.attrs.update(attrs)
+    return ds
