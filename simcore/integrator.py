@@ -173,11 +173,13 @@ def spring_state(q, v, k, sp_body, sp_geom):
 
 
 @njit(cache=True)
-def smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, tangent):
+def smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, Ks, tangent):
     """Gravity plus spring-damper forces ``f`` [N, N m]; with ``tangent`` also the stiffness
     ``K = -df/dq`` and damping ``C = -df/dv`` matrices. K is exact for springs between body
     origins (the cage); for off-centre points the lever arms' second derivative is left out
-    (Newton stays convergent, only its rate changes)."""
+    (Newton stays convergent, only its rate changes). ``Ks`` receives the symmetric positive
+    semi-definite elastic part (axial stiffness and the geometric term of a tensile spring): it
+    is the metric of the position correction, which must stay positive definite."""
     nb = mass.shape[0]
     for b in range(nb):
         f[3 * b] = mass[b] * gvec[0]
@@ -186,6 +188,7 @@ def smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, tangent):
     if tangent:
         K[:, :] = 0.0
         C[:, :] = 0.0
+        Ks[:, :] = 0.0
     w = np.zeros(6)
     P = np.zeros((2, 6))
     idx = np.zeros(6, dtype=np.int64)
@@ -224,6 +227,8 @@ def smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, tangent):
             P[0, 5] = -ajy
             P[1, 5] = ajx
             geo = tension / length if length > 1e-300 else 0.0
+            elastic = max(stiff * (length - rest), 0.0)
+            geo_s = elastic / length if length > 1e-300 else 0.0
             m00 = geo * (1.0 - nx * nx)
             m01 = -geo * nx * ny
             m11 = geo * (1.0 - ny * ny)
@@ -244,6 +249,9 @@ def smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, tangent):
                             + P[1, a] * (m01 * P[0, c] + m11 * P[1, c]))
                     K[idx[a], idx[c]] += (stiff * w[a] * w[c] + kgeo
                                           + w[a] * (px * P[0, c] + py * P[1, c]))
+                    pp = (P[0, a] * ((1.0 - nx * nx) * P[0, c] - nx * ny * P[1, c])
+                          + P[1, a] * (-nx * ny * P[0, c] + (1.0 - ny * ny) * P[1, c]))
+                    Ks[idx[a], idx[c]] += stiff * w[a] * w[c] + geo_s * pp
                     C[idx[a], idx[c]] += damp * w[a] * w[c]
 
 
@@ -454,8 +462,7 @@ def initial_acceleration(q, v, t, mdiag, mass, gvec, sp_body, sp_geom, jt_type, 
     m = joint_row_count(jt_type)
     f = np.zeros(n)
     K = np.zeros((n, n))
-    C = np.zeros((n, n))
-    smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, False)
+    smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, K, K, False)
     g = np.zeros(m)
     G = np.zeros((m, n))
     gam = np.zeros(m)
@@ -481,7 +488,7 @@ def initial_acceleration(q, v, t, mdiag, mass, gvec, sp_body, sp_geom, jt_type, 
 # ----------------------------------------------------------------------------------------------
 @njit(cache=True)
 def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, mdiag, mass, gvec, sp_body,
-                sp_geom, jt_type, jt_body, jt_geom, q_t, v_t, acc1, vdot1, f_t, K_t, C_t):
+                sp_geom, jt_type, jt_body, jt_geom, q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t):
     """Generalized-alpha prediction with smooth forces and bilateral joints (velocity level).
 
     Newton on ``vdot1``; fills q_t, v_t, acc1, vdot1, lam and the forces/tangents at (q_t, v_t).
@@ -505,7 +512,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, mdiag, mass, g
             acc1[i] = ((1.0 - af) * vdot1[i] + af * vdot[i] - am * acc[i]) / (1.0 - am)
             q_t[i] = q[i] + h * v[i] + h * h * (0.5 - beta) * acc[i] + h * h * beta * acc1[i]
             v_t[i] = v[i] + h * (1.0 - gam) * acc[i] + h * gam * acc1[i]
-        smooth_forces(q_t, v_t, mass, gvec, sp_body, sp_geom, f_t, K_t, C_t, True)
+        smooth_forces(q_t, v_t, mass, gvec, sp_body, sp_geom, f_t, K_t, C_t, Ks_t, True)
         bilateral(q_t, v_t, t1, jt_type, jt_body, jt_geom, g, G, gm, dgdt)
         scale = 1e-300
         res_f = 0.0
@@ -580,9 +587,10 @@ def _position_residual(q_t, U, nu_b, nu_c, t1, h, mdiag, Ap, jt_type, jt_body, j
 
 
 @njit(cache=True)
-def position_step(q_t, t1, h, tol, max_iter, eta, mdiag, K_t, jt_type, jt_body, jt_geom,
+def position_step(q_t, t1, h, tol, max_iter, eta, mdiag, Ks_t, jt_type, jt_body, jt_geom,
                   ct_type, ct_body, ct_geom, q1, nu_c, gap):
-    """Position correction: M U = G^T nu (with the spring stiffness h^2 K in the metric),
+    """Position correction: M U = G^T nu (with the springs' elastic stiffness h^2 Ks in the
+    metric, symmetric positive semi-definite so that the metric stays positive definite),
     joints g(q_t + U) = 0 and 0 <= g_N ⊥ nu_N >= 0 for every contact.
 
     Semismooth Newton with Delassus-scaled augmentation r_j = 1/(G_j A^-1 G_j^T), a proximal
@@ -594,7 +602,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, mdiag, K_t, jt_type, jt_body, 
     Ap = np.empty((n, n))
     for i in range(n):
         for j in range(n):
-            Ap[i, j] = h * h * K_t[i, j]
+            Ap[i, j] = h * h * Ks_t[i, j]
         Ap[i, i] += mdiag[i]
     Ainv = np.linalg.inv(Ap)
     U = np.zeros(n)
@@ -625,29 +633,17 @@ def position_step(q_t, t1, h, tol, max_iter, eta, mdiag, K_t, jt_type, jt_body, 
     GN_try = np.zeros((nc, n))
     q_try = np.zeros(n)
     Hloc = np.zeros((6, 6))
+    eta_k = eta
+    Gall = np.zeros((nbil + nc, n))
+    ball = np.zeros(nbil + nc)
+    reg_c = np.zeros(nc)
+    rows = np.arange(nbil + nc)  # rows[:nbil] are the joints, always present
     # at least one Newton step, so that the joints are restored to round-off at every step
     # (a drift below tol*h would otherwise accumulate up to that level)
     while (not converged or iters == 0) and iters < max_iter:
         iters += 1
-        na = 0
         for k in range(nc):
             active[k] = nu_c[k] - r_c[k] * gap[k] > 0.0
-            if active[k]:
-                na += 1
-        m = nbil + na
-        Gr = np.empty((m, n))
-        rhs = np.empty(m)
-        reg = np.zeros(m)
-        for r in range(nbil):
-            Gr[r] = Gb[r]
-            rhs[r] = -gb[r] + Gb[r] @ U
-        row = nbil
-        for k in range(nc):
-            if active[k]:
-                Gr[row] = GN[k]
-                reg[row] = eta / r_c[k]
-                rhs[row] = -gap[k] + GN[k] @ U + reg[row] * nu_c[k]
-                row += 1
         # Newton matrix of the equilibrium: A - sum nu_j d2g_j (contact geometric stiffness)
         Hinv = Ainv
         if nu_c.max() > 0.0:
@@ -665,23 +661,66 @@ def position_step(q_t, t1, h, tol, max_iter, eta, mdiag, K_t, jt_type, jt_body, 
                                 continue
                             Hm[3 * ba + a % 3, 3 * bc + c % 3] -= nu_c[k] * Hloc[a, c]
             Hinv = np.linalg.inv(Hm)
-        AU = Ap @ U
-        HAU = Hinv @ AU
-        for r in range(m):
-            rhs[r] += Gr[r] @ HAU - Gr[r] @ U
-        AG = Hinv @ Gr.T
-        D = Gr @ AG
-        for r in range(m):
-            D[r, r] += reg[r]
-        sol = np.linalg.solve(D, rhs)
-        U_new = U + AG @ sol - HAU
+        # the linearised problem of this iterate, for all rows: joints first, then contacts;
+        # row i of the new iterate reads (D nu)_i = b_i (+ proximal term on contacts)
+        HAU = Hinv @ (Ap @ U)
+        for r in range(nbil):
+            Gall[r] = Gb[r]
+            ball[r] = -gb[r] + Gb[r] @ HAU
+        for k in range(nc):
+            Gall[nbil + k] = GN[k]
+            ball[nbil + k] = -gap[k] + GN[k] @ HAU
+            reg_c[k] = eta_k / r_c[k]
+        AGall = Hinv @ Gall.T
+        Dall = Gall @ AGall
+        # exact active set of the linearised problem (primal-dual active set): drop contacts
+        # whose multiplier turns negative, add those whose linearised gap turns negative;
+        # one geometric Newton step then never cycles on a degenerate contact
+        for _inner in range(8 * nc * nc + 8):
+            m = nbil
+            for k in range(nc):
+                if active[k]:
+                    rows[m] = nbil + k
+                    m += 1
+            D = np.empty((m, m))
+            rhs = np.empty(m)
+            for a in range(m):
+                ra = rows[a]
+                for c in range(m):
+                    D[a, c] = Dall[ra, rows[c]]
+                rhs[a] = ball[ra]
+                if ra >= nbil:
+                    D[a, a] += reg_c[ra - nbil]
+                    rhs[a] += reg_c[ra - nbil] * nu_c[ra - nbil]
+            sol = np.linalg.solve(D, rhs)
+            # Murty's least-index rule: flip only the first contact that violates the
+            # complementarity; finite for the positive definite (P-matrix) contact problem,
+            # where flipping every violator at once can cycle among redundant contacts
+            flip = -1
+            for a in range(nbil, m):
+                if sol[a] < 0.0:
+                    flip = rows[a] - nbil
+                    break
+            for k in range(nc):
+                if flip >= 0 and k >= flip:
+                    break
+                if not active[k]:
+                    lin_gap = -ball[nbil + k]
+                    for a in range(m):
+                        lin_gap += Dall[nbil + k, rows[a]] * sol[a]
+                    if lin_gap < -0.1 * target:
+                        flip = k
+                        break
+            if flip < 0:
+                break
+            active[flip] = not active[flip]
+        U_new = U - HAU
+        for a in range(m):
+            U_new += AGall[:, rows[a]] * sol[a]
         nub_new = sol[:nbil]
         nuc_new = np.zeros(nc)
-        row = nbil
-        for k in range(nc):
-            if active[k]:
-                nuc_new[k] = sol[row]
-                row += 1
+        for a in range(nbil, m):
+            nuc_new[rows[a] - nbil] = sol[a]
         # backtracking line search on the scaled residual
         theta = 1.0
         best = -1.0
@@ -703,6 +742,12 @@ def position_step(q_t, t1, h, tol, max_iter, eta, mdiag, K_t, jt_type, jt_body, 
                 break
             theta *= 0.5
         theta = best_theta
+        if theta < 0.125:
+            # the active set cycles (the full step does not reduce the residual): stiffen the
+            # proximal term so that the multipliers move less per iteration
+            eta_k = min(100.0 * eta_k, 1e-1)
+        elif theta == 1.0:
+            eta_k = max(eta, 0.01 * eta_k)  # back towards plain Newton once steps go through
         for i in range(n):
             U[i] += theta * (U_new[i] - U[i])
         for r in range(nbil):
@@ -894,7 +939,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, mdiag, mas
     f1 = np.zeros(n)
     K1 = np.zeros((n, n))
     C1 = np.zeros((n, n))
-    smooth_forces(q1, v_t, mass, gvec, sp_body, sp_geom, f1, K1, C1, True)
+    smooth_forces(q1, v_t, mass, gvec, sp_body, sp_geom, f1, K1, C1, K1, True)
     Av = np.empty((n, n))
     b = np.empty(n)
     for i in range(n):
@@ -1012,6 +1057,7 @@ def integrate_chunk(k0, k1, h, rho_inf, tol, max_iter, eta, drive_row,
     f_t = np.zeros(n)
     K_t = np.zeros((n, n))
     C_t = np.zeros((n, n))
+    Ks_t = np.zeros((n, n))
     q1 = np.zeros(n)
     v1 = np.zeros(n)
     nu_c = np.zeros(nc)
@@ -1024,8 +1070,8 @@ def integrate_chunk(k0, k1, h, rho_inf, tol, max_iter, eta, drive_row,
         t1 = (k + 1) * h
         it_s, ok_s = smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, tol, max_iter, mdiag,
                                  mass, gvec, sp_body, sp_geom, jt_type, jt_body, jt_geom,
-                                 q_t, v_t, acc1, vdot1, f_t, K_t, C_t)
-        it_p, ok_p = position_step(q_t, t1, h, tol, max_iter, eta, mdiag, K_t, jt_type,
+                                 q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t)
+        it_p, ok_p = position_step(q_t, t1, h, tol, max_iter, eta, mdiag, Ks_t, jt_type,
                                    jt_body, jt_geom, ct_type, ct_body, ct_geom, q1, nu_c, gap)
         it_v, ok_v = velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, mdiag,
                                    mass, gvec, sp_body, sp_geom, jt_type, jt_body, jt_geom,

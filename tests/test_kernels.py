@@ -86,9 +86,13 @@ def test_smooth_forces_tangents_match_finite_differences(bearing):
     q, v = model.initial_state()
     q = q + 1e-4 * np.sin(3 * np.arange(q.size))
     n = q.size
-    f, K, C = np.zeros(n), np.zeros((n, n)), np.zeros((n, n))
+    f, K, C, Ks = np.zeros(n), np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
     nb.smooth_forces(q, v, arr["mass"], arr["gvec"], arr["sp_body"], arr["sp_geom"], f, K, C,
-                     True)
+                     Ks, True)
+    # the metric part is symmetric positive semi-definite
+    np.testing.assert_allclose(Ks, Ks.T, atol=1e-9)
+    assert np.linalg.eigvalsh(Ks).min() >= -1e-6 * np.abs(Ks).max()
+    np.testing.assert_allclose(C, C.T, atol=1e-9)
     # springs point at ball centres: no lever arms, so K is the exact tangent
     eps = 1e-7
     for i in range(n):
@@ -96,7 +100,7 @@ def test_smooth_forces_tangents_match_finite_differences(bearing):
         dq[i] += eps
         f2 = np.zeros(n)
         nb.smooth_forces(dq, v, arr["mass"], arr["gvec"], arr["sp_body"], arr["sp_geom"], f2,
-                         np.zeros((n, n)), np.zeros((n, n)), False)
+                         np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n)), False)
         np.testing.assert_allclose(-(f2 - f) / eps, K[:, i], rtol=1e-4, atol=1e-2)
     energy = nb.total_energy(q, v, arr["mdiag"], arr["mass"], arr["gvec"], arr["sp_body"],
                              arr["sp_geom"])
