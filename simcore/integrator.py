@@ -58,6 +58,36 @@ def body_omega(v, body):
     return v[3 * body + 2]
 
 
+@njit(cache=True)
+def unit_direction(dx, dy):
+    """Length of (dx, dy) and its unit vector ((1, 0) for a zero vector)."""
+    length = np.sqrt(dx * dx + dy * dy)
+    if length > 1e-300:
+        return length, dx / length, dy / length
+    return length, 1.0, 0.0
+
+
+@njit(cache=True)
+def pair_point_jacobians(P, aix, aiy, ajx, ajy):
+    """P (2 x 6) = d(c_j - c_i)/d(q_i, q_j) for body points with lever arms a_i, a_j."""
+    P[:, :] = 0.0
+    P[0, 0] = -1.0
+    P[1, 1] = -1.0
+    P[0, 2] = aiy
+    P[1, 2] = -aix
+    P[0, 3] = 1.0
+    P[1, 4] = 1.0
+    P[0, 5] = -ajy
+    P[1, 5] = ajx
+
+
+@njit(cache=True)
+def transverse_form(P, nx, ny, a, c):
+    """Entry (a, c) of P^T (I - n n^T) P: the change of direction of a two-point distance."""
+    return (P[0, a] * ((1.0 - nx * nx) * P[0, c] - nx * ny * P[1, c])
+            + P[1, a] * (-nx * ny * P[0, c] + (1.0 - ny * ny) * P[1, c]))
+
+
 # ----------------------------------------------------------------------------------------------
 # bilateral joints
 # ----------------------------------------------------------------------------------------------
@@ -145,15 +175,7 @@ def spring_state(q, v, k, sp_body, sp_geom):
     p = sp_geom[k]
     xi, yi, aix, aiy = body_point(q, bi, p[0], p[1])
     xj, yj, ajx, ajy = body_point(q, bj, p[2], p[3])
-    dx = xj - xi
-    dy = yj - yi
-    length = np.sqrt(dx * dx + dy * dy)
-    if length > 1e-300:
-        nx = dx / length
-        ny = dy / length
-    else:
-        nx = 1.0
-        ny = 0.0
+    length, nx, ny = unit_direction(xj - xi, yj - yi)
     wi = body_omega(v, bi)
     wj = body_omega(v, bj)
     vix = 0.0
@@ -217,23 +239,11 @@ def smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, Ks, tangent):
                 f[idx[a]] -= tension * w[a]
         if tangent:
             # point Jacobians for the geometric stiffness (tension / length) (I - n n^T)
-            P[:, :] = 0.0
-            P[0, 0] = -1.0
-            P[1, 1] = -1.0
-            P[0, 2] = aiy
-            P[1, 2] = -aix
-            P[0, 3] = 1.0
-            P[1, 4] = 1.0
-            P[0, 5] = -ajy
-            P[1, 5] = ajx
-            geo = tension / length if length > 1e-300 else 0.0
-            elastic = max(stiff * (length - rest), 0.0)
-            geo_s = elastic / length if length > 1e-300 else 0.0
-            m00 = geo * (1.0 - nx * nx)
-            m01 = -geo * nx * ny
-            m11 = geo * (1.0 - ny * ny)
-            # the damper's rate n.(dv) changes with the direction n: d(rate)/dq = dv_perp P / l
+            pair_point_jacobians(P, aix, aiy, ajx, ajy)
             inv_l = 1.0 / length if length > 1e-300 else 0.0
+            geo = tension * inv_l
+            geo_s = max(stiff * (length - rest), 0.0) * inv_l
+            # the damper's rate n.(dv) changes with the direction n: d(rate)/dq = dv_perp P / l
             proj = nx * dvx + ny * dvy
             px = (dvx - proj * nx) * inv_l * damp
             py = (dvy - proj * ny) * inv_l * damp
@@ -245,12 +255,9 @@ def smooth_forces(q, v, mass, gvec, sp_body, sp_geom, f, K, C, Ks, tangent):
                     bc = bi if c < 3 else bj
                     if bc < 0:
                         continue
-                    kgeo = (P[0, a] * (m00 * P[0, c] + m01 * P[1, c])
-                            + P[1, a] * (m01 * P[0, c] + m11 * P[1, c]))
-                    K[idx[a], idx[c]] += (stiff * w[a] * w[c] + kgeo
+                    pp = transverse_form(P, nx, ny, a, c)
+                    K[idx[a], idx[c]] += (stiff * w[a] * w[c] + geo * pp
                                           + w[a] * (px * P[0, c] + py * P[1, c]))
-                    pp = (P[0, a] * ((1.0 - nx * nx) * P[0, c] - nx * ny * P[1, c])
-                          + P[1, a] * (-nx * ny * P[0, c] + (1.0 - ny * ny) * P[1, c]))
                     Ks[idx[a], idx[c]] += stiff * w[a] * w[c] + geo_s * pp
                     C[idx[a], idx[c]] += damp * w[a] * w[c]
 
@@ -317,13 +324,7 @@ def contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT):
         rax = aax + dx - (rb + g) * nx
         ray = aay + dy - (rb + g) * ny
     else:
-        dist = np.sqrt(dx * dx + dy * dy)
-        if dist > 1e-300:
-            nx = dx / dist
-            ny = dy / dist
-        else:
-            nx = 1.0
-            ny = 0.0
+        dist, nx, ny = unit_direction(dx, dy)
         tx = -ny
         ty = nx
         sign = 1.0
@@ -395,30 +396,15 @@ def contact_hessian(q, k, ct_type, ct_body, ct_geom, H):
     p = ct_geom[k]
     cax, cay, aax, aay = body_point(q, ia, p[0], p[1])
     cbx, cby, abx, aby = body_point(q, ib, p[2], p[3])
-    dx = cbx - cax
-    dy = cby - cay
-    dist = np.sqrt(dx * dx + dy * dy)
+    dist, nx, ny = unit_direction(cbx - cax, cby - cay)
     if dist <= 1e-300:
         return
-    nx = dx / dist
-    ny = dy / dist
     sign = 1.0 if kind == CONTACT_OUTSIDE else -1.0
     P = np.zeros((2, 6))
-    P[0, 0] = -1.0
-    P[1, 1] = -1.0
-    P[0, 2] = aay
-    P[1, 2] = -aax
-    P[0, 3] = 1.0
-    P[1, 4] = 1.0
-    P[0, 5] = -aby
-    P[1, 5] = abx
-    m00 = (1.0 - nx * nx) / dist
-    m01 = -nx * ny / dist
-    m11 = (1.0 - ny * ny) / dist
+    pair_point_jacobians(P, aax, aay, abx, aby)
     for a in range(6):
         for c in range(6):
-            H[a, c] = sign * (P[0, a] * (m00 * P[0, c] + m01 * P[1, c])
-                              + P[1, a] * (m01 * P[0, c] + m11 * P[1, c]))
+            H[a, c] = sign * transverse_form(P, nx, ny, a, c) / dist
     if ia < 0:
         for a in range(3):
             for c in range(6):

@@ -130,3 +130,42 @@ def test_stage_kernels_on_a_pinched_ball():
     its, ok = nb.solve_velocity_problem(D, c, np.array([1]), np.zeros(1), np.zeros(1,
                                         dtype=np.int64), lam, 1e-12, 20, 0.0)
     assert ok and lam[0] == pytest.approx(0.75)  # xi = 2 lam - 1.5 = 0
+
+
+def test_small_geometry_and_algebra_kernels():
+    assert nb.unit_direction(3.0, 4.0) == pytest.approx((5.0, 0.6, 0.8))
+    assert nb.unit_direction(0.0, 0.0) == (0.0, 1.0, 0.0)
+    P = np.zeros((2, 6))
+    nb.pair_point_jacobians(P, 0.0, 0.5, -1.0, 0.0)
+    # d(c_j - c_i)/dphi_i = -(e_z x a_i) = (0.5, 0) for a_i = (0, 0.5)
+    np.testing.assert_allclose(P[:, 2], [0.5, 0.0])
+    np.testing.assert_allclose(P[:, 5], [0.0, -1.0])
+    # transverse form along n = x: only the y components count
+    assert nb.transverse_form(P, 1.0, 0.0, 1, 1) == pytest.approx(1.0)
+    assert nb.transverse_form(P, 1.0, 0.0, 0, 0) == pytest.approx(0.0)
+    rng = np.random.default_rng(1)
+    A = np.diag(rng.uniform(1.0, 2.0, 7))
+    A[2, 5] = A[5, 2] = 0.3
+    np.testing.assert_allclose(nb.block_inverse(A) @ A, np.eye(7), atol=1e-14)
+
+
+def test_contact_hessian_matches_finite_differences(bearing):
+    model, _, arr = bearing
+    q, _ = model.initial_state()
+    q = q + 1e-4 * np.cos(np.arange(q.size))
+    eps = 1e-6
+    for k in (0, 9):  # an inner (outside) and an outer (inside) element
+        H = np.zeros((6, 6))
+        nb.contact_hessian(q, k, arr["ct_type"], arr["ct_body"], arr["ct_geom"], H)
+        ia, ib = arr["ct_body"][k]
+        dofs = [3 * ia + a for a in range(3)] + [3 * ib + a for a in range(3)]
+        for c, dof in enumerate(dofs):
+            rows = []
+            for sign in (1.0, -1.0):
+                dq = q.copy()
+                dq[dof] += sign * eps
+                wN = np.zeros(6)
+                nb.contact_rows(dq, k, arr["ct_type"], arr["ct_body"], arr["ct_geom"], wN,
+                                np.zeros(6))
+                rows.append(wN.copy())
+            np.testing.assert_allclose((rows[0] - rows[1]) / (2 * eps), H[:, c], atol=1e-5)
