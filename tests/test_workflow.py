@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -15,6 +16,15 @@ import xarray as xr
 from analysis.summary import summarize
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def results(tmp_path):
+    """A results folder in tmp_path; its job logs (under logs/ in the repository) are removed."""
+    path = tmp_path / "res"
+    yield path
+    shutil.rmtree(ROOT / "logs" / "_".join(path.relative_to(path.anchor).parts),
+                  ignore_errors=True)
 
 
 def snakemake(*args, timeout=120):
@@ -74,8 +84,7 @@ def test_one_run_per_job_when_no_batch_axes():
         ("study={'batch_axes': ['omega']}", "study.batch_axes"),
     ],
 )
-def test_bad_config_stops_before_any_job(tmp_path, override, key):
-    results = tmp_path / "res"
+def test_bad_config_stops_before_any_job(results, override, key):
     # not a dry run: if the check came late, jobs would start and write into `results`
     proc = snakemake("-j1", "--config", override, f"study={{'results_dir': '{results}'}}")
     message = proc.stdout + proc.stderr
@@ -181,14 +190,42 @@ def test_summarize_grid_and_failed_point(tmp_path):
     assert s.attrs["n_failed"] == 1
 
 
+def _check_study(results: Path) -> xr.Dataset:
+    """Outputs of a finished study exist and open; failed points are exactly the marker files."""
+    runs = sorted((results / "runs").glob("*.nc"))
+    assert runs and len(runs) == len(list((results / "impacts").glob("*.nc")))
+    assert list((results / "figures").glob("*.png"))
+    assert not list(results.rglob(".*.tmp")), "a temporary file was left behind"
+    s = xr.load_dataset(results / "summary.nc")
+    assert {"clearance", "mu", "omega0", "e_N"} <= set(s.dims)
+    assert s["failed"].size == len(runs)
+    for path in runs:
+        with xr.open_dataset(path) as run:
+            point = {key: float(run[key]) for key in ("clearance", "mu", "omega0", "e_N")}
+            failed = int(run.attrs.get("failed", 0))
+        assert float(s["failed"].sel(point)) == failed
+        assert bool(s["wall_time_s"].sel(point).isnull()) == bool(failed)
+    return s
+
+
 @pytest.mark.slow
-def test_smoke_study_end_to_end(tmp_path):
-    """The smoke study into a temporary folder, with one point made to fail."""
-    results = tmp_path / "res"
+def test_smoke_study_end_to_end(results):
     proc = snakemake("-j2", "--configfile", "config/smoke.yaml", "--config",
                      f"study={{'results_dir': '{results}'}}", timeout=900)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    with xr.open_dataset(results / "summary.nc") as s:
-        assert {"clearance", "mu", "omega0", "e_N"} <= set(s.dims)
-        assert int(s["failed"].sum()) == 0
-    assert list((results / "figures").glob("*.png"))
+    _check_study(results)
+
+
+@pytest.mark.slow
+def test_failed_runs_do_not_stop_the_study(results):
+    """Too few Newton iterations: some runs fail, the study still finishes and marks them."""
+    proc = snakemake("-j2", "--configfile", "config/smoke.yaml", "--config",
+                     "solver={'t_end': 1.0e-3, 'max_iter': 3}",
+                     f"study={{'results_dir': '{results}'}}", timeout=900)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0, out
+    s = _check_study(results)
+    n_failed = int(s["failed"].sum())
+    assert 1 <= n_failed, "expected at least one run to fail with max_iter = 3"
+    assert re.search(r"WARNING: run clearance=\S+, mu=\S+, omega0=\S+, e_N=\S+ failed", out)
+    assert "failed run (marked missing" in out

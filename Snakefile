@@ -1,0 +1,39 @@
+# Parameter study of the SKF-6012 ball bearing in a crank-slider (SPEC sections 8-9).
+#
+#   snakemake -j2                                   default study (config/config.yaml)
+#   snakemake -j2 --configfile config/smoke.yaml    2 x 2 grid of short runs (CI)
+#   snakemake --report report.html                  report with the figures
+#
+# The rules live in workflow/rules/; the jobs call functions of simcore and analysis.
+
+import sys
+
+from snakemake.utils import min_version
+
+min_version("8.0")
+
+
+configfile: "config/config.yaml"
+
+
+include: "workflow/rules/common.smk"
+
+
+report: "workflow/report/workflow.rst"
+
+
+rule all:
+    default_target: True
+    input:
+        SUMMARY_NC,
+        FIGURES,
+
+
+include: "workflow/rules/simulate.smk"
+include: "workflow/rules/analysis.smk"
+include: "workflow/rules/figures.smk"
+
+
+onsuccess:
+    for line in failed_points(SUMMARY_NC):
+        print(f"WARNING: failed run (marked missing in {SUMMARY_NC}): {line}", file=sys.stderr)

@@ -1,0 +1,197 @@
+# Shared helpers of the study workflow: configuration checks, the parameter grid, paths.
+#
+# Everything here runs when Snakemake parses the workflow, before any job starts: a bad
+# configuration stops the study with one line naming the key.
+
+import copy
+import itertools
+import logging
+import re
+from contextlib import contextmanager
+from pathlib import Path
+
+import pandas as pd
+from snakemake.exceptions import WorkflowError
+from snakemake.utils import Paramspace, validate
+
+import simcore
+from simcore.config import SCHEMA_PATH
+
+# The swept model keys, in the order of the file names and of the summary's dimensions.
+SWEPT = ("clearance", "mu", "omega0", "e_N")
+
+# YAML 1.1 (PyYAML, used by Snakemake for --configfile) reads 1.0e5 as a string, and Snakemake
+# reads the values nested in --config "section={...}" with YAML's BaseLoader: all strings.
+_INT_RE = re.compile(r"^[-+]?\d+$")
+_FLOAT_RE = re.compile(r"^[-+]?(?:\d[\d_]*\.?[\d_]*|\.\d[\d_]*)(?:[eE][-+]?\d+)?$")
+
+
+def _numbers(node):
+    """Return ``node`` with number-looking strings read as numbers, "null" as None."""
+    if isinstance(node, dict):
+        return {key: _numbers(value) for key, value in node.items()}
+    if isinstance(node, list):
+        return [_numbers(value) for value in node]
+    if isinstance(node, str):
+        text = node.strip()
+        if _INT_RE.match(text):
+            return int(text)
+        if _FLOAT_RE.match(text):
+            return float(text.replace("_", ""))
+        if text in ("null", "Null", "NULL", "~"):
+            return None
+    return node
+
+
+def tidy(value):
+    """Round a parameter to 10 significant digits so that file names carry no float noise."""
+    return float(f"{float(value):.10g}")
+
+
+class _DropSchemaVersionWarning(logging.Filter):
+    _TEXT = ("No validator found for JSON Schema", "Defaulting to validator for JSON Schema",
+             "Note that schema file may not be validated")
+
+    def filter(self, record):
+        return not str(record.getMessage()).startswith(self._TEXT)
+
+
+@contextmanager
+def _quiet_schema_version():
+    from snakemake.logging import logger
+
+    muted = _DropSchemaVersionWarning()
+    logger.addFilter(muted)
+    try:
+        yield
+    finally:
+        logger.removeFilter(muted)
+
+
+def _checked_config(raw):
+    """Validate the merged Snakemake config; raise a one-line error naming the key."""
+    cfg = _numbers(dict(raw))
+    try:
+        full = simcore.validate_config(cfg)
+    except simcore.ConfigError as exc:
+        raise WorkflowError(f"invalid configuration: {exc}") from None
+    # The same JSON schema again, through Snakemake's own validator (fills the same defaults).
+    # Snakemake 9 validates with the draft 2020-12 rules, which read every keyword of our
+    # draft-07 schema the same way; its three-line warning about the version is muted.
+    with _quiet_schema_version():
+        validate(full, str(SCHEMA_PATH))
+    return full
+
+
+def _grid(cfg):
+    """Full-factorial grid of the sweep; axes that are not swept use the model value."""
+    axes = {}
+    for key in SWEPT:
+        values = cfg["sweep"].get(key, [cfg["model"][key]])
+        rounded = sorted({tidy(v) for v in values})
+        if len(rounded) < len(values):
+            raise WorkflowError(
+                f"invalid configuration: sweep.{key}: {values!r} holds the same value twice "
+                "(after rounding to 10 significant digits)")
+        axes[key] = rounded
+    frame = pd.DataFrame(list(itertools.product(*axes.values())), columns=list(SWEPT),
+                         dtype=float)
+    return axes, frame
+
+
+_full = _checked_config(config)
+config.clear()
+config.update(_full)
+
+AXES, GRID = _grid(config)
+paramspace = Paramspace(GRID, filename_params="*")
+PARAMS = paramspace.wildcard_pattern  # clearance~{clearance}_mu~{mu}_omega0~{omega0}_e_N~{e_N}
+
+# One simulate (and one impacts) job loops over the batch axes for one combination of the other
+# ("outer") axes: a run of the paper's case takes well under a second, less than the start of a
+# job (Python, imports, Numba cache), so jobs of single runs would spend most time starting.
+BATCH = [key for key in SWEPT if key in config["study"]["batch_axes"]]
+OUTER = [key for key in SWEPT if key not in BATCH]
+if OUTER:
+    outer_space = Paramspace(GRID[OUTER].drop_duplicates().reset_index(drop=True),
+                             filename_params="*")
+    BATCH_NAME = outer_space.wildcard_pattern  # e.g. clearance~{clearance}_mu~{mu}
+else:
+    BATCH_NAME = "all"
+
+RES = config["study"]["results_dir"].rstrip("/")
+# Logs and benchmark tables are written while a job runs; they live outside the results folder,
+# so that every file under results/ is a finished product.
+LOGS = Path("logs", "_".join(Path(RES).relative_to(Path(RES).anchor).parts)).as_posix()
+
+SUMMARY_NC = f"{RES}/summary.nc"
+FIGURES = f"{RES}/figures"
+
+ALL_RUNS = expand(f"{RES}/runs/{{p}}.nc", p=list(paramspace.instance_patterns))
+ALL_IMPACTS = expand(f"{RES}/impacts/{{p}}.nc", p=list(paramspace.instance_patterns))
+
+
+wildcard_constraints:
+    clearance=r"[-+0-9.eE]+",
+    mu=r"[-+0-9.eE]+",
+    omega0=r"[-+0-9.eE]+",
+    e_N=r"[-+0-9.eE]+",
+
+
+def batch_files(kind):
+    """Files of one batch: outer axes stay wildcards, batch axes take every grid value."""
+    names = []
+    for values in itertools.product(*(AXES[key] for key in BATCH)):
+        fixed = dict(zip(BATCH, values))
+        parts = [f"{key}~{fixed[key]}" if key in fixed else f"{key}~{{{key}}}" for key in SWEPT]
+        names.append(f"{RES}/{kind}/{'_'.join(parts)}.nc")
+    return names
+
+
+def batch_points(wildcards):
+    """The swept values of every run of one batch, as dicts of plain floats."""
+    outer = {key: float(getattr(wildcards, key)) for key in OUTER}
+    points = []
+    for values in itertools.product(*(AXES[key] for key in BATCH)):
+        fixed = dict(outer, **dict(zip(BATCH, values)))
+        points.append({key: fixed[key] for key in SWEPT})
+    return points
+
+
+def run_config(point):
+    """Configuration of one run: model and solver sections with the point's values set."""
+    cfg = {"model": copy.deepcopy(config["model"]), "solver": copy.deepcopy(config["solver"])}
+    cfg["model"].update(point)
+    return cfg
+
+
+def batch_configs(wildcards):
+    """Configurations of the runs of one batch (a change of any value reruns the batch)."""
+    return [run_config(p) for p in batch_points(wildcards)]
+
+
+def _reference_point():
+    """The grid point nearest to the model section (the paper's case), for the run figures."""
+    scaled = GRID.copy()
+    for key in SWEPT:
+        span = (max(AXES[key]) - min(AXES[key])) or 1.0
+        scaled[key] = (GRID[key] - config["model"][key]) / span
+    best = int((scaled**2).sum(axis=1).idxmin())
+    return {key: float(GRID.loc[best, key]) for key in SWEPT}
+
+
+REFERENCE = _reference_point()
+REFERENCE_NAME = "_".join(f"{key}~{REFERENCE[key]}" for key in SWEPT)
+
+
+def failed_points(summary_path):
+    """Lines naming the failed runs recorded in a summary file (empty if none)."""
+    import xarray as xr
+
+    if not Path(summary_path).exists():
+        return []
+    with xr.open_dataset(summary_path) as ds:
+        failed = ds["failed"].load()
+    stacked = failed.stack(point=list(SWEPT))
+    bad = stacked.where(stacked > 0, drop=True)
+    return [", ".join(f"{key}={float(bad[key][i])}" for key in SWEPT) for i in range(bad.size)]

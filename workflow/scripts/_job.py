@@ -1,0 +1,76 @@
+"""Helpers shared by the job scripts of the study workflow (log capture, thread count).
+
+Snakemake runs each script as ``python <copy of script>`` with this folder on ``sys.path``.
+The scripts only import and call functions of ``simcore`` and ``analysis``; no Numba kernels
+live here (kernels defined in a script would never hit Numba's cache).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import traceback
+from contextlib import contextmanager
+
+# The swept model keys: file names, scalar coordinates of each run, dimensions of the summary.
+SWEPT = ("clearance", "mu", "omega0", "e_N")
+
+
+@contextmanager
+def job_log(path):
+    """Send all the job prints (Python and C level, stdout and stderr) to the log file ``path``.
+
+    Yields a text stream to the terminal's stderr, for the few lines the user must see there
+    (a failed run). An exception is written to the log, then raised again.
+    """
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved_out, saved_err = os.dup(1), os.dup(2)
+    terminal = os.fdopen(os.dup(saved_err), "w", buffering=1)
+    with open(path, "w", buffering=1, encoding="utf-8") as log:
+        os.dup2(log.fileno(), 1)
+        os.dup2(log.fileno(), 2)
+        try:
+            yield terminal
+        except BaseException:
+            traceback.print_exc()
+            raise
+        finally:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os.dup2(saved_out, 1)
+            os.dup2(saved_err, 2)
+            os.close(saved_out)
+            os.close(saved_err)
+            terminal.close()
+
+
+def remove_stale(paths):
+    """Remove temporary files left by a killed earlier attempt at writing ``paths``.
+
+    Outputs are written to ``.<name>.<random>.tmp`` (or a ``.<name>.<random>`` folder) next to
+    the target and renamed into place; a job killed with SIGKILL cannot remove its own.
+    """
+    import shutil
+    from pathlib import Path
+
+    for path in map(Path, paths):
+        if path.parent.is_dir():
+            for stale in path.parent.glob(f".{path.name}.*"):
+                if stale.is_dir():
+                    shutil.rmtree(stale, ignore_errors=True)
+                else:
+                    stale.unlink(missing_ok=True)
+
+
+def set_threads(threads):
+    """Give Numba the job's thread count (Snakemake sets OMP_NUM_THREADS only)."""
+    import numba
+
+    numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    return numba.get_num_threads()
+
+
+def label(point):
+    """``clearance=0.0004, mu=0.01, ...`` for messages."""
+    return ", ".join(f"{key}={point[key]}" for key in SWEPT if key in point)
