@@ -42,6 +42,11 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4) -> Path:
     os.close(fd)
     try:
         ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+        # mkstemp creates the file for its owner only; give it the permissions of a file
+        # opened the ordinary way (0666 less the umask)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

@@ -322,14 +322,20 @@ class Model:
         first_bad = -1
         while k < n_steps:
             k_next = min(n_steps, k + chunk)
-            bad = nb.integrate_chunk(
-                k, k_next, dt, float(rho_inf), float(tol), int(max_iter), float(proximal),
-                drive_row, arr["mdiag"], arr["mass"], arr["gvec"], arr["jt_type"],
-                arr["jt_body"], arr["jt_geom"], arr["sp_body"], arr["sp_geom"], arr["ct_type"],
-                arr["ct_body"], arr["ct_geom"], arr["ct_law"], q, v, acc, vdot, lam_s, lam_b,
-                lamN, lamT, vn0, vt0, out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N,
-                out.gap_N, out.vn_pre, out.vn_post, out.energy, out.iterations, out.converged,
-                out.drive_torque)
+            try:
+                bad = nb.integrate_chunk(
+                    k, k_next, dt, float(rho_inf), float(tol), int(max_iter), float(proximal),
+                    drive_row, arr["mdiag"], arr["mass"], arr["gvec"], arr["jt_type"],
+                    arr["jt_body"], arr["jt_geom"], arr["sp_body"], arr["sp_geom"],
+                    arr["ct_type"], arr["ct_body"], arr["ct_geom"], arr["ct_law"], q, v, acc,
+                    vdot, lam_s, lam_b, lamN, lamT, vn0, vt0, out.q, out.v, out.lambda_N,
+                    out.lambda_T, out.nu_N, out.gap_N, out.vn_pre, out.vn_post, out.energy,
+                    out.iterations, out.converged, out.drive_torque)
+            except np.linalg.LinAlgError as exc:
+                # a singular Newton matrix: report it as what it is, a failed step
+                raise SolverError(f"singular Newton matrix between steps {k + 1} and {k_next} "
+                                  f"(t = {(k + 1) * dt:.6g} to {k_next * dt:.6g} s): {exc}"
+                                  ) from None
             if bad >= 0 and first_bad < 0:
                 first_bad = int(bad)
                 stages = [s for s, it in zip(("smooth", "position", "velocity"),

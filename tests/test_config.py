@@ -94,3 +94,14 @@ def test_nonconvergence_is_an_error_or_a_flag(tmp_path):
                           "--set", "solver.max_iter=1", "--out", str(out)],
                          capture_output=True, text=True)
     assert res.returncode != 0 and "did not converge" in res.stderr and not out.exists()
+
+
+def test_written_files_get_ordinary_permissions(tmp_path):
+    import os
+
+    import xarray as xr
+
+    out = simcore.write_netcdf(xr.Dataset({"a": ("x", [1.0, 2.0])}), tmp_path / "a.nc")
+    umask = os.umask(0)
+    os.umask(umask)
+    assert os.stat(out).st_mode & 0o777 == 0o666 & ~umask
