@@ -1029,15 +1029,18 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, mdiag, mas
         Dbb = D[:nbil, :nbil].copy()
         Dbc = D[:nbil, nbil:].copy()
         X = np.linalg.solve(Dbb, np.hstack((Dbc, c[:nbil].reshape(nbil, 1))))
-        Dc = D[nbil:, nbil:] - D[nbil:, :nbil] @ X[:, :nct]
-        cc = c[nbil:] - D[nbil:, :nbil] @ X[:, nct]
+        Xl = np.ascontiguousarray(X[:, :nct])
+        xc = np.ascontiguousarray(X[:, nct])
+        Dcb = np.ascontiguousarray(D[nbil:, :nbil])
+        Dc = np.ascontiguousarray(D[nbil:, nbil:]) - Dcb @ Xl
+        cc = c[nbil:] - Dcb @ xc
         lam_c = lam[nbil:].copy()
         iters, ok = solve_velocity_problem(Dc, cc, kind[nbil:], mu_row[nbil:],
                                            pair[nbil:] - nbil, lam_c, tol, max_iter, eta)
         lam[nbil:] = lam_c
-        lam[:nbil] = -(X[:, :nct] @ lam_c + X[:, nct])
+        lam[:nbil] = -(Xl @ lam_c + xc)
         # check the joints too (round-off only)
-        xi_b = D[:nbil] @ lam + c[:nbil]
+        xi_b = np.ascontiguousarray(D[:nbil]) @ lam + c[:nbil]
         for r in range(nbil):
             if abs(xi_b[r]) > tol:
                 ok = False
