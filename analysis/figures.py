@@ -185,7 +185,7 @@ def _plot_lambda(run_ds, impacts_ds, path, zero_tol, zero_floor, contact=None):
         ftxt = ("F_max: no approach (v_pre ≤ v_min)" if fmax is not None and math.isnan(fmax)
                 else f"F_max = {_fmt_force(fmax)}" if fmax is not None else "")
         ax.set_title(f"Zoom: {what}\nt = {t[k] * 1e3:.2f} ms, impulse = {weight[k]:.3g} N s"
-                     + (f", {ftxt}" if ftxt else ""), fontsize=9)
+                     + (f"\n{ftxt}" if ftxt else ""), fontsize=9)
         ax.set_xlabel("time [ms]")
         ax.set_ylabel("impulse [N s]")
         ax.legend(fontsize=8)
