@@ -15,10 +15,11 @@ Scaling. With δ* = (5 m v²/(4K))^{2/5}, F* = K δ*^{3/2}, t* = δ*/v and x = �
 problem becomes  x' = u,  u' = (5/4) (f_s - x^{3/2} (1 + c u)),  c = 8 (1 - e_N)/(5 e_N),
 f_s = F_s/F*, x(0) = f_s^{2/3}, u(0) = 1: it depends on e_N and f_s only. For e_N = 1 and f_s = 0,
 x_max = 1 and F_max = F* exactly (the closed form of SPEC section 7). The scaled problem is
-integrated with ``solve_ivp`` (Radau, rtol 1e-11) with events for the force peak (dF/dt = 0), the
-largest indentation (δ̇ = 0) and the end of the impact (δ back to δ_s going down, i.e. separation
-when F_s = 0); results are cached per (e_N, f_s), so all simple impacts of a run cost one
-integration per e_N.
+integrated with an adaptive Dormand-Prince 5(4) scheme compiled with Numba (rtol 1e-11), with
+events located by bisection for the force peak (dF/dt = 0), the largest indentation (δ̇ = 0) and
+the end of the impact (F back to F_s, i.e. separation when F_s = 0); a stiff case (more than
+200,000 explicit steps) is handed to ``solve_ivp`` with LSODA. Results are cached per
+(e_N, f_s), so all simple impacts of a run cost one integration per e_N.
 
 Choices
 -------
@@ -38,6 +39,7 @@ from dataclasses import asdict, dataclass
 from functools import lru_cache
 
 import numpy as np
+from numba import njit
 from scipy.integrate import solve_ivp
 
 __all__ = [
@@ -234,15 +236,177 @@ class PeakForce:
         return asdict(self)
 
 
+# ---------------------------------------------------------------------------------------------
+# Dormand-Prince 5(4) on the scaled impact, in Numba: ~100 times cheaper than solve_ivp, whose
+# per-step Python overhead made the impacts on persistent contact (one integration each, f_s
+# varies) the slowest part of a study. Stiff cases (a heavily damped, heavily preloaded contact
+# that needs very many explicit steps) go to LSODA, see _scaled_impact.
+# ---------------------------------------------------------------------------------------------
+_DP_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
+_DP_A = np.array([
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [1 / 5, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [3 / 40, 9 / 40, 0.0, 0.0, 0.0, 0.0],
+    [44 / 45, -56 / 15, 32 / 9, 0.0, 0.0, 0.0],
+    [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0.0, 0.0],
+    [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0.0],
+    [35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84],
+])
+_DP_B = np.array([35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84, 0.0])
+_DP_E = _DP_B - np.array([5179 / 57600, 0.0, 7571 / 16695, 393 / 640, -92097 / 339200,
+                          187 / 2100, 1 / 40])
+
+
+@njit(cache=True)
+def _scaled_force(x, u, c):
+    xp = x if x > 0.0 else 0.0
+    f = xp * math.sqrt(xp) * (1.0 + c * u)
+    return f if f > 0.0 else 0.0
+
+
+@njit(cache=True)
+def _dp_step(x, u, h, f_s, c, out):
+    """One Dormand-Prince step of x' = u, u' = 5/4 (f_s - F): fills out = (x, u, err_x, err_u)."""
+    kx = np.zeros(7)
+    ku = np.zeros(7)
+    for i in range(7):
+        xi = x
+        ui = u
+        for j in range(i):
+            xi += h * _DP_A[i, j] * kx[j]
+            ui += h * _DP_A[i, j] * ku[j]
+        kx[i] = ui
+        ku[i] = 1.25 * (f_s - _scaled_force(xi, ui, c))
+    xn = x
+    un = u
+    ex = 0.0
+    eu = 0.0
+    for i in range(7):
+        xn += h * _DP_B[i] * kx[i]
+        un += h * _DP_B[i] * ku[i]
+        ex += h * _DP_E[i] * kx[i]
+        eu += h * _DP_E[i] * ku[i]
+    out[0] = xn
+    out[1] = un
+    out[2] = ex
+    out[3] = eu
+
+
+@njit(cache=True)
+def _impact_events(x, u, f_s, c):
+    """(dF/dtau, u, end function) at a state; the end function crosses 0 upwards at the end."""
+    xp = x if x > 0.0 else 0.0
+    du = 1.25 * (f_s - _scaled_force(x, u, c))
+    dfdt = 1.5 * math.sqrt(xp) * u * (1.0 + c * u) + xp * math.sqrt(xp) * c * du
+    end = f_s - _scaled_force(x, u, c) if f_s > 0.0 else -x
+    return dfdt, u, end
+
+
+@njit(cache=True)
+def _locate(x, u, h, f_s, c, which, sign_before):
+    """Bisect the fraction of the step at which event ``which`` changes sign."""
+    out = np.zeros(4)
+    lo = 0.0
+    hi = 1.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        _dp_step(x, u, mid * h, f_s, c, out)
+        g = _impact_events(out[0], out[1], f_s, c)[which]
+        if (g > 0.0) == (sign_before > 0.0):
+            lo = mid
+        else:
+            hi = mid
+    _dp_step(x, u, hi * h, f_s, c, out)
+    return hi, out[0], out[1]
+
+
+@njit(cache=True)
+def scaled_impact_kernel(c, f_s, rtol, atol, tau_max, max_steps):
+    """Integrate the scaled impact to its end.
+
+    Returns (f_max, x_max, tau_end, u_end, tau_peak, ok); ok is False when the step budget ran
+    out (a stiff case) and the caller should use an implicit integrator.
+    """
+    x = f_s ** (2.0 / 3.0)
+    u = 1.0
+    tau = 0.0
+    h = 1e-6
+    f_max = _scaled_force(x, u, c)
+    tau_peak = 0.0
+    x_max = x
+    out = np.zeros(4)
+    g_prev = _impact_events(x, u, f_s, c)
+    started = f_s > 0.0  # a simple impact starts at x = 0 exactly: its end test waits for x > 0
+    for _ in range(max_steps):
+        if tau >= tau_max:
+            break
+        h = min(h, 0.25, tau_max - tau)
+        _dp_step(x, u, h, f_s, c, out)
+        sc_x = atol + rtol * max(abs(x), abs(out[0]))
+        sc_u = atol + rtol * max(abs(u), abs(out[1]))
+        err = max(abs(out[2]) / sc_x, abs(out[3]) / sc_u)
+        if err > 1.0:
+            h *= max(0.2, 0.9 * err ** -0.2)
+            continue
+        xn = out[0]
+        un = out[1]
+        g_new = _impact_events(xn, un, f_s, c)
+        # force peak: dF/dtau from + to -
+        if g_prev[0] > 0.0 and g_new[0] <= 0.0:
+            th, xe, ue = _locate(x, u, h, f_s, c, 0, g_prev[0])
+            fe = _scaled_force(xe, ue, c)
+            if fe > f_max:
+                f_max = fe
+                tau_peak = tau + th * h
+        # largest indentation: u from + to -
+        if g_prev[1] > 0.0 and g_new[1] <= 0.0:
+            th, xe, ue = _locate(x, u, h, f_s, c, 1, g_prev[1])
+            x_max = max(x_max, xe)
+        # end of the impact
+        if started and g_prev[2] < 0.0 and g_new[2] >= 0.0:
+            th, xe, ue = _locate(x, u, h, f_s, c, 2, g_prev[2])
+            return f_max, x_max, tau + th * h, ue, tau_peak, True
+        fn = _scaled_force(xn, un, c)
+        if fn > f_max:
+            f_max = fn
+            tau_peak = tau + h
+        x_max = max(x_max, xn)
+        if not started and xn > 0.0:
+            started = True
+        x = xn
+        u = un
+        tau += h
+        g_prev = g_new
+        h *= min(5.0, 0.9 * err ** -0.2) if err > 0.0 else 5.0
+    ok = tau >= tau_max
+    return f_max, x_max, math.nan, math.nan, tau_peak, ok
+
+
 def _force_scaled(x, u, c):
     xp = x if x > 0.0 else 0.0
     f = xp * math.sqrt(xp) * (1.0 + c * u)
     return f if f > 0.0 else 0.0
 
 
+_MAX_EXPLICIT_STEPS = 200_000
+
+
 @lru_cache(maxsize=4096)
 def _scaled_impact(e_N: float, f_s: float):
-    """Integrate the scaled impact; returns (f_max, x_max, tau_end, u_end, tau_peak)."""
+    """Integrate the scaled impact; returns (f_max, x_max, tau_end, u_end, tau_peak).
+
+    Dormand-Prince in Numba first; where it would need more than _MAX_EXPLICIT_STEPS steps
+    (stiff: strong damping under a large preload) LSODA takes over."""
+    c = 8.0 * (1.0 - e_N) / (5.0 * e_N)
+    f_max, x_max, tau_end, u_end, tau_peak, ok = scaled_impact_kernel(
+        c, f_s, _RTOL, _ATOL, _TAU_MAX, _MAX_EXPLICIT_STEPS)
+    if ok:
+        return f_max, x_max, tau_end, u_end, tau_peak
+    return _scaled_impact_lsoda(e_N, f_s)
+
+
+def _scaled_impact_lsoda(e_N: float, f_s: float):
+    """The scaled impact with solve_ivp (LSODA, stiff-capable): the fallback of _scaled_impact."""
     c = 8.0 * (1.0 - e_N) / (5.0 * e_N)
     x0 = f_s ** (2.0 / 3.0)
 

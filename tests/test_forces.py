@@ -163,3 +163,26 @@ def test_peak_force_bad_inputs(kw, name):
     args = {"impulse": 1e-3, "v_pre": 0.1, "e_N": 0.9, "K": K_IN, **kw}
     with pytest.raises(ValueError, match=name):
         peak_force(**args)
+
+
+@pytest.mark.parametrize("e_N", [0.5, 0.9, 1.0])
+@pytest.mark.parametrize("f_s", [0.0, 0.01, 1.0, 100.0])
+def test_numba_impact_kernel_matches_lsoda(e_N, f_s):
+    """The compiled Dormand-Prince integration and the stiff LSODA fallback agree."""
+    from analysis.forces import _scaled_impact_lsoda, scaled_impact_kernel
+
+    c = 8.0 * (1.0 - e_N) / (5.0 * e_N)
+    *fast, ok = scaled_impact_kernel(c, f_s, 1e-11, 1e-13, 1000.0, 200_000)
+    assert ok
+    ref = _scaled_impact_lsoda(e_N, f_s)
+    np.testing.assert_allclose(fast[:4], ref[:4], rtol=1e-6, atol=1e-9)
+
+
+def test_stiff_impact_goes_to_the_implicit_integrator():
+    from analysis.forces import _scaled_impact, scaled_impact_kernel
+
+    c = 8.0 * (1.0 - 0.5) / (5.0 * 0.5)
+    *_, ok = scaled_impact_kernel(c, 1e4, 1e-11, 1e-13, 1000.0, 200_000)
+    assert not ok  # the explicit budget runs out ...
+    f_max, x_max, tau_end, u_end, _ = _scaled_impact(0.5, 1e4)
+    assert np.isfinite(tau_end) and f_max >= 1e4  # ... and LSODA finishes the impact
