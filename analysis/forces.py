@@ -27,9 +27,10 @@ Choices
   refused with a ValueError.
 * The force cannot pull: F is clipped at 0 (it could turn negative during restitution when
   c |u| > 1, i.e. for e_N < 8/13 with a fast rebound).
-* For an impact on persistent contact the impact "ends" when δ first comes back down through the
-  static indentation δ_s; the rebound speed is δ̇ there. If a heavily damped, heavily preloaded
-  contact creeps back without crossing δ_s within 1000 t*, contact_time and v_rebound are NaN.
+* For an impact on persistent contact the impact "ends" when the contact force first falls back
+  to the static force F_s (for e_N = 1 that is the return to the static indentation δ_s; with
+  damping it comes while δ > δ_s, during restitution); the rebound speed is δ̇ there. If that
+  never happens within 1000 t*, contact_time and v_rebound are NaN. (F_s -> 0 gives separation.)
 """
 
 from __future__ import annotations
@@ -208,8 +209,8 @@ class PeakForce:
     delta_max : float
         Largest indentation [m] (total, including the static one).
     contact_time : float
-        Duration of the impact [s]: to separation (simple impact) or back to the static
-        indentation (impact on persistent contact); NaN if that never happens (see module notes).
+        Duration of the impact [s]: to separation (simple impact) or until the force is back
+        to F_static (impact on persistent contact); NaN if that never happens (module notes).
     v_rebound : float
         Speed at the end of the impact [m/s] (> 0 moving apart); NaN as contact_time.
     m_eff : float

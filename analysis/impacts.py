@@ -165,12 +165,15 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
     race = races[ci]
     K = np.where(race == "outer", geo["K_outer"], geo["K_inner"]).astype(float)
     approach = np.isfinite(v_pre) & (v_pre > v_min)
+    # the Flores law has no meaning for e_N = 0 (D ~ (1 - e_N)/e_N): such a run keeps its
+    # impacts in the table, every F_max missing, as for an impact without approach
+    flores = e_N > 0.0
     m_eff = np.full(n, np.nan)
     F_max = np.full(n, np.nan)
     delta_max = np.full(n, np.nan)
     contact_time = np.full(n, np.nan)
     v_rebound = np.full(n, np.nan)
-    for k in np.flatnonzero(approach):
+    for k in np.flatnonzero(approach & flores):
         res = peak_force(impulse[k], v_pre[k], e_N, K[k], F_static=max(F_static[k], 0.0), h=h,
                          details=True)
         m_eff[k] = res.m_eff

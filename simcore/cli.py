@@ -56,10 +56,20 @@ def main(argv=None) -> int:
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    if args.threads:
+    if args.threads is not None:
         import numba
 
+        if not 1 <= args.threads <= numba.config.NUMBA_NUM_THREADS:
+            print(f"error: --threads: {args.threads} is not allowed; allowed: an integer in "
+                  f"[1, {numba.config.NUMBA_NUM_THREADS}]", file=sys.stderr)
+            return 2
         numba.set_num_threads(args.threads)
+    from pathlib import Path
+
+    out_dir = Path(args.out).resolve().parent
+    if not out_dir.is_dir():
+        print(f"error: --out: folder {out_dir} does not exist", file=sys.stderr)
+        return 2
     from .io import write_netcdf
     from .simulate import run
 
@@ -69,7 +79,11 @@ def main(argv=None) -> int:
     except SolverError as exc:
         print(f"error: {exc}; no output written", file=sys.stderr)
         return 3
-    write_netcdf(ds, args.out)
+    try:
+        write_netcdf(ds, args.out)
+    except OSError as exc:
+        print(f"error: --out: cannot write {args.out}: {exc}", file=sys.stderr)
+        return 4
     if not args.quiet:
         for line in summary_lines(ds):
             print(line)

@@ -133,6 +133,7 @@ def validate_config(config: Mapping[str, Any]) -> dict:
         raise ConfigError("<config>: the configuration must be a mapping of sections")
     cfg = copy.deepcopy(dict(config))
     _fill_defaults(cfg, schema)
+    _check_finite(cfg, "")
     validator = jsonschema.Draft7Validator(schema)
     errors = sorted(validator.iter_errors(cfg), key=lambda e: (len(e.absolute_path), str(e.path)))
     if errors:
@@ -141,13 +142,21 @@ def validate_config(config: Mapping[str, Any]) -> dict:
     return cfg
 
 
+def _check_finite(node: Any, path: str) -> None:
+    """Refuse NaN and infinities anywhere: JSON-schema range checks are false for NaN."""
+    if isinstance(node, Mapping):
+        for key, value in node.items():
+            _check_finite(value, f"{path}.{key}" if path else str(key))
+    elif isinstance(node, list):
+        for i, value in enumerate(node):
+            _check_finite(value, f"{path}.{i}")
+    elif isinstance(node, float) and not math.isfinite(node):
+        raise ConfigError(f"{path}: {node!r} is not allowed; allowed: a finite number")
+
+
 def _check_consistency(cfg: Mapping[str, Any]) -> None:
     """Checks that need several keys at once."""
     model, solver = cfg["model"], cfg["solver"]
-    for key in ("dt", "t_end"):
-        if not math.isfinite(solver[key]):
-            raise ConfigError(
-                f"solver.{key}: {solver[key]!r} is not allowed; allowed: a finite number")
     if solver["t_end"] < solver["dt"]:
         raise ConfigError(f"solver.t_end: {solver['t_end']!r} is not allowed; "
                           f"allowed: >= solver.dt ({solver['dt']})")

@@ -963,7 +963,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, mdiag, mas
     f1 = np.zeros(n)
     K1 = np.zeros((n, n))
     C1 = np.zeros((n, n))
-    smooth_forces(q1, v_t, mass, gvec, sp_body, sp_geom, f1, K1, C1, K1, True)
+    smooth_forces(q1, v_t, mass, gvec, sp_body, sp_geom, f1, K1, C1, np.zeros((n, n)), True)
     Av = np.empty((n, n))
     b = np.empty(n)
     for i in range(n):
@@ -1006,6 +1006,11 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, mdiag, mas
             continue
         contact_rows(q1, k, ct_type, ct_body, ct_geom, wN, wT)
         _scatter_row(G[row], wN, ct_body[k, 0], ct_body[k, 1])
+        # Newton's law as SPEC section 3 states it, with the start-of-step velocity also where
+        # the contact was separating then (closed by the position correction, e.g. the partner
+        # of a pinched ball): xi_N = dg_N+ + e_N dg_N- may then leave it slightly approaching.
+        # Clipping dg_N- at 0 there was tried: with several simultaneous Newton laws around a
+        # pinched ball it fed energy into the paper's case (a blow-up within 20 ms).
         off[row] = ct_law[k, 1] * vn_minus[k]
         kind[row] = 1
         lam[row] = lamN_prev

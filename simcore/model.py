@@ -286,9 +286,12 @@ class Model:
         acc = np.zeros(ndof)
         vdot = np.zeros(ndof)
         lam_s = np.zeros(nbil)
-        nb.initial_acceleration(q, v, 0.0, arr["mdiag"], arr["mass"], arr["gvec"],
-                                arr["sp_body"], arr["sp_geom"], arr["jt_type"], arr["jt_body"],
-                                arr["jt_geom"], vdot, lam_s)
+        try:
+            nb.initial_acceleration(q, v, 0.0, arr["mdiag"], arr["mass"], arr["gvec"],
+                                    arr["sp_body"], arr["sp_geom"], arr["jt_type"],
+                                    arr["jt_body"], arr["jt_geom"], vdot, lam_s)
+        except np.linalg.LinAlgError as exc:
+            raise SolverError(f"the joints at t = 0 are redundant or singular: {exc}") from None
         acc[:] = vdot
         lam_b = np.zeros(nbil)
         lamN = np.zeros(nc)

@@ -45,6 +45,11 @@ def test_yaml_exponent_without_sign_is_a_number(tmp_path):
     ("model.drive=fast", "model.drive", "'free', 'constant'"),
     ("sweep.mu=[]", "sweep.mu", "non-empty"),
     ("sweep.clearance=[4e-4, -1e-4]", "sweep.clearance.1", "(0, 0.005]"),
+    ("model.mu=.nan", "model.mu", "a finite number"),
+    ("model.inner_mass=.inf", "model.inner_mass", "a finite number"),
+    ("sweep.mu=[0.01, .nan]", "sweep.mu.1", "a finite number"),
+    ("analysis.zero_tol=.nan", "analysis.zero_tol", "a finite number"),
+    ("model.n_balls=2", "model.n_balls", "[3, 64]"),
 ])
 def test_bad_values_name_the_key(override, key, allowed):
     with pytest.raises(ConfigError) as err:
@@ -105,3 +110,15 @@ def test_written_files_get_ordinary_permissions(tmp_path):
     umask = os.umask(0)
     os.umask(umask)
     assert os.stat(out).st_mode & 0o777 == 0o666 & ~umask
+
+
+@pytest.mark.parametrize("args, key", [(["--threads", "9999"], "--threads"),
+                                       (["--out", "/nonexistent-dir/x.nc"], "--out")])
+def test_cli_refuses_bad_options_in_one_line(tmp_path, args, key):
+    cmd = [sys.executable, "-m", "simcore", "run", "--set", "solver.t_end=0.001"]
+    if "--out" not in args:
+        cmd += ["--out", str(tmp_path / "x.nc")]
+    res = subprocess.run(cmd + args, capture_output=True, text=True)
+    assert res.returncode != 0
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and key in lines[0], res.stderr

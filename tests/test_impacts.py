@@ -156,3 +156,14 @@ def test_cli(run, tmp_path, capsys):
     assert "r_eff = concave" in text and "r_eff = paper" in text and "3.66" in text
     assert main(["filter", str(rpath), "--out", str(tmp_path / "f.nc")]) == 0
     assert main(["impacts", str(tmp_path / "missing.nc"), "--out", str(out)]) == 2
+
+
+def test_zero_restitution_run_keeps_its_impacts_without_forces():
+    """e_N = 0 is a valid run (plastic impacts) but outside the Flores law: impacts are listed,
+    F_max is missing, nothing raises (a study batch with e_N = 0 must not fail)."""
+    import simcore
+
+    ds = simcore.run(simcore.load_config(overrides=["model.e_N=0", "solver.t_end=0.01"]))
+    imp = extract_impacts(ds)
+    assert imp.sizes["impact"] > 0
+    assert np.all(np.isnan(imp["F_max"].values))
