@@ -229,3 +229,36 @@ def test_failed_runs_do_not_stop_the_study(results):
     assert 1 <= n_failed, "expected at least one run to fail with max_iter = 3"
     assert re.search(r"WARNING: run clearance=\S+, mu=\S+, omega0=\S+, e_N=\S+ failed", out)
     assert "failed run (marked missing" in out
+
+
+@pytest.mark.slow
+def test_killed_study_resumes_and_redoes_only_the_unfinished(results):
+    """Stop a study (SIGTERM, as Ctrl-C or a batch system does) once its first run file exists;
+    every file left under results/ opens, and the next call finishes the study without redoing
+    that run."""
+    import os
+    import signal
+    import time
+
+    cmd = [sys.executable, "-m", "snakemake", "--nolock", "-j1", "--configfile",
+           "config/smoke.yaml", "--config", f"study={{'results_dir': '{results}'}}"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    deadline = time.monotonic() + 600
+    first = []
+    while time.monotonic() < deadline and not first and proc.poll() is None:
+        time.sleep(0.2)
+        first = sorted((results / "runs").glob("*.nc"))
+    assert first, "no run finished before the study ended or timed out"
+    os.killpg(proc.pid, signal.SIGTERM)
+    proc.wait(timeout=120)
+    done = {p: p.stat().st_mtime_ns for p in results.rglob("*.nc")}
+    assert len(done) < 4 + 4 + 1, "the study finished before it could be stopped"
+    for path in done:
+        xr.open_dataset(path).close()  # nothing half-written
+    resumed = snakemake("-j2", "--rerun-incomplete", "--configfile", "config/smoke.yaml",
+                        "--config", f"study={{'results_dir': '{results}'}}", timeout=900)
+    assert resumed.returncode == 0, resumed.stdout + resumed.stderr
+    _check_study(results)
+    for path, mtime in done.items():
+        assert path.stat().st_mtime_ns == mtime, f"{path.name} was redone"
