@@ -43,6 +43,8 @@ import numpy as np
 from numba import njit
 from scipy.integrate import solve_ivp
 
+from .filtering import _check_nonneg
+
 __all__ = [
     "effective_radius",
     "hertz_stiffness",
@@ -512,12 +514,7 @@ def peak_force(impulse, v_pre, e_N, K, F_static=0.0, h=None, details=False):
     v_pre = _positive("v_pre", v_pre)
     e_N = _restitution(e_N)
     K = _positive("K", K)
-    try:
-        F_static = float(F_static)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"F_static must be a number >= 0, got {F_static!r}") from exc
-    if not math.isfinite(F_static) or F_static < 0.0:
-        raise ValueError(f"F_static must be finite and >= 0, got {F_static!r}")
+    F_static = _check_nonneg("F_static", F_static)
     if h is not None:
         h = _positive("h", h)
     m_eff = impulse / ((1.0 + e_N) * v_pre)

@@ -6,13 +6,11 @@ SPEC sections 6, 7 and 9. One row per impact (dimension ``impact``): a *simple* 
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import xarray as xr
 
 from .filtering import impact_masks, split_impulses, zero_threshold
-from .forces import hertz_stiffness, peak_force
+from .forces import _positive, hertz_stiffness, peak_force
 
 __all__ = ["extract_impacts", "top_forces", "run_geometry", "STUDY_PARAMETERS"]
 
@@ -126,12 +124,7 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
     for name in ("Lambda_N", "vn_pre"):
         if name not in run_ds:
             raise ValueError(f"run dataset has no variable {name!r}")
-    try:
-        v_min = float(v_min)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"v_min must be a positive number, got {v_min!r}") from exc
-    if not math.isfinite(v_min) or v_min <= 0:
-        raise ValueError(f"v_min must be finite and > 0, got {v_min!r}")
+    v_min = _positive("v_min", v_min)
     geo = run_geometry(run_ds, r_eff)
     e_N = _model_value(run_ds, "e_N")
     h = _time_step(run_ds)
