@@ -1,7 +1,8 @@
 """A small planar multibody model builder and the Python driver of the time loop.
 
 The builder collects bodies, joints, spring-dampers and contacts, checks their inputs and hands
-flat arrays to the Numba kernels of :mod:`simcore.integrator`. Scenes (the crank-slider bearing,
+flat arrays (one :class:`simcore.kernels.ModelArrays` bundle) to the Numba kernels of
+:mod:`simcore.kernels`. Scenes (the crank-slider bearing,
 the validation cases) are builder functions on top of it, see :mod:`simcore.mechanism`.
 """
 
@@ -14,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import integrator as nb
+from . import kernels as nb
 
 CONTACT_KINDS = {"plane": nb.CONTACT_PLANE, "outside": nb.CONTACT_OUTSIDE,
                  "inside": nb.CONTACT_INSIDE}
@@ -205,8 +206,8 @@ class Model:
         return len(self.contacts) - 1
 
     # -- arrays for the kernels --------------------------------------------------------------
-    def arrays(self) -> dict:
-        """Flat arrays of the model, as the kernels take them."""
+    def arrays(self) -> nb.ModelArrays:
+        """Flat arrays of the model, as the kernels take them (one namedtuple bundle)."""
         nbody = len(self.body_names)
         if nbody == 0:
             raise ValueError("the model has no body")
@@ -225,10 +226,10 @@ class Model:
         ct_body = np.array([[c[1], c[2]] for c in self.contacts], dtype=np.int64).reshape(-1, 2)
         ct_geom = np.array([c[3] for c in self.contacts], dtype=np.float64).reshape(-1, 6)
         ct_law = np.array([c[4] for c in self.contacts], dtype=np.float64).reshape(-1, 3)
-        return dict(mdiag=mdiag, mass=mass, gvec=np.array([0.0, -self.gravity]),
-                    jt_type=jt_type, jt_body=jt_body, jt_geom=jt_geom, sp_body=sp_body,
-                    sp_geom=sp_geom, ct_type=ct_type, ct_body=ct_body, ct_geom=ct_geom,
-                    ct_law=ct_law)
+        return nb.ModelArrays(mdiag=mdiag, mass=mass, gvec=np.array([0.0, -self.gravity]),
+                              jt_type=jt_type, jt_body=jt_body, jt_geom=jt_geom,
+                              sp_body=sp_body, sp_geom=sp_geom, ct_type=ct_type,
+                              ct_body=ct_body, ct_geom=ct_geom, ct_law=ct_law)
 
     def initial_state(self):
         """(q0, v0) as flat arrays."""
@@ -282,15 +283,13 @@ class Model:
         arr = self.arrays()
         q, v = self.initial_state()
         ndof = q.size
-        nc = arr["ct_type"].size
-        nbil = int(nb.joint_row_count(arr["jt_type"]))
+        nc = arr.ct_type.size
+        nbil = int(nb.joint_row_count(arr.jt_type))
         acc = np.zeros(ndof)
         vdot = np.zeros(ndof)
         lam_s = np.zeros(nbil)
         try:
-            nb.initial_acceleration(q, v, 0.0, arr["mdiag"], arr["mass"], arr["gvec"],
-                                    arr["sp_body"], arr["sp_geom"], arr["jt_type"],
-                                    arr["jt_body"], arr["jt_geom"], vdot, lam_s)
+            nb.initial_acceleration(q, v, 0.0, arr, vdot, lam_s)
         except np.linalg.LinAlgError as exc:
             raise SolverError(f"the joints at t = 0 are redundant or singular: {exc}") from None
         acc[:] = vdot
@@ -300,8 +299,7 @@ class Model:
         gap0 = np.zeros(nc)
         vn0 = np.zeros(nc)
         vt0 = np.zeros(nc)
-        nb.contact_velocities(q, v, arr["ct_type"], arr["ct_body"], arr["ct_geom"], gap0, vn0,
-                              vt0)
+        nb.contact_velocities(q, v, arr, gap0, vn0, vt0)
         out = Trajectory(
             time=np.arange(n_steps + 1) * dt,
             q=np.zeros((n_steps + 1, ndof)), v=np.zeros((n_steps + 1, ndof)),
@@ -320,8 +318,13 @@ class Model:
         drive_row = self.drive_row()
         if drive_row >= 0:
             out.drive_torque[0] = lam_s[drive_row]
-        out.energy[0] = nb.total_energy(q, v, arr["mdiag"], arr["mass"], arr["gvec"],
-                                        arr["sp_body"], arr["sp_geom"])
+        out.energy[0] = nb.total_energy(q, v, arr)
+        settings = nb.StepSettings(float(dt), float(rho_inf), float(tol), int(max_iter),
+                                   float(proximal), int(drive_row))
+        state = nb.StepState(q, v, acc, vdot, lam_s, lam_b, lamN, lamT, vn0, vt0)
+        outputs = nb.ChunkOutputs(out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N,
+                                  out.gap_N, out.vn_pre, out.vn_post, out.vn_free, out.energy,
+                                  out.iterations, out.converged, out.drive_torque)
         start = time.perf_counter()
         show = progress and sys.stderr.isatty()
         k = 0
@@ -329,14 +332,7 @@ class Model:
         while k < n_steps:
             k_next = min(n_steps, k + chunk)
             try:
-                bad = nb.integrate_chunk(
-                    k, k_next, dt, float(rho_inf), float(tol), int(max_iter), float(proximal),
-                    drive_row, arr["mdiag"], arr["mass"], arr["gvec"], arr["jt_type"],
-                    arr["jt_body"], arr["jt_geom"], arr["sp_body"], arr["sp_geom"],
-                    arr["ct_type"], arr["ct_body"], arr["ct_geom"], arr["ct_law"], q, v, acc,
-                    vdot, lam_s, lam_b, lamN, lamT, vn0, vt0, out.q, out.v, out.lambda_N,
-                    out.lambda_T, out.nu_N, out.gap_N, out.vn_pre, out.vn_post, out.vn_free,
-                    out.energy, out.iterations, out.converged, out.drive_torque)
+                bad = nb.integrate_chunk(k, k_next, settings, arr, state, outputs)
             except np.linalg.LinAlgError as exc:
                 # a singular Newton matrix: report it as what it is, a failed step
                 raise SolverError(f"singular Newton matrix between steps {k + 1} and {k_next} "

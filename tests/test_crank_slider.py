@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import simcore
-from simcore import integrator as nb
+from simcore import kernels as nb
 from simcore.mechanism import crank_slider
 
 
@@ -21,14 +21,13 @@ def paper_short():
 def _joint_residuals(ds, cfg_model):
     model, _ = crank_slider(cfg_model)
     arr = model.arrays()
-    m = nb.joint_row_count(arr["jt_type"])
-    n = arr["mdiag"].size
+    m = nb.joint_row_count(arr.jt_type)
+    n = arr.mdiag.size
     worst = 0.0
     for i in range(ds.sizes["time"]):
         q = ds["q"].values[i].ravel()
         g, G, gam, dgdt = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)
-        nb.bilateral(q, np.zeros(n), float(ds.time[i]), arr["jt_type"], arr["jt_body"],
-                     arr["jt_geom"], g, G, gam, dgdt)
+        nb.bilateral(q, np.zeros(n), float(ds.time[i]), arr, g, G, gam, dgdt)
         worst = max(worst, np.abs(g).max())
     return worst
 
@@ -44,9 +43,9 @@ def test_initial_state_matches_ideal_kinematics(paper_short):
     model, _ = crank_slider(simcore.load_config()["model"])
     arr = model.arrays()
     q0, vel0 = model.initial_state()
-    nc = arr["ct_type"].size
+    nc = arr.ct_type.size
     gap, vn, vt = np.zeros(nc), np.zeros(nc), np.zeros(nc)
-    nb.contact_velocities(q0, vel0, arr["ct_type"], arr["ct_body"], arr["ct_geom"], gap, vn, vt)
+    nb.contact_velocities(q0, vel0, arr, gap, vn, vt)
     np.testing.assert_allclose(vt, 0.0, atol=1e-12)
     np.testing.assert_allclose(gap, 0.0002, rtol=1e-9)  # centred: half the clearance each side
     assert float(ds["journal_x"][0]) == pytest.approx(0.0, abs=1e-15)

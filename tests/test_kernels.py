@@ -4,7 +4,7 @@ here and not in the middle of a sweep; each call is also checked against a known
 import numpy as np
 import pytest
 
-from simcore import integrator as nb
+from simcore import kernels as nb
 from simcore.config import load_config
 from simcore.mechanism import ball_on_plane, crank_slider, pinched_balls
 
@@ -33,16 +33,16 @@ def test_bilateral_jacobian_matches_finite_differences(bearing):
     model, _, arr = bearing
     q, v = model.initial_state()
     q = q + 1e-3 * np.sin(np.arange(q.size))
-    m = nb.joint_row_count(arr["jt_type"])
+    m = nb.joint_row_count(arr.jt_type)
     n = q.size
     g, G, gam, dgdt = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)
-    nb.bilateral(q, v, 0.0, arr["jt_type"], arr["jt_body"], arr["jt_geom"], g, G, gam, dgdt)
+    nb.bilateral(q, v, 0.0, arr, g, G, gam, dgdt)
     eps = 1e-7
     for i in range(n):
         dq = q.copy()
         dq[i] += eps
         g2 = np.zeros(m)
-        nb.bilateral(dq, v, 0.0, arr["jt_type"], arr["jt_body"], arr["jt_geom"], g2,
+        nb.bilateral(dq, v, 0.0, arr, g2,
                      np.zeros((m, n)), np.zeros(m), np.zeros(m))
         np.testing.assert_allclose((g2 - g) / eps, G[:, i], atol=1e-6)
 
@@ -53,18 +53,18 @@ def test_contact_rows_match_finite_differences(bearing):
     q = q + 1e-4 * np.cos(np.arange(q.size))
     wN, wT = np.zeros(6), np.zeros(6)
     eps = 1e-8
-    for k in range(arr["ct_type"].size):
-        g = nb.contact_rows(q, k, arr["ct_type"], arr["ct_body"], arr["ct_geom"], wN, wT)
+    for k in range(arr.ct_type.size):
+        g = nb.contact_rows(q, k, arr, wN, wT)
         row = np.zeros(q.size)
-        nb._scatter_row(row, wN, arr["ct_body"][k, 0], arr["ct_body"][k, 1])
+        nb.scatter_row(row, wN, arr.ct_body[k, 0], arr.ct_body[k, 1])
         fd = np.zeros(q.size)
         for i in range(q.size):
             dq = q.copy()
             dq[i] += eps
-            fd[i] = (nb.contact_rows(dq, k, arr["ct_type"], arr["ct_body"], arr["ct_geom"],
+            fd[i] = (nb.contact_rows(dq, k, arr,
                                      np.zeros(6), np.zeros(6)) - g) / eps
         np.testing.assert_allclose(fd, row, atol=1e-6)
-        assert nb._row_dot(wN, arr["ct_body"][k, 0], arr["ct_body"][k, 1], v) == pytest.approx(
+        assert nb.row_dot(wN, arr.ct_body[k, 0], arr.ct_body[k, 1], v) == pytest.approx(
             row @ v)
 
 
@@ -74,7 +74,7 @@ def test_plane_contact_and_velocities():
     q, v = model.initial_state()
     v[0] = 0.3
     gap, vn, vt = np.zeros(1), np.zeros(1), np.zeros(1)
-    nb.contact_velocities(q, v, arr["ct_type"], arr["ct_body"], arr["ct_geom"], gap, vn, vt)
+    nb.contact_velocities(q, v, arr, gap, vn, vt)
     assert gap[0] == pytest.approx(0.4)
     assert vn[0] == pytest.approx(0.0)
     # t = e_z x n = (-1, 0); contact point velocity x: 0.3 + omega R
@@ -87,7 +87,7 @@ def test_smooth_forces_tangents_match_finite_differences(bearing):
     q = q + 1e-4 * np.sin(3 * np.arange(q.size))
     n = q.size
     f, K, C, Ks = np.zeros(n), np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
-    nb.smooth_forces(q, v, arr["mass"], arr["gvec"], arr["sp_body"], arr["sp_geom"], f, K, C,
+    nb.smooth_forces(q, v, arr, f, K, C,
                      Ks, True)
     # the metric part is symmetric positive semi-definite
     np.testing.assert_allclose(Ks, Ks.T, atol=1e-9)
@@ -99,11 +99,10 @@ def test_smooth_forces_tangents_match_finite_differences(bearing):
         dq = q.copy()
         dq[i] += eps
         f2 = np.zeros(n)
-        nb.smooth_forces(dq, v, arr["mass"], arr["gvec"], arr["sp_body"], arr["sp_geom"], f2,
+        nb.smooth_forces(dq, v, arr, f2,
                          np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n)), False)
         np.testing.assert_allclose(-(f2 - f) / eps, K[:, i], rtol=1e-4, atol=1e-2)
-    energy = nb.total_energy(q, v, arr["mdiag"], arr["mass"], arr["gvec"], arr["sp_body"],
-                             arr["sp_geom"])
+    energy = nb.total_energy(q, v, arr)
     assert np.isfinite(energy)
 
 
@@ -112,9 +111,7 @@ def test_initial_acceleration_of_free_fall():
     arr = model.arrays()
     q, v = model.initial_state()
     vdot, lam = np.zeros(3), np.zeros(0)
-    nb.initial_acceleration(q, v, 0.0, arr["mdiag"], arr["mass"], arr["gvec"], arr["sp_body"],
-                            arr["sp_geom"], arr["jt_type"], arr["jt_body"], arr["jt_geom"],
-                            vdot, lam)
+    nb.initial_acceleration(q, v, 0.0, arr, vdot, lam)
     np.testing.assert_allclose(vdot, [0.0, -9.81, 0.0])
 
 
@@ -156,8 +153,8 @@ def test_contact_hessian_matches_finite_differences(bearing):
     eps = 1e-6
     for k in (0, 9):  # an inner (outside) and an outer (inside) element
         H = np.zeros((6, 6))
-        nb.contact_hessian(q, k, arr["ct_type"], arr["ct_body"], arr["ct_geom"], H)
-        ia, ib = arr["ct_body"][k]
+        nb.contact_hessian(q, k, arr, H)
+        ia, ib = arr.ct_body[k]
         dofs = [3 * ia + a for a in range(3)] + [3 * ib + a for a in range(3)]
         for c, dof in enumerate(dofs):
             rows = []
@@ -165,7 +162,7 @@ def test_contact_hessian_matches_finite_differences(bearing):
                 dq = q.copy()
                 dq[dof] += sign * eps
                 wN = np.zeros(6)
-                nb.contact_rows(dq, k, arr["ct_type"], arr["ct_body"], arr["ct_geom"], wN,
+                nb.contact_rows(dq, k, arr, wN,
                                 np.zeros(6))
                 rows.append(wN.copy())
             np.testing.assert_allclose((rows[0] - rows[1]) / (2 * eps), H[:, c], atol=1e-5)

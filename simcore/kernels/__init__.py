@@ -1,0 +1,68 @@
+"""Numba kernels of the simulation, one module per piece of physics.
+
+- :mod:`.bodies`: body points, angular velocities and the two-point Jacobian helpers;
+- :mod:`.joints`: bilateral joints; :mod:`.springs`: gravity, spring-dampers, energy;
+- :mod:`.contact`: contact element geometry (gap, normal, Jacobian rows, Hessian, velocities),
+  shared by both contact models;
+- :mod:`.linalg`: small dense algebra; :mod:`.generalized_alpha`: coefficients, initial
+  acceleration and the smooth stage shared by both models;
+- :mod:`.nonsmooth_step`: position correction, velocity jump and the time loop of the
+  nonsmooth model.
+
+The model is handed over as one :class:`~.bundles.ModelArrays` (a namedtuple of arrays).
+Numba's cache is keyed by a hash of these sources (:mod:`simcore.numba_cache`) before any of
+them is imported, so an edit in one module cannot leave stale code of another in the cache.
+"""
+
+from ..numba_cache import configure_cache
+
+CACHE_DIR = configure_cache()
+
+from .bodies import (  # noqa: E402
+    body_omega,
+    body_point,
+    pair_point_jacobians,
+    row_dot,
+    scatter_row,
+    transverse_form,
+    unit_direction,
+)
+from .bundles import ChunkOutputs, ModelArrays, StepSettings, StepState  # noqa: E402
+from .contact import (  # noqa: E402
+    CONTACT_INSIDE,
+    CONTACT_OUTSIDE,
+    CONTACT_PLANE,
+    contact_hessian,
+    contact_rows,
+    contact_velocities,
+)
+from .generalized_alpha import alpha_coefficients, initial_acceleration, smooth_step  # noqa: E402
+from .joints import (  # noqa: E402
+    JOINT_ANGLE,
+    JOINT_PRISMATIC,
+    JOINT_REVOLUTE,
+    bilateral,
+    joint_row_count,
+)
+from .linalg import block_inverse  # noqa: E402
+from .nonsmooth_step import (  # noqa: E402
+    STAGE_POSITION,
+    STAGE_SMOOTH,
+    STAGE_VELOCITY,
+    integrate_chunk,
+    position_step,
+    solve_velocity_problem,
+    velocity_step,
+)
+from .springs import smooth_forces, spring_state, total_energy  # noqa: E402
+
+__all__ = [
+    "CACHE_DIR", "CONTACT_INSIDE", "CONTACT_OUTSIDE", "CONTACT_PLANE", "JOINT_ANGLE",
+    "JOINT_PRISMATIC", "JOINT_REVOLUTE", "STAGE_POSITION", "STAGE_SMOOTH", "STAGE_VELOCITY",
+    "ChunkOutputs", "ModelArrays", "StepSettings", "StepState", "alpha_coefficients",
+    "bilateral", "block_inverse", "body_omega", "body_point", "contact_hessian", "contact_rows",
+    "contact_velocities", "initial_acceleration", "integrate_chunk", "joint_row_count",
+    "pair_point_jacobians", "position_step", "row_dot", "scatter_row", "smooth_forces",
+    "smooth_step", "solve_velocity_problem", "spring_state", "total_energy", "transverse_form",
+    "unit_direction", "velocity_step",
+]

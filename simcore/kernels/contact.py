@@ -1,0 +1,152 @@
+"""Contact element geometry shared by the nonsmooth and the compliant contact models: gap,
+normal and tangential Jacobian rows, the gap's Hessian and the contact velocities.
+
+A contact pairs a surface body ``a`` (plane, race) with a sphere on body ``b`` (ball). Its gap
+``g_N`` is positive when open; its rows ``wN``/``wT`` hold the 3 + 3 Jacobian entries of bodies
+a and b, so that ``dg_N/dt = wN . (v_a, v_b)`` and the tangential slip is ``wT . (v_a, v_b)``
+with ``t = e_z x n`` and ``n`` the element's normal.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .bodies import body_point, pair_point_jacobians, row_dot, transverse_form, unit_direction
+
+CONTACT_PLANE = 0
+CONTACT_OUTSIDE = 1
+CONTACT_INSIDE = 2
+
+
+
+@njit(cache=True)
+def contact_rows(q, k, ma, wN, wT):
+    """Gap ``g_N`` [m] of contact ``k`` and its normal / tangential Jacobian entries.
+
+    ``wN[0:3]``, ``wT[0:3]`` belong to body a (surface), ``wN[3:6]``, ``wT[3:6]`` to body b
+    (sphere). Elements (SPEC section 3):
+
+    - plane: n is the plane normal, g = n.(c_b - c_a) - r_b;
+    - outside (sphere on sphere): n = (c_b - c_a)/|.|, g = |c_b - c_a| - r_a - r_b;
+    - inside (sphere in sphere): n = (c_b - c_a)/|.|, g = r_a - r_b - |c_b - c_a|.
+
+    The tangent is t = e_z x n; the slip is the velocity of the sphere's material point at the
+    contact minus that of body a's material point there (taken at the race radius r_a).
+    """
+    ct_type = ma.ct_type
+    ct_body = ma.ct_body
+    ct_geom = ma.ct_geom
+    ia = ct_body[k, 0]
+    ib = ct_body[k, 1]
+    p = ct_geom[k]
+    cax, cay, aax, aay = body_point(q, ia, p[0], p[1])
+    cbx, cby, abx, aby = body_point(q, ib, p[2], p[3])
+    rb = p[5]
+    dx = cbx - cax
+    dy = cby - cay
+    kind = ct_type[k]
+    if kind == CONTACT_PLANE:
+        ang = p[4]
+        if ia >= 0:
+            ang += q[3 * ia + 2]
+        nx = np.cos(ang)
+        ny = np.sin(ang)
+        g = nx * dx + ny * dy - rb
+        tx = -ny
+        ty = nx
+        # normal rows: d/dt [n.(c_b - c_a)], n turns with body a
+        wN[0] = -nx
+        wN[1] = -ny
+        wN[2] = -(aax * ny - aay * nx) + (dx * tx + dy * ty)
+        wN[3] = nx
+        wN[4] = ny
+        wN[5] = abx * ny - aby * nx
+        # contact point on the sphere and on the plane, relative to the body origins
+        rbx = abx - rb * nx
+        rby = aby - rb * ny
+        rax = aax + dx - (rb + g) * nx
+        ray = aay + dy - (rb + g) * ny
+    else:
+        dist, nx, ny = unit_direction(dx, dy)
+        tx = -ny
+        ty = nx
+        sign = 1.0
+        if kind == CONTACT_OUTSIDE:
+            g = dist - p[4] - rb
+            rbx = abx - rb * nx
+            rby = aby - rb * ny
+        else:
+            g = p[4] - rb - dist
+            sign = -1.0
+            rbx = abx + rb * nx
+            rby = aby + rb * ny
+        rax = aax + p[4] * nx
+        ray = aay + p[4] * ny
+        wN[0] = -sign * nx
+        wN[1] = -sign * ny
+        wN[2] = -sign * (aax * ny - aay * nx)
+        wN[3] = sign * nx
+        wN[4] = sign * ny
+        wN[5] = sign * (abx * ny - aby * nx)
+    wT[0] = -tx
+    wT[1] = -ty
+    wT[2] = -(rax * ty - ray * tx)
+    wT[3] = tx
+    wT[4] = ty
+    wT[5] = rbx * ty - rby * tx
+    return g
+
+
+@njit(cache=True)
+def contact_hessian(q, k, ma, H):
+    """Second derivative of the gap of contact ``k`` with respect to (q_a, q_b), 6 x 6.
+
+    For the sphere elements g = s |c_b - c_a| + const (s = +1 outside, -1 inside):
+    H = s [P^T (I - n n^T) P / L + n . d2(c_b - c_a)]. It is the contact's geometric stiffness
+    in the position correction: a pinched ball carries multipliers large enough for it to
+    matter against the ball's mass. Left zero for the plane element (exact for a plane on the
+    ground and a sphere centred on its body)."""
+    ct_type = ma.ct_type
+    ct_body = ma.ct_body
+    ct_geom = ma.ct_geom
+    H[:, :] = 0.0
+    kind = ct_type[k]
+    if kind == CONTACT_PLANE:
+        return
+    ia = ct_body[k, 0]
+    ib = ct_body[k, 1]
+    p = ct_geom[k]
+    cax, cay, aax, aay = body_point(q, ia, p[0], p[1])
+    cbx, cby, abx, aby = body_point(q, ib, p[2], p[3])
+    dist, nx, ny = unit_direction(cbx - cax, cby - cay)
+    if dist <= 1e-300:
+        return
+    sign = 1.0 if kind == CONTACT_OUTSIDE else -1.0
+    P = np.zeros((2, 6))
+    pair_point_jacobians(P, aax, aay, abx, aby)
+    for a in range(6):
+        for c in range(6):
+            H[a, c] = sign * transverse_form(P, nx, ny, a, c) / dist
+    if ia < 0:
+        for a in range(3):
+            for c in range(6):
+                H[a, c] = 0.0
+                H[c, a] = 0.0
+    else:
+        H[2, 2] += sign * (nx * aax + ny * aay)
+    if ib >= 0:
+        H[5, 5] -= sign * (nx * abx + ny * aby)
+
+
+@njit(cache=True)
+def contact_velocities(q, v, ma, gap, vn, vt):
+    """Gaps [m], normal and tangential relative velocities [m/s] of every contact."""
+    ct_type = ma.ct_type
+    ct_body = ma.ct_body
+    wN = np.zeros(6)
+    wT = np.zeros(6)
+    for k in range(ct_type.shape[0]):
+        gap[k] = contact_rows(q, k, ma, wN, wT)
+        vn[k] = row_dot(wN, ct_body[k, 0], ct_body[k, 1], v)
+        vt[k] = row_dot(wT, ct_body[k, 0], ct_body[k, 1], v)

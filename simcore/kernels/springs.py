@@ -1,0 +1,127 @@
+"""Smooth forces: gravity and linear spring-dampers between body points (the cage), with
+their exact tangents, and the mechanical energy they store."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .bodies import body_omega, body_point, pair_point_jacobians, transverse_form, unit_direction
+
+
+@njit(cache=True)
+def spring_state(q, v, k, sp_body, sp_geom):
+    """Length [m], its rate [m/s], unit direction and lever arms of spring ``k``."""
+    bi = sp_body[k, 0]
+    bj = sp_body[k, 1]
+    p = sp_geom[k]
+    xi, yi, aix, aiy = body_point(q, bi, p[0], p[1])
+    xj, yj, ajx, ajy = body_point(q, bj, p[2], p[3])
+    length, nx, ny = unit_direction(xj - xi, yj - yi)
+    wi = body_omega(v, bi)
+    wj = body_omega(v, bj)
+    vix = 0.0
+    viy = 0.0
+    vjx = 0.0
+    vjy = 0.0
+    if bi >= 0:
+        vix = v[3 * bi] - wi * aiy
+        viy = v[3 * bi + 1] + wi * aix
+    if bj >= 0:
+        vjx = v[3 * bj] - wj * ajy
+        vjy = v[3 * bj + 1] + wj * ajx
+    dvx = vjx - vix
+    dvy = vjy - viy
+    rate = nx * dvx + ny * dvy
+    return length, rate, nx, ny, aix, aiy, ajx, ajy, dvx, dvy
+
+
+@njit(cache=True)
+def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
+    """Gravity plus spring-damper forces ``f`` [N, N m]; with ``tangent`` also the stiffness
+    ``K = -df/dq`` and damping ``C = -df/dv`` matrices. K is exact for springs between body
+    origins (the cage); for off-centre points the lever arms' second derivative is left out
+    (Newton stays convergent, only its rate changes). ``Ks`` receives the symmetric positive
+    semi-definite elastic part (axial stiffness and the geometric term of a tensile spring): it
+    is the metric of the position correction, which must stay positive definite."""
+    mass = ma.mass
+    gvec = ma.gvec
+    sp_body = ma.sp_body
+    sp_geom = ma.sp_geom
+    nb = mass.shape[0]
+    for b in range(nb):
+        f[3 * b] = mass[b] * gvec[0]
+        f[3 * b + 1] = mass[b] * gvec[1]
+        f[3 * b + 2] = 0.0
+    if tangent:
+        K[:, :] = 0.0
+        C[:, :] = 0.0
+        Ks[:, :] = 0.0
+    w = np.zeros(6)
+    P = np.zeros((2, 6))
+    idx = np.zeros(6, dtype=np.int64)
+    for k in range(sp_body.shape[0]):
+        bi = sp_body[k, 0]
+        bj = sp_body[k, 1]
+        stiff = sp_geom[k, 4]
+        damp = sp_geom[k, 5]
+        rest = sp_geom[k, 6]
+        length, rate, nx, ny, aix, aiy, ajx, ajy, dvx, dvy = spring_state(q, v, k, sp_body,
+                                                                          sp_geom)
+        tension = stiff * (length - rest) + damp * rate
+        # w = d(length)/d(q_i, q_j)
+        w[0] = -nx
+        w[1] = -ny
+        w[2] = -(aix * ny - aiy * nx)
+        w[3] = nx
+        w[4] = ny
+        w[5] = ajx * ny - ajy * nx
+        for a in range(3):
+            idx[a] = 3 * bi + a
+            idx[3 + a] = 3 * bj + a
+        for a in range(6):
+            body = bi if a < 3 else bj
+            if body >= 0:
+                f[idx[a]] -= tension * w[a]
+        if tangent:
+            # point Jacobians for the geometric stiffness (tension / length) (I - n n^T)
+            pair_point_jacobians(P, aix, aiy, ajx, ajy)
+            inv_l = 1.0 / length if length > 1e-300 else 0.0
+            geo = tension * inv_l
+            geo_s = max(stiff * (length - rest), 0.0) * inv_l
+            # the damper's rate n.(dv) changes with the direction n: d(rate)/dq = dv_perp P / l
+            proj = nx * dvx + ny * dvy
+            px = (dvx - proj * nx) * inv_l * damp
+            py = (dvy - proj * ny) * inv_l * damp
+            for a in range(6):
+                ba = bi if a < 3 else bj
+                if ba < 0:
+                    continue
+                for c in range(6):
+                    bc = bi if c < 3 else bj
+                    if bc < 0:
+                        continue
+                    pp = transverse_form(P, nx, ny, a, c)
+                    K[idx[a], idx[c]] += (stiff * w[a] * w[c] + geo * pp
+                                          + w[a] * (px * P[0, c] + py * P[1, c]))
+                    Ks[idx[a], idx[c]] += stiff * w[a] * w[c] + geo_s * pp
+                    C[idx[a], idx[c]] += damp * w[a] * w[c]
+
+
+@njit(cache=True)
+def total_energy(q, v, ma):
+    """Kinetic + gravitational + spring energy [J]."""
+    mdiag = ma.mdiag
+    mass = ma.mass
+    gvec = ma.gvec
+    sp_body = ma.sp_body
+    sp_geom = ma.sp_geom
+    e = 0.0
+    for i in range(q.shape[0]):
+        e += 0.5 * mdiag[i] * v[i] * v[i]
+    for b in range(mass.shape[0]):
+        e -= mass[b] * (gvec[0] * q[3 * b] + gvec[1] * q[3 * b + 1])
+    for k in range(sp_body.shape[0]):
+        length = spring_state(q, v, k, sp_body, sp_geom)[0]
+        e += 0.5 * sp_geom[k, 4] * (length - sp_geom[k, 6]) ** 2
+    return e

@@ -1,0 +1,105 @@
+"""The Numba cache is keyed by the kernel sources: an edit in one module recompiles its callers
+in other modules (Numba alone checks only the file that defines a function)."""
+
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from simcore import numba_cache
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_key_changes_with_any_kernel_source(tmp_path):
+    folder = tmp_path / "kernels"
+    shutil.copytree(numba_cache.KERNELS_DIR, folder, ignore=shutil.ignore_patterns("__pycache__"))
+    key = numba_cache.kernel_source_key(folder)
+    assert key == numba_cache.kernel_source_key(numba_cache.KERNELS_DIR)
+    assert len(key) == 12 and int(key, 16) >= 0
+    (folder / "contact.py").write_text((folder / "contact.py").read_text() + "\n# edited\n")
+    edited = numba_cache.kernel_source_key(folder)
+    assert edited != key
+    # a new module counts as well
+    (folder / "extra.py").write_text("X = 1\n")
+    assert numba_cache.kernel_source_key(folder) not in (key, edited)
+    expected = f"numba-{numba_cache.kernel_source_key(folder)}"
+    assert numba_cache.cache_dir_for(folder).name == expected
+
+
+def test_every_kernel_caches_in_the_keyed_folder():
+    from simcore import kernels
+
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        pytest.skip("the user chose NUMBA_CACHE_DIR; the keyed folder is not used")
+    assert Path(kernels.CACHE_DIR) == numba_cache.cache_dir_for()
+    for name in ("integrate_chunk", "smooth_step", "contact_rows", "body_point",
+                 "total_energy", "block_inverse"):
+        path = getattr(kernels, name)._cache._cache_path
+        assert Path(path).is_relative_to(kernels.CACHE_DIR), (name, path)
+
+
+CALLEE = """
+from numba import njit
+
+
+@njit(cache=True)
+def value():
+    return {value}
+"""
+CALLER = """
+from numba import njit
+
+from .callee import value
+
+
+@njit(cache=True)
+def twice():
+    return 2 * value()
+"""
+INIT = """
+from pathlib import Path
+
+from simcore.numba_cache import configure_cache
+
+{keyed}CACHE_DIR = configure_cache(Path(__file__).parent)
+"""
+
+
+def _make_package(root, keyed):
+    pkg = root / "kpkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text(textwrap.dedent(INIT.format(keyed="" if keyed else "# ")))
+    (pkg / "callee.py").write_text(CALLEE.format(value=1))
+    (pkg / "caller.py").write_text(CALLER)
+    return pkg
+
+
+def _run(root, env):
+    code = "from kpkg.caller import twice; print(twice())"
+    out = subprocess.run([sys.executable, "-c", code], cwd=root, env=env, capture_output=True,
+                         text=True, check=True)
+    return int(out.stdout.strip())
+
+
+@pytest.mark.parametrize("keyed", [True, False])
+def test_editing_a_callee_in_another_module_recompiles_the_caller(tmp_path, keyed):
+    pkg = _make_package(tmp_path, keyed)
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["PYTHONPATH"] = os.pathsep.join([str(tmp_path), str(ROOT)])
+    if not keyed:
+        # what Numba does by itself: one fixed cache folder, checked per defining file
+        env["NUMBA_CACHE_DIR"] = str(tmp_path / "plain-cache")
+    assert _run(tmp_path, env) == 2
+    assert _run(tmp_path, env) == 2  # from the cache
+    (pkg / "callee.py").write_text(CALLEE.format(value=5))
+    if keyed:
+        assert _run(tmp_path, env) == 10
+        assert len(list(pkg.glob("__pycache__/numba-*"))) == 2
+    else:
+        # the pitfall the keying removes: the caller's cached code still returns the old value
+        assert _run(tmp_path, env) == 2
