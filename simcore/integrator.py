@@ -1074,9 +1074,13 @@ def integrate_chunk(k0, k1, h, rho_inf, tol, max_iter, eta, drive_row,
                     ct_type, ct_body, ct_geom, ct_law,
                     q, v, acc, vdot, lam_s, lam_b, lamN_prev, lamT_prev, vn_prev, vt_prev,
                     out_q, out_v, out_lamN, out_lamT, out_nu, out_gap, out_vn_pre, out_vn_post,
-                    out_energy, out_iter, out_conv, out_torque):
+                    out_vn_free, out_energy, out_iter, out_conv, out_torque):
     """Advance steps k0 .. k1-1 (state at time k0*h on entry, at k1*h on exit), writing the
     outputs of each step at index k+1. The state arrays are updated in place.
+
+    ``out_vn_free`` receives the normal relative velocity just before the jump of the step,
+    G_N(q_{n+1}) v~_{n+1}: the smooth-step velocity seen by the contact rows at the corrected
+    position [m/s].
 
     Returns the index of the first step whose sub-problems did not all converge, or -1."""
     n = q.shape[0]
@@ -1096,6 +1100,9 @@ def integrate_chunk(k0, k1, h, rho_inf, tol, max_iter, eta, drive_row,
     gap = np.zeros(nc)
     vn = np.zeros(nc)
     vt = np.zeros(nc)
+    gap_free = np.zeros(nc)
+    vn_free = np.zeros(nc)
+    vt_free = np.zeros(nc)
     gap_close = tol * h
     first_bad = -1
     for k in range(k0, k1):
@@ -1105,6 +1112,7 @@ def integrate_chunk(k0, k1, h, rho_inf, tol, max_iter, eta, drive_row,
                                  q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t)
         it_p, ok_p = position_step(q_t, t1, h, tol, max_iter, eta, mdiag, Ks_t, jt_type,
                                    jt_body, jt_geom, ct_type, ct_body, ct_geom, q1, nu_c, gap)
+        contact_velocities(q1, v_t, ct_type, ct_body, ct_geom, gap_free, vn_free, vt_free)
         it_v, ok_v = velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, mdiag,
                                    mass, gvec, sp_body, sp_geom, jt_type, jt_body, jt_geom,
                                    ct_type, ct_body, ct_geom, ct_law, f_t, nu_c, gap,
@@ -1125,6 +1133,7 @@ def integrate_chunk(k0, k1, h, rho_inf, tol, max_iter, eta, drive_row,
             out_gap[k + 1, j] = gap[j]
             out_vn_pre[k + 1, j] = vn_prev[j]
             out_vn_post[k + 1, j] = vn[j]
+            out_vn_free[k + 1, j] = vn_free[j]
             vn_prev[j] = vn[j]
             vt_prev[j] = vt[j]
         out_energy[k + 1] = total_energy(q, v, mdiag, mass, gvec, sp_body, sp_geom)

@@ -110,6 +110,9 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
             "m s-1", "normal relative velocity at the start of the step (negative: approaching)")),
         "vn_post": (TC, traj.vn_post, _attrs(
             "m s-1", "normal relative velocity after the velocity jump (negative: approaching)")),
+        "vn_free": (TC, traj.vn_free, _attrs(
+            "m s-1", "normal relative velocity before the velocity jump: smooth-step velocity "
+            "at the corrected position (negative: approaching; t = 0: initial velocity)")),
         "q": (("time", "body", "dof"), q, _attrs(
             "m or rad", "body positions (x [m], y [m], phi [rad]) of the centre of mass")),
         "v": (("time", "body", "dof"), v, _attrs(

@@ -48,6 +48,7 @@ class Trajectory:
     gap_N: np.ndarray
     vn_pre: np.ndarray
     vn_post: np.ndarray
+    vn_free: np.ndarray
     energy: np.ndarray
     iterations: np.ndarray
     converged: np.ndarray
@@ -307,6 +308,7 @@ class Model:
             lambda_N=np.zeros((n_steps + 1, nc)), lambda_T=np.zeros((n_steps + 1, nc)),
             nu_N=np.zeros((n_steps + 1, nc)), gap_N=np.zeros((n_steps + 1, nc)),
             vn_pre=np.zeros((n_steps + 1, nc)), vn_post=np.zeros((n_steps + 1, nc)),
+            vn_free=np.zeros((n_steps + 1, nc)),
             energy=np.zeros(n_steps + 1), iterations=np.zeros((n_steps + 1, 3), np.int64),
             converged=np.ones(n_steps + 1, np.int8), drive_torque=np.zeros(n_steps + 1))
         out.q[0] = q
@@ -314,6 +316,7 @@ class Model:
         out.gap_N[0] = gap0
         out.vn_pre[0] = vn0
         out.vn_post[0] = vn0
+        out.vn_free[0] = vn0  # no jump at t = 0: the initial normal velocity
         drive_row = self.drive_row()
         if drive_row >= 0:
             out.drive_torque[0] = lam_s[drive_row]
@@ -332,8 +335,8 @@ class Model:
                     arr["jt_body"], arr["jt_geom"], arr["sp_body"], arr["sp_geom"],
                     arr["ct_type"], arr["ct_body"], arr["ct_geom"], arr["ct_law"], q, v, acc,
                     vdot, lam_s, lam_b, lamN, lamT, vn0, vt0, out.q, out.v, out.lambda_N,
-                    out.lambda_T, out.nu_N, out.gap_N, out.vn_pre, out.vn_post, out.energy,
-                    out.iterations, out.converged, out.drive_torque)
+                    out.lambda_T, out.nu_N, out.gap_N, out.vn_pre, out.vn_post, out.vn_free,
+                    out.energy, out.iterations, out.converged, out.drive_torque)
             except np.linalg.LinAlgError as exc:
                 # a singular Newton matrix: report it as what it is, a failed step
                 raise SolverError(f"singular Newton matrix between steps {k + 1} and {k_next} "

@@ -115,3 +115,19 @@ def test_pinched_balls_converge_and_carry_the_load(n_balls):
     assert up / h == pytest.approx(weight, rel=1e-3)
     # and the outer race does not move: the balls hold it
     assert np.max(np.abs(traj.v[-50:, 1])) < 1e-6
+
+
+def test_vn_free_is_the_velocity_before_the_jump():
+    """vn_free = G_N(q_{n+1}) v~_{n+1}: for a frictionless ball on a fixed plane the jump of the
+    normal velocity is Lambda_N / m exactly, and without impulse nothing jumps (gravity is the
+    same force at q~ and q_{n+1})."""
+    m, h = 2.0, 1e-3
+    traj = ball_on_plane(radius=0.1, mass=m, height=0.5, e_N=0.7).simulate(h, 0.8)
+    jump = traj.vn_post[1:, 0] - traj.vn_free[1:, 0]
+    np.testing.assert_allclose(jump, traj.lambda_N[1:, 0] / m, atol=1e-12)
+    hits = _impacts(traj)
+    assert len(hits) >= 2
+    # before the jump of an impact step the ball approaches; after it, it separates
+    assert np.all(traj.vn_free[hits, 0] < 0.0) and np.all(traj.vn_post[hits, 0] > 0.0)
+    # t = 0: no jump yet, the initial normal velocity
+    assert traj.vn_free[0, 0] == traj.vn_pre[0, 0]

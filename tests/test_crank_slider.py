@@ -111,8 +111,8 @@ def test_dataset_contract(paper_short):
     assert list(ds["race"].values[n:]) == ["outer"] * n
     for name in ("clearance", "mu", "omega0", "e_N"):
         assert ds[name].ndim == 0 and name in ds.coords
-    for name in ("Lambda_N", "Lambda_T", "nu_N", "gap_N", "vn_pre", "vn_post", "q", "v",
-                 "crank_angle", "slider_x", "slider_v", "energy", "iterations", "converged"):
+    for name in ("Lambda_N", "Lambda_T", "nu_N", "gap_N", "vn_pre", "vn_post", "vn_free", "q",
+                 "v", "crank_angle", "slider_x", "slider_v", "energy", "iterations", "converged"):
         assert "units" in ds[name].attrs and "long_name" in ds[name].attrs, name
     for key in ("Conventions", "title", "source", "wall_time_s", "model.clearance",
                 "solver.dt"):
