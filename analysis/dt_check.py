@@ -176,7 +176,8 @@ def dt_check(run_ds: xr.Dataset, t_check=None, tol=0.1, n=6, **extract_kwargs):
     run_ds : xarray.Dataset
         A run written by ``simcore``.
     t_check : float, optional
-        Compare only the first ``t_check`` seconds [s] (the rerun stops there).
+        Compare only the first ``t_check`` seconds [s] (the rerun stops there); None or 0: the
+        whole run.
     tol : float
         Relative tolerance [-].
     n : int
@@ -194,7 +195,7 @@ def dt_check(run_ds: xr.Dataset, t_check=None, tol=0.1, n=6, **extract_kwargs):
     cfg = config_from_run(run_ds)
     dt = float(cfg["solver"]["dt"])
     t_end = float(cfg["solver"]["t_end"])
-    if t_check is not None:
+    if t_check is not None and t_check != 0:  # 0, as in the config: the whole run
         t_check = float(t_check)
         if not (math.isfinite(t_check) and dt <= t_check):
             raise ValueError(f"--t-check must be a number >= solver.dt ({dt} s), got {t_check!r}")

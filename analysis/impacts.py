@@ -229,8 +229,8 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
         Smallest approach speed for a Flores force [m/s]. Impacts with v_pre <= v_min stay in the
         table flagged ``no_approach``, F_max and what follows from it missing (NaN).
     groove_conformity : float or None
-        Race groove radius over ball diameter (e.g. 0.52) for elliptical Hamrock-Brewe
-        contacts; None (default): the in-plane circular contacts of the simulation.
+        Race groove radius over ball diameter (e.g. 0.52, > 0.5) for elliptical Hamrock-Brewe
+        contacts; None or 0 (default): the in-plane circular contacts of the simulation.
     contact_long_ratio : float
         An impact whose Hertz contact time exceeds this many time steps is flagged
         ``contact_long`` (the rigid solver resolves it over several steps while the mechanism
@@ -262,7 +262,8 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
     v_min = _positive("v_min", v_min)
     contact_long_ratio = _positive("contact_long_ratio", contact_long_ratio)
     if groove_conformity is not None:
-        groove_conformity = _positive("groove_conformity", groove_conformity)
+        groove_conformity = _positive("groove_conformity", groove_conformity) \
+            if groove_conformity != 0 else None  # 0: off, as in the config
     geo = run_geometry(run_ds, r_eff, groove_conformity)
     e_N = _model_value(run_ds, "e_N")
     m_ball = _model_value(run_ds, "ball_mass")
