@@ -340,6 +340,7 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
     K[is_pinch] = geo["K_pinch"]
 
     approach = np.isfinite(v_pre) & (v_pre > v_min)
+    has_impulse = impulse > 0.0  # (a pinch row whose whole impulse is static force: no impact)
     flores = e_N > 0.0
     flags = np.zeros(n, dtype=np.int32)
     flags[~approach] |= FLAG["no_approach"]
@@ -351,7 +352,7 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
     F_max = np.full(n, np.nan)
     contact_time = np.full(n, np.nan)
     v_rebound = np.full(n, np.nan)
-    for k in np.flatnonzero(approach & flores):
+    for k in np.flatnonzero(approach & flores & has_impulse):
         res = peak_force(impulse[k], v_pre[k], e_N, K[k], F_static=max(F_static[k], 0.0), h=h,
                          details=True)
         m_eff[k] = res.m_eff
@@ -359,7 +360,8 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
         contact_time[k] = res.contact_time
         v_rebound[k] = res.v_rebound
     steps = contact_time / h
-    long_ = np.isfinite(steps) & (steps > contact_long_ratio)
+    # an impact that never ends (on a heavily preloaded contact, see analysis.forces) is long too
+    long_ = np.isfinite(F_max) & ~(steps <= contact_long_ratio)
     flags[long_] |= FLAG["contact_long"]
     trusted = (flags == 0) & np.isfinite(F_max)
 
