@@ -3,6 +3,7 @@
     python -m analysis impacts RUN.nc --out IMPACTS.nc [--zero-tol 1e-4] [--r-eff concave]
     python -m analysis filter RUN.nc --out FILTERED.nc
     python -m analysis top-forces RUN.nc [-n 3]
+    python -m analysis dt-check RUN.nc [--t-check T] [--tol 0.1] [-n 6] [--out IMPACTS.nc]
     python -m analysis figures RUN.nc --outdir DIR [--impacts IMPACTS.nc] [--prefix NAME]
     python -m analysis study-figures SUMMARY.nc --outdir DIR
 """
@@ -24,6 +25,12 @@ def _common(p):
                    help="absolute floor of the zero threshold [N s] (default 1e-12)")
     p.add_argument("--v-min", type=float, default=1e-3,
                    help="smallest approach speed for a Flores force [m/s] (default 1e-3)")
+    p.add_argument("--groove-conformity", type=float, default=None,
+                   help="race groove radius / ball diameter (e.g. 0.52): elliptical "
+                        "Hamrock-Brewe contacts (default: off, the in-plane sphere contacts)")
+    p.add_argument("--contact-long-ratio", type=float, default=10.0,
+                   help="flag contact_long where the Hertz contact time exceeds this many "
+                        "steps (default 10)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -47,6 +54,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-n", type=int, default=3)
     p.add_argument("--race", choices=("outer", "inner", "all"), default="outer")
     _common(p)
+    p = sub.add_parser("dt-check", help="rerun at dt/2 and compare the largest impacts")
+    p.add_argument("run")
+    p.add_argument("--t-check", type=float, default=None,
+                   help="compare only the first T seconds (the rerun stops there)")
+    p.add_argument("--tol", type=float, default=0.1,
+                   help="relative change above which an impact is flagged (default 0.1)")
+    p.add_argument("-n", type=int, default=6, help="how many of the largest impacts (default 6)")
+    p.add_argument("--out", default=None,
+                   help="write the impact table of the run with the dt-check flags")
+    p.add_argument("--r-eff", choices=("concave", "paper"), default="concave")
+    _common(p)
     p = sub.add_parser("figures", help="figures of one run")
     p.add_argument("run")
     p.add_argument("--outdir", required=True)
@@ -61,7 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def format_top_forces(run_ds, n=3, race="outer", zero_tol=1e-4, zero_floor=1e-12,
-                      v_min=1e-3) -> str:
+                      v_min=1e-3, groove_conformity=None, contact_long_ratio=10.0) -> str:
     """Text table of the ``n`` largest peak forces for r_eff = concave and r_eff = paper.
 
     Parameters
@@ -72,7 +90,7 @@ def format_top_forces(run_ds, n=3, race="outer", zero_tol=1e-4, zero_floor=1e-12
         How many forces.
     race : {"outer", "inner", "all"}
         Contacts to consider.
-    zero_tol, zero_floor, v_min : float
+    zero_tol, zero_floor, v_min, groove_conformity, contact_long_ratio
         Filter and force settings (see :func:`analysis.extract_impacts`).
 
     Returns
@@ -80,33 +98,41 @@ def format_top_forces(run_ds, n=3, race="outer", zero_tol=1e-4, zero_floor=1e-12
     str
     """
     from .figures import run_label
-    from .impacts import extract_impacts, top_forces
+    from .impacts import RACE, extract_impacts, kind_name, race_name, top_forces
 
     lines = [f"run: {run_label(run_ds)}"]
     for r_eff in ("concave", "paper"):
-        imp = extract_impacts(run_ds, zero_tol, zero_floor, r_eff=r_eff, v_min=v_min)
+        imp = extract_impacts(run_ds, zero_tol, zero_floor, r_eff=r_eff, v_min=v_min,
+                              groove_conformity=groove_conformity,
+                              contact_long_ratio=contact_long_ratio)
         top = top_forces(imp, n=n, race=None if race == "all" else race)
         a = imp.attrs
         lines.append(
-            f"\nr_eff = {r_eff}: K_outer = {a['K_outer']:.4g} N/m^1.5, zero threshold = "
-            f"{a['zero_threshold']:.3g} N s (zero_tol {a['zero_tol']:g}), impacts: "
-            f"{a['n_simple']} simple, {a['n_persistent']} persistent, "
-            f"{a['n_no_approach']} without approach")
-        lines.append(f"{'rank':>4} {'F_max [kN]':>10} {'contact':>7} {'ball':>4} {'race':>5} "
-                     f"{'time [s]':>9} {'kind':>10} {'impulse [N s]':>13} {'v_pre [m/s]':>11} "
-                     f"{'F_static [N]':>12}")
+            f"\nr_eff = {r_eff}: K_outer = {a['K_outer']:.4g} N/m^1.5, K_pinch = "
+            f"{a['K_pinch']:.4g} N/m^1.5, zero threshold = {a['zero_threshold']:.3g} N s "
+            f"(zero_tol {a['zero_tol']:g}), impacts: {a['n_simple']} simple, "
+            f"{a['n_persistent']} persistent (filter), of which {a['n_pinch']} pinch, "
+            f"{a['n_multi']} multi; {a['n_no_approach']} without approach, {a['n_flagged']} "
+            f"flagged; velocities from {a['v_pre_source'].split(':')[0]}")
+        lines.append(f"{'rank':>4} {'F_max [kN]':>10} {'p_max [MPa]':>11} {'contact':>7} "
+                     f"{'ball':>4} {'race':>5} {'time [s]':>9} {'kind':>10} "
+                     f"{'impulse [N s]':>13} {'v_pre [m/s]':>11} {'m_eff [kg]':>10} "
+                     f"{'F_static [N]':>12} {'t_c/dt':>7} {'flags':>5}")
         for i in range(top.sizes["impact"]):
             row = top.isel(impact=i)
             lines.append(
-                f"{i + 1:>4} {float(row.F_max) / 1e3:>10.4g} {int(row.contact):>7} "
-                f"{int(row.ball):>4} {str(row.race.values):>5} {float(row.time):>9.4f} "
-                f"{str(row.kind.values):>10} {float(row.impulse):>13.4g} "
-                f"{float(row.v_pre):>11.4g} {float(row.F_static):>12.4g}")
+                f"{i + 1:>4} {float(row.F_max) / 1e3:>10.4g} {float(row.p_max) / 1e6:>11.4g} "
+                f"{int(row.contact):>7} {int(row.ball):>4} {race_name(row.race):>5} "
+                f"{float(row.time):>9.5f} {kind_name(row.kind):>10} "
+                f"{float(row.impulse):>13.4g} {float(row.v_pre):>11.4g} "
+                f"{float(row.m_eff):>10.4g} {float(row.F_static):>12.4g} "
+                f"{float(row.contact_time_steps):>7.1f} {int(row.flags):>5}")
         if top.sizes["impact"] == 0:
             lines.append("   (no impact with a force)")
         # the paper's way: the three largest impulses on the one outer contact carrying the
         # largest impulse, whatever their force
-        outer = imp.where(imp["race"] == "outer", drop=True) if imp.sizes["impact"] else imp
+        outer = (imp.where(imp["race"] == RACE["outer"], drop=True) if imp.sizes["impact"]
+                 else imp)
         if outer.sizes["impact"]:
             c = int(outer["contact"].values[int(np.argmax(outer["impulse"].values))])
             one = imp.isel(impact=np.flatnonzero(imp["contact"].values == c))
@@ -126,6 +152,17 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     import xarray as xr
 
+    if args.cmd == "dt-check":  # settings first, before any work
+        problems = []
+        if not (np.isfinite(args.tol) and args.tol > 0):
+            problems.append(f"--tol: {args.tol!r} is not allowed; allowed: a number > 0")
+        if args.n < 1:
+            problems.append(f"-n: {args.n!r} is not allowed; allowed: an integer >= 1")
+        if args.t_check is not None and not (np.isfinite(args.t_check) and args.t_check > 0):
+            problems.append(f"--t-check: {args.t_check!r} is not allowed; allowed: a time > 0 [s]")
+        if problems:
+            print(f"error: {problems[0]}", file=sys.stderr)
+            return 2
     try:
         if args.cmd == "study-figures":
             from .figures import plot_study
@@ -141,11 +178,14 @@ def main(argv=None) -> int:
 
             from .impacts import extract_impacts
 
-            imp = extract_impacts(run_ds, args.zero_tol, args.zero_floor, args.r_eff, args.v_min)
+            imp = extract_impacts(run_ds, args.zero_tol, args.zero_floor, args.r_eff, args.v_min,
+                                  args.groove_conformity, args.contact_long_ratio)
             write_netcdf(imp, args.out)
-            print(f"{args.out}: {imp.attrs['n_simple']} simple, {imp.attrs['n_persistent']} "
-                  f"persistent, {imp.attrs['n_no_approach']} without approach "
-                  f"(zero threshold {imp.attrs['zero_threshold']:.3g} N s)")
+            a = imp.attrs
+            print(f"{args.out}: {a['n_simple']} simple, {a['n_persistent']} persistent "
+                  f"(filter; {a['n_pinch']} pinch, {a['n_multi']} multi), "
+                  f"{a['n_no_approach']} without approach, {a['n_flagged']} flagged "
+                  f"(zero threshold {a['zero_threshold']:.3g} N s)")
         elif args.cmd == "filter":
             from simcore.io import write_netcdf
 
@@ -154,7 +194,21 @@ def main(argv=None) -> int:
             write_netcdf(split_dataset(run_ds, args.zero_tol, args.zero_floor), args.out)
         elif args.cmd == "top-forces":
             print(format_top_forces(run_ds, args.n, args.race, args.zero_tol, args.zero_floor,
-                                    args.v_min))
+                                    args.v_min, args.groove_conformity,
+                                    args.contact_long_ratio))
+        elif args.cmd == "dt-check":
+            from simcore.io import write_netcdf
+
+            from .dt_check import dt_check, format_dt_check
+
+            flagged, matches, _ = dt_check(
+                run_ds, t_check=args.t_check, tol=args.tol, n=args.n, zero_tol=args.zero_tol,
+                zero_floor=args.zero_floor, r_eff=args.r_eff, v_min=args.v_min,
+                groove_conformity=args.groove_conformity,
+                contact_long_ratio=args.contact_long_ratio)
+            print(format_dt_check(flagged, matches))
+            if args.out:
+                write_netcdf(flagged, args.out)
         elif args.cmd == "figures":
             from .figures import plot_run
             from .impacts import extract_impacts
@@ -164,7 +218,8 @@ def main(argv=None) -> int:
                     imp = d.load()
             else:
                 imp = extract_impacts(run_ds, args.zero_tol, args.zero_floor, args.r_eff,
-                                      args.v_min)
+                                      args.v_min, args.groove_conformity,
+                                      args.contact_long_ratio)
             for p in plot_run(run_ds, imp, args.outdir, args.zero_tol, args.zero_floor,
                               prefix=args.prefix):
                 print(p)

@@ -1,7 +1,24 @@
-"""Impact extraction for one run: filter, classify, and turn each impact into a peak force.
+"""Impact extraction for one run: filter, classify by kind, peak force, stresses and flags.
 
-SPEC sections 6, 7 and 9. One row per impact (dimension ``impact``): a *simple* impact where
-Λ_FI exceeds the zero threshold, an impact on *persistent* contact where Λ_FIsuv exceeds it.
+SPEC sections 6, 7, 9 and 11; the formulas per kind and what they rest on are in
+``docs/forces.md``. One row per impact (dimension ``impact``): where Λ_FI (a simple impact) or
+Λ_FIsuv (an impact on persistent contact) exceeds the zero threshold. Each row then gets a
+*kind* from the data:
+
+* ``pinch``: the ball's other contact (same ball, other race) carries impulse in the same step
+  or within one step of it. The ball is squeezed between the two races: the impact is the races
+  approaching each other along the ball's line, at the speed
+  v_pre = -(vn_inner + vn_outer) (a 2.7 g ball between kilogram bodies carries no momentum of
+  its own worth counting), through two Hertz contacts in series,
+  K = (K_in^{-2/3} + K_out^{-2/3})^{-3/2}.
+* ``multi``: not a pinch, but several balls carry impulse in that step.
+* ``persistent``: an impact on top of persistent contact (F_static = Λ_S/h > 0).
+* ``simple``: an isolated impact of a single ball on one race.
+
+The normal velocity of every kind is that *before the velocity jump of the impact step*,
+``vn_free`` = G_N(q_{n+1}) ṽ_{n+1} (after the smooth step and the position correction). A run
+file without it falls back to ``vn_pre`` (start of the step) and says so in the attribute
+``v_pre_source``.
 """
 
 from __future__ import annotations
@@ -9,29 +26,59 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
+from .contact_stress import contact_modulus, elliptical_contact, groove_radii, hertz_circular
 from .filtering import impact_masks, split_impulses, zero_threshold
-from .forces import _positive, hertz_stiffness, peak_force
+from .forces import _positive, effective_radius, hertz_stiffness, peak_force
 
-__all__ = ["extract_impacts", "top_forces", "run_geometry", "STUDY_PARAMETERS"]
+__all__ = ["extract_impacts", "top_forces", "run_geometry", "series_stiffness", "STUDY_PARAMETERS",
+           "race_name", "kind_name", "stiffness",
+           "KIND", "RACE", "FLAG"]
 
 STUDY_PARAMETERS = ("clearance", "mu", "omega0", "e_N")
+_PARAM_ATTRS = {
+    "clearance": ("m", "radial clearance"),
+    "mu": ("1", "friction coefficient"),
+    "omega0": ("rad s-1", "crank speed"),
+    "e_N": ("1", "normal restitution coefficient"),
+}
 
+KIND = {"simple": 0, "persistent": 1, "pinch": 2, "multi": 3}
+RACE = {"inner": 0, "outer": 1}
+FLAG = {
+    "no_approach": 1,          # v_pre <= v_min: no Flores force
+    "e_N_zero": 2,             # e_N = 0: the Flores damping is undefined, no force
+    "contact_long": 4,         # Hertz contact time > contact_long_ratio * dt
+    "not_converged_dt": 8,     # moved by more than the tolerance at dt/2 (dt-check)
+    "solver_unconverged": 16,  # the solver step of the impact did not converge
+}
+
+_BALL_FACTOR = 2.0  # a pinch impulse exceeds twice what the ball alone can carry
+
+# name: (units or None, long_name)
 _VARS = {
-    "contact": ("", "contact index (balls 0..n-1 on the inner race, then on the outer race)"),
-    "ball": ("", "ball index"),
-    "race": ("", "race of the contact (inner | outer)"),
+    "contact": (None, "contact index (balls 0..n-1 on the inner race, then on the outer race)"),
+    "ball": (None, "ball index"),
+    "race": (None, "race of the contact"),
     "time": ("s", "time of the impact step (end of the step)"),
-    "kind": ("", "impact kind: simple (isolated) | persistent (on persistent contact)"),
-    "impulse": ("N s", "impact impulse (Lambda_FI or Lambda_FIsuv)"),
-    "v_pre": ("m s-1", "approach speed before the impact (-vn_pre)"),
+    "kind": (None, "impact kind"),
+    "impulse": ("N s", "impact impulse of this contact (Lambda_FI or Lambda_FIsuv)"),
+    "v_pre": ("m s-1", "approach speed of the impact (pinch: of the two races along the ball)"),
     "approach": ("1", "1 where v_pre > v_min (Flores force computed), 0 otherwise"),
     "m_eff": ("kg", "effective mass impulse / ((1 + e_N) v_pre)"),
-    "F_static": ("N", "static contact force before the impact, Lambda_S / h (0 if simple)"),
-    "K": ("N m-1.5", "Hertz stiffness of the contact"),
-    "F_max": ("N", "peak Flores contact force (missing where v_pre <= v_min)"),
-    "delta_max": ("m", "largest indentation during the impact (total)"),
+    "F_static": ("N", "static contact force before the impact, Lambda_S / h (0 if none)"),
+    "K": ("N2 m-3", "square of the contact stiffness K of F = K delta^1.5 (pinch: the series "
+                    "stiffness); K itself in N m^-1.5 is the square root"),
+    "F_max": ("N", "peak Flores contact force (missing where flagged no_approach or e_N_zero)"),
+    "delta_max": ("m", "Hertz indentation of this contact under F_max"),
+    "contact_radius": ("m", "Hertz contact radius under F_max (ellipse: semi-major axis)"),
+    "contact_semi_minor": ("m", "semi-minor axis of the contact under F_max (= contact_radius "
+                                "for the circular contact)"),
+    "p_max": ("Pa", "largest Hertz contact pressure under F_max, 3 F / (2 pi a b)"),
     "contact_time": ("s", "duration of the Flores impact"),
+    "contact_time_steps": ("1", "contact_time / dt"),
     "v_rebound": ("m s-1", "speed at the end of the Flores impact (separating)"),
+    "flags": (None, "why the force of this impact is not to be trusted (bit mask)"),
+    "trusted": (None, "1 where F_max exists and no flag is set"),
 }
 
 
@@ -54,8 +101,19 @@ def _time_step(run_ds: xr.Dataset) -> float:
     return float(np.median(np.diff(t)))
 
 
-def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave") -> dict:
-    """Radii, material and Hertz stiffness of the two races of a run.
+def series_stiffness(K1, K2) -> float:
+    """Stiffness of two Hertz contacts F = K_i δ_i^{3/2} in series [N m-1.5].
+
+    The same force passes both: δ = δ1 + δ2 = (F/K1)^{2/3} + (F/K2)^{2/3} = (F/K)^{2/3} with
+    K = (K1^{-2/3} + K2^{-2/3})^{-3/2}.
+    """
+    K1 = _positive("K1", K1)
+    K2 = _positive("K2", K2)
+    return (K1 ** (-2.0 / 3.0) + K2 ** (-2.0 / 3.0)) ** -1.5
+
+
+def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave", groove_conformity=None) -> dict:
+    """Radii, material and contact stiffness of the two races of a run.
 
     Parameters
     ----------
@@ -66,12 +124,17 @@ def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave") -> dict:
     r_eff : {"concave", "paper"}
         Effective radius of the outer-race contact: ``"concave"`` r_B r_C/(r_C - r_B) (correct for
         a ball inside the race) or ``"paper"`` r_B r_C/(r_B + r_C) (the paper's printed form).
+        Not used with a groove conformity.
+    groove_conformity : float or None
+        Groove radius over ball diameter (e.g. 0.52): elliptical Hamrock-Brewe contacts. None:
+        the in-plane sphere contacts of the simulation (circular Hertz).
 
     Returns
     -------
     dict
         ``ball_radius``, ``inner_radius``, ``outer_radius`` [m], ``E`` [Pa], ``nu`` [-],
-        ``K_inner``, ``K_outer`` [N/m^1.5].
+        ``E_star`` [Pa], ``K_inner``, ``K_outer``, ``K_pinch`` [N m-1.5] and ``stress``: a
+        function (F [N], race code) -> (a, b, delta, p_max).
     """
     if r_eff not in ("concave", "paper"):
         raise ValueError(f"r_eff must be 'concave' or 'paper', got {r_eff!r}")
@@ -81,27 +144,81 @@ def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave") -> dict:
     E = _model_value(run_ds, "youngs_modulus")
     nu = _model_value(run_ds, "poisson_ratio")
     r_c = r_a + 2.0 * r_b + g
+    E_star = contact_modulus(E, nu)
+    if groove_conformity is None:
+        R = {0: effective_radius(r_b, r_a), 1: effective_radius(r_b, r_c, r_eff == "concave")}
+        K_in = hertz_stiffness(r_b, r_a, E, nu, E, nu, concave=False)
+        K_out = hertz_stiffness(r_b, r_c, E, nu, E, nu, concave=(r_eff == "concave"))
+
+        def stress(F, race):
+            a, d, p = hertz_circular(F, R[race], E_star)
+            return a, a, d, p
+    else:
+        ell = {0: elliptical_contact(*groove_radii(r_b, r_a, groove_conformity, "inner"), E_star),
+               1: elliptical_contact(*groove_radii(r_b, r_c, groove_conformity, "outer"), E_star)}
+        K_in, K_out = ell[0].K, ell[1].K
+
+        def stress(F, race):
+            return ell[race].at(F)
     return {
         "ball_radius": r_b,
         "inner_radius": r_a,
         "outer_radius": r_c,
         "E": E,
         "nu": nu,
-        "K_inner": hertz_stiffness(r_b, r_a, E, nu, E, nu, concave=False),
-        "K_outer": hertz_stiffness(r_b, r_c, E, nu, E, nu, concave=(r_eff == "concave")),
+        "E_star": E_star,
+        "K_inner": K_in,
+        "K_outer": K_out,
+        "K_pinch": series_stiffness(K_in, K_out),
+        "stress": stress,
     }
 
 
+def _race_codes(run_ds, n_contacts):
+    if "race" not in run_ds.coords:
+        raise ValueError("run dataset has no coordinate 'race' on 'contact'")
+    raw = np.asarray(run_ds["race"].values)
+    if raw.dtype.kind in "iu":
+        codes = raw.astype(np.int8)
+    else:
+        names = raw.astype(str)
+        bad = sorted(set(names) - set(RACE))
+        if bad:
+            raise ValueError(f"race values must be 'inner' or 'outer', got {bad}")
+        codes = np.array([RACE[s] for s in names], dtype=np.int8)
+    if codes.size != n_contacts:
+        raise ValueError("coordinate 'race' does not match dimension 'contact'")
+    return codes
+
+
+def _partners(balls, races):
+    """Index of the contact of the same ball on the other race (-1 if none)."""
+    out = np.full(balls.size, -1, dtype=np.int64)
+    lookup = {(int(b), int(r)): i for i, (b, r) in enumerate(zip(balls, races, strict=True))}
+    for i, (b, r) in enumerate(zip(balls, races, strict=True)):
+        out[i] = lookup.get((int(b), 1 - int(r)), -1)
+    return out
+
+
+def _set_attrs(name, units_long):
+    units, long_name = units_long
+    attrs = {"long_name": long_name}
+    if units is not None:
+        attrs["units"] = units
+    return attrs
+
+
 def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="concave",
-                    v_min=1e-3) -> xr.Dataset:
-    """Table of the impacts of one run with their Flores peak forces.
+                    v_min=1e-3, groove_conformity=None, contact_long_ratio=10.0) -> xr.Dataset:
+    """Table of the impacts of one run with their kind, peak force, stresses and flags.
 
     Parameters
     ----------
     run_ds : xarray.Dataset
-        One run (SPEC section 5): ``Lambda_N`` and ``vn_pre`` (time, contact), coordinates
-        ``ball`` and ``race`` on ``contact``, model settings in attrs (see :func:`run_geometry`),
-        ``solver.dt`` (else the median time step) and e_N (scalar coordinate or ``model.e_N``).
+        One run (SPEC section 5): ``Lambda_N`` and ``vn_free`` (else ``vn_pre``) (time,
+        contact), coordinates ``ball`` and ``race`` on ``contact``, model settings in attrs (see
+        :func:`run_geometry`), ``solver.dt`` (else the median time step) and e_N (scalar
+        coordinate or ``model.e_N``); ``converged`` (time) if present.
     zero_tol : float
         Relative zero threshold of the filter [-]; the scale is the run's largest Λ_N.
     zero_floor : float
@@ -110,38 +227,65 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
         Effective radius of the outer-race contacts (:func:`run_geometry`).
     v_min : float
         Smallest approach speed for a Flores force [m/s]. Impacts with v_pre <= v_min stay in the
-        table with ``approach = 0`` and F_max, m_eff, delta_max, contact_time missing (NaN).
+        table flagged ``no_approach``, F_max and what follows from it missing (NaN).
+    groove_conformity : float or None
+        Race groove radius over ball diameter (e.g. 0.52, > 0.5) for elliptical Hamrock-Brewe
+        contacts; None or 0 (default): the in-plane circular contacts of the simulation.
+    contact_long_ratio : float
+        An impact whose Hertz contact time exceeds this many time steps is flagged
+        ``contact_long`` (the rigid solver resolves it over several steps while the mechanism
+        keeps loading it).
 
     Returns
     -------
     xarray.Dataset
-        Dimension ``impact`` (sorted by time, then contact) with variables contact, ball, race,
-        time, kind, impulse, v_pre, approach, m_eff, F_static, K, F_max, delta_max, contact_time,
-        v_rebound; the run's scalar coordinates (clearance, mu, omega0, e_N); attrs with the
-        threshold used (``zero_threshold`` [N s]), ``r_eff``, ``v_min``, ``E``, ``nu``, radii,
-        stiffnesses and the counts ``n_simple``, ``n_persistent``, ``n_no_approach``.
+        CF-1.10 table, dimension ``impact`` (sorted by time, then contact); the columns are
+        described by their ``long_name`` (and ``docs/forces.md``); ``kind``, ``race`` and
+        ``flags`` are small integers with ``flag_values``/``flag_masks`` and
+        ``flag_meanings``; ``K`` is stored squared (UDUNITS has no fractional powers). The
+        swept parameters are scalar coordinates with units. Attributes: the settings, the zero
+        threshold [N s], the stiffnesses [N m-1.5], ``v_pre_source`` and counts ``n_simple``,
+        ``n_persistent`` (filter classes), ``n_pinch``, ``n_multi``, ``n_no_approach``,
+        ``n_flagged``, ``n_trusted``.
     """
-    for name in ("Lambda_N", "vn_pre"):
-        if name not in run_ds:
-            raise ValueError(f"run dataset has no variable {name!r}")
+    if "Lambda_N" not in run_ds:
+        raise ValueError("run dataset has no variable 'Lambda_N'")
+    if "vn_free" in run_ds:
+        vname = "vn_free"
+        source = "vn_free: normal velocity before the jump of the impact step"
+    elif "vn_pre" in run_ds:
+        vname = "vn_pre"
+        source = ("vn_pre: the run file has no vn_free; start-of-step velocity used instead "
+                  "(converges more slowly with dt)")
+    else:
+        raise ValueError("run dataset has neither 'vn_free' nor 'vn_pre'")
     v_min = _positive("v_min", v_min)
-    geo = run_geometry(run_ds, r_eff)
+    contact_long_ratio = _positive("contact_long_ratio", contact_long_ratio)
+    if groove_conformity is not None:
+        groove_conformity = _positive("groove_conformity", groove_conformity) \
+            if groove_conformity != 0 else None  # 0: off, as in the config
+    geo = run_geometry(run_ds, r_eff, groove_conformity)
     e_N = _model_value(run_ds, "e_N")
+    m_ball = _model_value(run_ds, "ball_mass")
     h = _time_step(run_ds)
 
     lam = np.asarray(run_ds["Lambda_N"].transpose("contact", "time").values, dtype=float)
-    vn_pre = np.asarray(run_ds["vn_pre"].transpose("contact", "time").values, dtype=float)
+    vn = np.asarray(run_ds[vname].transpose("contact", "time").values, dtype=float)
+    nc, nt = lam.shape
     scale = max(float(np.max(lam)), 0.0) if lam.size else 0.0
     thr = zero_threshold(scale=scale, zero_tol=zero_tol, floor=zero_floor)
     fi, s, fisuv = split_impulses(lam, zero_tol, zero_floor, scale=scale)
     simple, persistent = impact_masks(fi, fisuv, thr)
+    loaded = lam > thr
 
     contacts = np.asarray(run_ds["contact"].values)
-    balls = (np.asarray(run_ds["ball"].values) if "ball" in run_ds.coords
-             else np.full(contacts.shape, -1))
-    races = (np.asarray(run_ds["race"].values).astype(str) if "race" in run_ds.coords
-             else np.full(contacts.shape, "unknown"))
+    balls = (np.asarray(run_ds["ball"].values).astype(np.int64) if "ball" in run_ds.coords
+             else np.arange(nc, dtype=np.int64))
+    races = _race_codes(run_ds, nc)
+    partner = _partners(balls, races)
     times = np.asarray(run_ds["time"].values, dtype=float)
+    step_ok = (np.asarray(run_ds["converged"].values).astype(bool) if "converged" in run_ds
+               else np.ones(nt, bool))
 
     ci_s, ti_s = np.nonzero(simple)
     ci_p, ti_p = np.nonzero(persistent)
@@ -152,65 +296,157 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
     ci, ti, is_simple = ci[order], ti[order], is_simple[order]
     n = ci.size
 
+    # kinds from the data
+    balls_loaded = np.zeros(nt, dtype=np.int64)
+    for k in range(nt):
+        balls_loaded[k] = np.unique(balls[loaded[:, k]]).size
+    kind = np.where(is_simple, KIND["simple"], KIND["persistent"]).astype(np.int8)
+    pc = partner[ci]
+    # a pinch: the other contact of the ball is loaded within one step, and the impulse is more
+    # than the ball alone could carry, (1 + e_N) m_ball |vn| at the contact's own speed, twice
+    # over (so that a light ball rattling between two closing races, which alternates small
+    # impulses between its contacts step after step, stays a single-ball impact)
+    ball_bound = _BALL_FACTOR * (1.0 + e_N) * m_ball * np.abs(vn[ci, ti])
+    is_pinch = np.zeros(n, bool)
+    for j in range(n):
+        if pc[j] >= 0 and lam[ci[j], ti[j]] > ball_bound[j]:
+            lo, hi = max(ti[j] - 1, 0), min(ti[j] + 2, nt)
+            is_pinch[j] = bool(loaded[pc[j], lo:hi].any())
+    is_multi = ~is_pinch & (balls_loaded[ti] >= 2)
+    kind[is_multi] = KIND["multi"]
+    kind[is_pinch] = KIND["pinch"]
+
     impulse = np.where(is_simple, fi[ci, ti], fisuv[ci, ti])
-    v_pre = -vn_pre[ci, ti]
     F_static = np.where(is_simple, 0.0, s[ci, ti] / h)
+    # a pinched ball transmits a static force only where both of its contacts carry it: the
+    # static force is the part common to the two contacts in the neighbouring steps (a rattle
+    # loads them in turn, never together), and the pinch impulse is what exceeds it
+    for j in np.flatnonzero(is_pinch):
+        c, p, k = ci[j], pc[j], ti[j]
+        common = [min(lam[c, i], lam[p, i]) for i in (k - 1, k + 1) if 0 <= i < nt]
+        fs_h = max(float(np.mean(common)), 0.0) if common else 0.0
+        F_static[j] = fs_h / h
+        impulse[j] = lam[c, k] - fs_h
+    v_pre = -vn[ci, ti]
+    # a pinch approaches at the races' relative speed along the ball, taken in the step of the
+    # row if the other contact is loaded in it too, else in the earlier step of the pair (the
+    # later one already sees the races separating)
+    for j in np.flatnonzero(is_pinch):
+        c, p, k = ci[j], pc[j], ti[j]
+        k0 = k if loaded[p, k] else (k - 1 if k > 0 and loaded[p, k - 1] else k)
+        v_pre[j] = -(vn[c, k0] + vn[p, k0])
     race = races[ci]
-    K = np.where(race == "outer", geo["K_outer"], geo["K_inner"]).astype(float)
+    K = np.where(race == RACE["outer"], geo["K_outer"], geo["K_inner"]).astype(float)
+    K[is_pinch] = geo["K_pinch"]
+
     approach = np.isfinite(v_pre) & (v_pre > v_min)
-    # the Flores law has no meaning for e_N = 0 (D ~ (1 - e_N)/e_N): such a run keeps its
-    # impacts in the table, every F_max missing, as for an impact without approach
+    has_impulse = impulse > 0.0  # (a pinch row whose whole impulse is static force: no impact)
     flores = e_N > 0.0
+    flags = np.zeros(n, dtype=np.int32)
+    flags[~approach] |= FLAG["no_approach"]
+    if not flores:
+        flags |= FLAG["e_N_zero"]
+    flags[~step_ok[ti]] |= FLAG["solver_unconverged"]
+
     m_eff = np.full(n, np.nan)
     F_max = np.full(n, np.nan)
-    delta_max = np.full(n, np.nan)
     contact_time = np.full(n, np.nan)
     v_rebound = np.full(n, np.nan)
-    for k in np.flatnonzero(approach & flores):
+    for k in np.flatnonzero(approach & flores & has_impulse):
         res = peak_force(impulse[k], v_pre[k], e_N, K[k], F_static=max(F_static[k], 0.0), h=h,
                          details=True)
         m_eff[k] = res.m_eff
         F_max[k] = res.F_max
-        delta_max[k] = res.delta_max
         contact_time[k] = res.contact_time
         v_rebound[k] = res.v_rebound
+    steps = contact_time / h
+    # an impact that never ends (on a heavily preloaded contact, see analysis.forces) is long too
+    long_ = np.isfinite(F_max) & ~(steps <= contact_long_ratio)
+    flags[long_] |= FLAG["contact_long"]
+    trusted = (flags == 0) & np.isfinite(F_max)
+
+    a = np.full(n, np.nan)
+    b = np.full(n, np.nan)
+    delta = np.full(n, np.nan)
+    p_max = np.full(n, np.nan)
+    for code in (0, 1):
+        sel = race == code
+        if sel.any():
+            a[sel], b[sel], delta[sel], p_max[sel] = geo["stress"](F_max[sel], code)
 
     data = {
         "contact": contacts[ci].astype(np.int64),
         "ball": balls[ci].astype(np.int64),
-        "race": race.astype(str),
+        "race": race.astype(np.int8),
         "time": times[ti],
-        "kind": np.where(is_simple, "simple", "persistent").astype(str),
+        "kind": kind,
         "impulse": impulse,
         "v_pre": v_pre,
         "approach": approach.astype(np.int8),
         "m_eff": m_eff,
         "F_static": F_static,
-        "K": K,
+        "K": K**2,
         "F_max": F_max,
-        "delta_max": delta_max,
+        "delta_max": delta,
+        "contact_radius": a,
+        "contact_semi_minor": b,
+        "p_max": p_max,
         "contact_time": contact_time,
+        "contact_time_steps": steps,
         "v_rebound": v_rebound,
+        "flags": flags,
+        "trusted": trusted.astype(np.int8),
     }
-    ds = xr.Dataset(coords={"impact": ("impact", np.arange(n, dtype=np.int64))})
+    ds = xr.Dataset(coords={"impact": ("impact", np.arange(n, dtype=np.int64),
+                                       {"long_name": "impact number"})})
     for name, values in data.items():
-        units, long_name = _VARS[name]
-        attrs = {"long_name": long_name}
-        if units:
-            attrs["units"] = units
-        ds[name] = ("impact", values, attrs)
-    for name, coord in run_ds.coords.items():
-        if coord.ndim == 0:
-            ds = ds.assign_coords({name: coord.variable})
+        ds[name] = ("impact", values, _set_attrs(name, _VARS[name]))
+    ds["race"].attrs.update(flag_values=np.array(list(RACE.values()), dtype=np.int8),
+                            flag_meanings=" ".join(RACE))
+    ds["kind"].attrs.update(flag_values=np.array(list(KIND.values()), dtype=np.int8),
+                            flag_meanings=" ".join(KIND),
+                            comment="pinch: both contacts of the ball loaded within one step; "
+                                    "multi: several balls loaded in the step; persistent: on "
+                                    "top of persistent contact; simple: isolated")
+    ds["flags"].attrs.update(flag_masks=np.array(list(FLAG.values()), dtype=np.int32),
+                             flag_meanings=" ".join(FLAG),
+                             comment=f"contact_long: contact_time > {contact_long_ratio:g} dt")
+    ds["trusted"].attrs.update(flag_values=np.array([0, 1], dtype=np.int8),
+                               flag_meanings="untrusted trusted")
+    ds["approach"].attrs.pop("units", None)
+    ds["approach"].attrs.update(flag_values=np.array([0, 1], dtype=np.int8),
+                                flag_meanings="no_approach approach")
+    ds["K"].attrs["comment"] = ("stored as K**2 because UDUNITS has no fractional powers; "
+                                "K = sqrt(K) [N m-1.5]")
+    ds["v_pre"].attrs["comment"] = f"from {vname}"
+    for name in STUDY_PARAMETERS:
+        units, long_name = _PARAM_ATTRS[name]
+        try:
+            value = _model_value(run_ds, name)
+        except ValueError:
+            continue
+        ds = ds.assign_coords({name: ((), value, {"units": units, "long_name": long_name})})
+    from simcore import __version__
+
     ds.attrs.update({
-        "title": "impacts of one run (Flores et al. 2011 peak forces)",
+        "Conventions": "CF-1.10",
+        "title": "impacts of one run: kind, Flores peak force, Hertz stresses, trust flags",
+        "source": f"bearingsim {__version__} (analysis.extract_impacts)",
+        "history": (f"analysis.extract_impacts(zero_tol={zero_tol:g}, zero_floor={zero_floor:g}, "
+                    f"r_eff={r_eff}, v_min={v_min:g}, groove_conformity="
+                    f"{'none' if groove_conformity is None else f'{groove_conformity:g}'}, "
+                    f"contact_long_ratio={contact_long_ratio:g}) on run "
+                    f"'{run_ds.attrs.get('title', 'untitled')}'"),
         "zero_tol": float(zero_tol),
         "zero_floor": float(zero_floor),
         "zero_threshold": float(thr),
         "zero_threshold_units": "N s",
         "lambda_scale": scale,
         "r_eff": r_eff,
+        "groove_conformity": "none" if groove_conformity is None else float(groove_conformity),
+        "contact_long_ratio": float(contact_long_ratio),
         "v_min": v_min,
+        "v_pre_source": source,
         "e_N": e_N,
         "h": h,
         "E": geo["E"],
@@ -220,13 +456,30 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
         "outer_radius": geo["outer_radius"],
         "K_inner": geo["K_inner"],
         "K_outer": geo["K_outer"],
+        "K_pinch": geo["K_pinch"],
+        "stiffness_units": "N m-1.5",
         "n_simple": int(is_simple.sum()),
         "n_persistent": int((~is_simple).sum()),
+        "n_pinch": int(is_pinch.sum()),
+        "n_multi": int(is_multi.sum()),
         "n_no_approach": int((~approach).sum()),
+        "n_flagged": int((flags != 0).sum()),
+        "n_trusted": int(trusted.sum()),
+        "dt_check": 0,
     })
     if "title" in run_ds.attrs:
         ds.attrs["run_title"] = str(run_ds.attrs["title"])
     return ds
+
+
+def race_name(code) -> str:
+    """'inner' or 'outer' for a race code (0 or 1)."""
+    return {v: k for k, v in RACE.items()}[int(code)]
+
+
+def kind_name(code) -> str:
+    """The kind name of a kind code."""
+    return {v: k for k, v in KIND.items()}[int(code)]
 
 
 def top_forces(impacts_ds: xr.Dataset, n=3, race="outer") -> xr.Dataset:
@@ -249,7 +502,15 @@ def top_forces(impacts_ds: xr.Dataset, n=3, race="outer") -> xr.Dataset:
     ds = impacts_ds
     mask = np.isfinite(ds["F_max"].values)
     if race is not None:
-        mask &= ds["race"].values.astype(str) == race
+        mask &= ds["race"].values == RACE[race]
     idx = np.flatnonzero(mask)
     idx = idx[np.argsort(-ds["F_max"].values[idx], kind="stable")][:n]
     return ds.isel(impact=idx)
+
+
+def stiffness(impacts_ds: xr.Dataset) -> np.ndarray:
+    """K [N m-1.5] of every row (the table stores K squared)."""
+    return np.sqrt(np.asarray(impacts_ds["K"].values, dtype=float))
+
+
+

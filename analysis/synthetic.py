@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-__all__ = ["make_run_dataset", "PAPER_MODEL"]
+__all__ = ["make_run_dataset", "make_pinch_dataset", "PAPER_MODEL"]
 
 PAPER_MODEL = {
     "model.clearance": 4.0e-4,
@@ -20,6 +20,7 @@ PAPER_MODEL = {
     "model.e_T": 0.0,
     "model.n_balls": 8,
     "model.ball_radius": 0.0055,
+    "model.ball_mass": 2.7e-3,
     "model.inner_radius": 0.033745,
     "model.youngs_modulus": 2.1e9,
     "model.poisson_ratio": 0.3,
@@ -30,7 +31,7 @@ PAPER_MODEL = {
 
 
 def make_run_dataset(n_steps=600, n_balls=8, seed=0, clearance=4.0e-4, mu=0.01, omega0=50.0,
-                     e_N=0.9, dt=1.0e-4, journal=True, lam_scale=1e-3):
+                     e_N=0.9, dt=1.0e-4, journal=True, lam_scale=1e-3, vn_free=True):
     """A synthetic run dataset (SPEC section 5 layout).
 
     Parameters
@@ -49,6 +50,9 @@ def make_run_dataset(n_steps=600, n_balls=8, seed=0, clearance=4.0e-4, mu=0.01, 
         Include ``journal_x``, ``journal_y``.
     lam_scale : float
         Size of the impulses [N s].
+    vn_free : bool
+        Include ``vn_free`` (equal to ``vn_pre`` here); without it the analysis falls back to
+        ``vn_pre``.
 
     Returns
     -------
@@ -128,6 +132,10 @@ def make_run_dataset(n_steps=600, n_balls=8, seed=0, clearance=4.0e-4, mu=0.01, 
             "e_N": e_N,
         },
     )
+    if vn_free:
+        ds["vn_free"] = (("time", "contact"), vn_pre.copy(),
+                         {"units": "m s-1", "long_name": "normal relative velocity before the "
+                                                         "jump of the step"})
     if journal:
         r = 0.8 * clearance * np.minimum(1.0, t / (t[-1] + dt) * 3)
         ds["journal_x"] = ("time", r * np.cos(3 * theta), {"units": "m", "long_name": "journal x"})
@@ -136,5 +144,70 @@ def make_run_dataset(n_steps=600, n_balls=8, seed=0, clearance=4.0e-4, mu=0.01, 
     attrs.update({"model.clearance": clearance, "model.mu": mu, "model.omega0": omega0,
                   "model.e_N": e_N, "model.n_balls": n_balls, "solver.dt": dt,
                   "title": "synthetic run (not a simulation)", "Conventions": "CF-1.8"})
+    ds.attrs.update(attrs)
+    return ds
+
+
+def make_pinch_dataset(v_inner=0.3, v_outer=0.2, m_crank=2.0, m_rod=3.0, e_N=0.9, dt=1e-4,
+                       n_steps=40, step=20, n_balls=3, youngs_modulus=2.1e9, static_force=0.0,
+                       second_step_offset=0):
+    """A run dataset with one ball pinched between the two races (and nothing else).
+
+    The inner race (mass ``m_crank``) and the outer race (mass ``m_rod``) approach each other
+    along the line of ball 0: ball 0 sees the inner race approach at ``v_inner`` and the outer
+    race at ``v_outer`` (``vn_free`` = -v on its two contacts), so the races' relative approach
+    speed is V = v_inner + v_outer. The ball's mass is neglected: the pair of contacts takes the
+    impulse of two bodies of reduced mass μ = m_crank m_rod / (m_crank + m_rod) with Newton's
+    restitution, Λ = (1 + e_N) μ V, on both contacts in the same step (or, with
+    ``second_step_offset`` = ±1, the outer one step later or earlier). With ``static_force`` > 0
+    both contacts also carry F_s h in every step from 5 to n_steps - 5 (the ball is loaded).
+
+    Returns
+    -------
+    xarray.Dataset
+        Lambda_N, vn_pre, vn_free, vn_post, converged on (time, contact) with the paper's model
+        attributes; attrs ``pinch_reduced_mass`` [kg], ``pinch_speed`` [m/s], ``pinch_impulse``
+        [N s].
+    """
+    nc = 2 * n_balls
+    t = np.arange(n_steps + 1) * dt
+    lam = np.zeros((n_steps + 1, nc))
+    vn = np.zeros((n_steps + 1, nc))
+    mu = m_crank * m_rod / (m_crank + m_rod)
+    V = v_inner + v_outer
+    L = (1.0 + e_N) * mu * V
+    inner, outer = 0, n_balls
+    if static_force > 0:
+        lam[5:n_steps - 4, inner] = static_force * dt
+        lam[5:n_steps - 4, outer] = static_force * dt
+    lam[step, inner] += L
+    lam[step + second_step_offset, outer] += L
+    # the approach velocities before the jump hold in the step(s) of the pinch
+    k0, k1 = min(step, step + second_step_offset), max(step, step + second_step_offset)
+    vn[k0:k1 + 1, inner] = -v_inner
+    vn[k0:k1 + 1, outer] = -v_outer
+    tc = ("time", "contact")
+    ds = xr.Dataset(
+        {
+            "Lambda_N": (tc, lam, {"units": "N s", "long_name": "normal impulse"}),
+            "vn_pre": (tc, vn.copy(), {"units": "m s-1", "long_name": "vn at step start"}),
+            "vn_free": (tc, vn, {"units": "m s-1", "long_name": "vn before the jump"}),
+            "vn_post": (tc, -e_N * vn, {"units": "m s-1", "long_name": "vn after the jump"}),
+            "converged": ("time", np.ones(t.size, dtype=np.int8),
+                          {"units": "1", "long_name": "converged"}),
+        },
+        coords={
+            "time": ("time", t, {"units": "s", "long_name": "time"}),
+            "contact": np.arange(nc),
+            "ball": ("contact", np.tile(np.arange(n_balls), 2)),
+            "race": ("contact", np.array(["inner"] * n_balls + ["outer"] * n_balls)),
+            "clearance": 4e-4, "mu": 0.01, "omega0": 50.0, "e_N": e_N,
+        },
+    )
+    attrs = dict(PAPER_MODEL)
+    attrs.update({"model.e_N": e_N, "model.n_balls": n_balls, "solver.dt": dt,
+                  "model.youngs_modulus": youngs_modulus,
+                  "title": "synthetic pinch (not a simulation)",
+                  "pinch_reduced_mass": mu, "pinch_speed": V, "pinch_impulse": L})
     ds.attrs.update(attrs)
     return ds

@@ -6,7 +6,8 @@ Prints the filter's throughput in samples per second over a stack of runs (runs 
 (steps + 1) samples, all at once along the last axis), and the median cost of one Flores peak
 force: a simple impact (cached per e_N after the first) and an impact on persistent contact (one
 integration each, compiled Dormand-Prince with an LSODA fallback for stiff cases), and the
-whole extract_impacts of one synthetic run.
+whole extract_impacts of one synthetic run (in-plane contacts and a grooved race), the
+vectorised Hertz stresses, and, with --run FILE.nc, extract_impacts of a real run file.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import time
 
 import numpy as np
 
-from analysis import extract_impacts, hertz_stiffness, peak_force, split_impulses
+from analysis import contact_stress, extract_impacts, hertz_stiffness, peak_force, split_impulses
 from analysis.forces import _scaled_impact
 from analysis.synthetic import make_run_dataset
 
@@ -36,6 +37,7 @@ def main(argv=None):
     ap.add_argument("--runs", type=int, default=16)
     ap.add_argument("--steps", type=int, default=3000)
     ap.add_argument("--repeat", type=int, default=7)
+    ap.add_argument("--run", default=None, help="a run file (python -m simcore run --out ...)")
     args = ap.parse_args(argv)
 
     rng = np.random.default_rng(0)
@@ -85,6 +87,25 @@ def main(argv=None):
     ni = whole().sizes["impact"]
     print(f"extract_impacts on a synthetic run ({args.steps} steps, {ni} impacts): "
           f"{t4 * 1e3:.1f} ms -> {t4 / max(ni, 1) * 1e3:.2f} ms per impact")
+
+    t5 = _median_time(lambda: extract_impacts(run, groove_conformity=0.52), args.repeat)
+    print(f"extract_impacts, elliptical contacts (groove_conformity 0.52): {t5 * 1e3:.1f} ms")
+
+    forces = rng.uniform(1.0, 1e4, 100_000)
+    t6 = _median_time(lambda: contact_stress(forces, 0.0055, 0.045145, "outer", 2.1e11, 0.3,
+                                             conformity=0.52), args.repeat)
+    print(f"Hamrock-Brewe stresses of 100,000 forces: {t6 * 1e3:.1f} ms")
+
+    if args.run:
+        import xarray as xr
+
+        with xr.open_dataset(args.run) as ds:
+            real = ds.load()
+        extract_impacts(real)
+        t7 = _median_time(lambda: extract_impacts(real), args.repeat)
+        ni = extract_impacts(real).sizes["impact"]
+        print(f"extract_impacts on {args.run} ({real.sizes['time'] - 1} steps, {ni} impacts): "
+              f"{t7 * 1e3:.1f} ms")
 
 
 if __name__ == "__main__":
