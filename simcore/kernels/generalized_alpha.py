@@ -92,6 +92,11 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
     vdot1[:] = vdot
     iters = 0
     converged = False
+    # compliant: backtracking safeguard (see below)
+    merit_prev = np.inf
+    vdot_prev = vdot1.copy()
+    lam_prev = lam.copy()
+    halvings = 0
     for it in range(max_iter + 1):
         for i in range(n):
             acc1[i] = ((1.0 - af) * vdot1[i] + af * vdot[i] - am * acc[i]) / (1.0 - am)
@@ -103,6 +108,11 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
                            cwork[2], cwork[3], cwork[4], cwork[5:11])
         bilateral(q_t, v_t, t1, ma, g, G, gm, dgdt)
         scale = 1e-300
+        if compliant:
+            # contact forces and the loads they balance cancel in f_t: the force scale of the
+            # residual is that of the largest contact force
+            for k in range(cwork.shape[1]):
+                scale = max(scale, cwork[0, k])
         res_f = 0.0
         for i in range(n):
             react = 0.0
@@ -124,6 +134,22 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
         if it == max_iter:
             break
         iters += 1
+        if compliant:
+            # the normal force is clipped at zero where the damping term would pull: across
+            # that kink Newton can alternate between two iterates; a step that does not
+            # reduce the scaled residual is halved back towards the previous iterate
+            merit = max(res_f / (tol * scale), res_c / tol)
+            if merit > (1.0 - 1e-4) * merit_prev and halvings < 10:
+                halvings += 1
+                for i in range(n):
+                    vdot1[i] = 0.5 * (vdot1[i] + vdot_prev[i])
+                for r in range(m):
+                    lam[r] = 0.5 * (lam[r] + lam_prev[r])
+                continue
+            halvings = 0
+            merit_prev = merit
+            vdot_prev[:] = vdot1
+            lam_prev[:] = lam
         # Newton step on [J, -G^T; c G, 0] by the Schur complement of the joints: J is
         # diagonal but for the bodies joined by springs, so block_inverse keeps it cheap
         for i in range(n):
