@@ -3,13 +3,13 @@
 Prints:
 - steps per second of the compliant paper case (dt = 1e-6 s, E = 2.1e11 Pa, output every
   10 steps), median of N runs of ``--t-end`` seconds in one process on one thread (kernels
-  loaded before timing);
+  loaded before timing), by wall time and by CPU time;
 - Newton iterations per step (smooth stage) and joint projection iterations;
-- where the time goes: one step's parts timed apart (force evaluation with tangents, the
-  Newton matrix solve, the joint projection);
+- where the time goes: one step's parts timed apart in compiled loops (force evaluation with
+  tangents, the Newton matrix solve, the joint projection, the energy of an output sample);
 - the cost of one zoom (0.5 ms at dt = 1e-6 s from the largest impact of a nonsmooth run).
 
-Usage: python benchmarks/bench_compliant.py [--repeats 5] [--t-end 0.02]
+Usage: python benchmarks/bench_compliant.py [--repeats 5] [--t-end 0.05]
 """
 
 from __future__ import annotations
@@ -21,18 +21,10 @@ import time
 import numpy as np
 
 
-def _time(fn, repeats=2000):
-    fn()
-    start = time.perf_counter()
-    for _ in range(repeats):
-        fn()
-    return (time.perf_counter() - start) / repeats
-
-
 def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--repeats", type=int, default=5)
-    p.add_argument("--t-end", type=float, default=0.02)
+    p.add_argument("--t-end", type=float, default=0.05)
     args = p.parse_args()
 
     import numba
@@ -47,52 +39,79 @@ def main() -> None:
     model, _ = crank_slider(cfg["model"])
     dt = 1e-6
     model.simulate(dt, 20 * dt, contact_model="compliant", output_every=10)  # load kernels
-    walls = []
+    walls, cpus = [], []
     for _ in range(args.repeats):
+        c0 = time.process_time()
         traj = model.simulate(dt, args.t_end, contact_model="compliant", output_every=10)
+        cpus.append(time.process_time() - c0)
         walls.append(traj.wall_time_s)
     n_steps = round(args.t_end / dt)
     med = statistics.median(walls)
-    print(f"compliant paper case (E = 2.1e11 Pa, dt = 1e-6 s, {n_steps} steps, 1 thread): "
-          f"wall {med:.3f} s median of {args.repeats} (min {min(walls):.3f}, "
-          f"max {max(walls):.3f}) -> {n_steps / med:,.0f} steps/s, "
-          f"{1e6 * med / n_steps:.1f} us/step")
+    cmed = statistics.median(cpus)
+    print(f"compliant paper case (E = 2.1e11 Pa, dt = 1e-6 s, {n_steps} steps, 1 thread), "
+          f"median of {args.repeats}: wall {med:.3f} s -> {n_steps / med:,.0f} steps/s; "
+          f"CPU time {cmed:.3f} s -> {n_steps / cmed:,.0f} steps/s, "
+          f"{1e6 * cmed / n_steps:.1f} us/step (CPU time: the machine may be shared)")
     it = traj.iterations[1:]
     print(f"Newton iterations per step (largest of each 10-step interval): smooth max "
           f"{it[:, 0].max()}, mean {it[:, 0].mean():.2f}; joint projection max {it[:, 1].max()}")
 
-    # the parts of one step, timed apart at a loaded state of the run
+    # the parts of one step, timed apart inside compiled loops (a call from Python would
+    # mostly time the unboxing of the model bundle) at the loaded state where the run ended
     st = traj.extras["step_state"]
     cs = traj.extras["compliant_state"]
     arr = model.arrays()
-    n, nc = st.q.size, arr.ct_type.size
-    f, K, C, Ks = np.zeros(n), np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
-    w = np.zeros((11, nc))
+    from numba import njit
 
-    def forces():
-        nb.smooth_forces(st.q, st.v, arr, f, K, C, Ks, True)
-        nb.contact_forces(st.q, st.v, arr, cs.v_pre, 1e-4, f, K, C, True, w[0], w[1], w[2],
-                          w[3], w[4], w[5:11])
+    from simcore.kernels.generalized_alpha import _newton_direction_compliant
 
-    J = np.diag(arr.mdiag) + 1e-12 * K + 1e-6 * C
+    @njit
+    def loop_forces(q, v, ma, v_pre, reps):
+        n, nc = q.shape[0], ma.ct_type.shape[0]
+        f, K, C, Ks = np.zeros(n), np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
+        w = np.zeros((11, nc))
+        for _ in range(reps):
+            nb.smooth_forces(q, v, ma, f, K, C, Ks, True)
+            nb.contact_forces(q, v, ma, v_pre, 1e-4, f, K, C, True, w[0], w[1], w[2], w[3],
+                              w[4], w[5:11])
+        return K, C
+
+    @njit
+    def loop_solve(J, rhs, G, reps):
+        for _ in range(reps):
+            _newton_direction_compliant(J, rhs, G, 1.5e-6)
+
+    @njit
+    def loop_project(q, v, ma, reps):
+        q1, v1 = np.zeros(q.shape[0]), np.zeros(q.shape[0])
+        for _ in range(reps):
+            nb.project_joints(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1)
+
+    @njit
+    def loop_energy(q, v, ma, reps):
+        e = 0.0
+        for _ in range(reps):
+            e += nb.total_energy(q, v, ma) + nb.elastic_energy(q, ma)
+        return e
+
+    def cpu(fn, *a):
+        fn(*a, 1)
+        t0 = time.process_time()
+        fn(*a, 20000)
+        return (time.process_time() - t0) / 20000 * 1e6
+
+    K, C = loop_forces(st.q, st.v, arr, cs.v_pre, 1)
+    n = st.q.size
     m = nb.joint_row_count(arr.jt_type)
     G = np.zeros((m, n))
     nb.bilateral(st.q, st.v, 0.0, arr, np.zeros(m), G, np.zeros(m), np.zeros(m))
+    J = np.diag(arr.mdiag) + 1e-12 * K + 1.5e-6 * C
     rhs = np.ones(n + m)
-    from simcore.kernels.generalized_alpha import _newton_direction
-
-    def solve():
-        _newton_direction(J, rhs, G, 1.5e-6)
-
-    q1, v1 = np.zeros(n), np.zeros(n)
-
-    def project():
-        nb.project_joints(st.q, st.v, 0.0, dt, 1e-5, 50, arr, q1, v1)
-
-    t_f, t_s, t_p = _time(forces), _time(solve), _time(project)
-    print(f"one evaluation of forces and tangents {1e6 * t_f:.1f} us, one Newton matrix solve "
-          f"(block inverse + joint Schur complement) {1e6 * t_s:.1f} us, joint projection "
-          f"{1e6 * t_p:.1f} us")
+    print(f"parts of a step (CPU us, {int(cs.closed.sum())} contacts closed): forces and tangents "
+          f"{cpu(loop_forces, st.q, st.v, arr, cs.v_pre):.2f} per evaluation, Newton solve "
+          f"{cpu(loop_solve, J, rhs, G):.2f}, joint projection "
+          f"{cpu(loop_project, st.q, st.v, arr):.2f}, energy (per output sample) "
+          f"{cpu(loop_energy, st.q, st.v, arr):.2f}")
 
     run = simcore.run(load_config(overrides=["solver.t_end=0.004"]))
     lam = run["Lambda_N"].values

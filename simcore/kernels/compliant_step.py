@@ -16,8 +16,9 @@ import numpy as np
 from numba import njit
 
 from .generalized_alpha import alpha_coefficients, smooth_step
-from .hertz import contact_forces, elastic_energy
+from .hertz import elastic_energy
 from .joints import bilateral, joint_row_count
+from .linalg import gauss_solve
 from .springs import total_energy
 
 COMPLIANT_STAGE_SMOOTH = 0
@@ -27,8 +28,9 @@ COMPLIANT_STAGE_VELOCITY = 2
 
 @njit(cache=True)
 def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
-    """Remove the joints' drift: q1 = q_t + M^-1 G^T nu with g(q1) = 0 (Newton, |g|/h <= tol),
-    then v1 = v_t + M^-1 G^T mu with G(q1) v1 + dg/dt = 0. Returns (iterations, converged)."""
+    """Remove the joints' drift: q1 = q_t + M^-1 G^T nu with g(q1) = 0 (Newton, |g|/h <= tol;
+    no iteration when the drift is already within it), then v1 = v_t + M^-1 G^T mu with
+    G(q1) v1 + dg/dt = 0. Returns (iterations, converged)."""
     n = q_t.shape[0]
     m = joint_row_count(ma.jt_type)
     for i in range(n):
@@ -42,6 +44,7 @@ def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
     dgdt = np.zeros(m)
     MG = np.zeros((n, m))
     S = np.zeros((m, m))
+    rhs = np.zeros((m, 1))
     target = tol * h
     iters = 0
     ok = False
@@ -50,30 +53,37 @@ def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
         res = 0.0
         for r in range(m):
             res = max(res, abs(g[r]))
-        if res <= target and it > 0:
+        for i in range(n):
+            for r in range(m):
+                MG[i, r] = G[r, i] / ma.mdiag[i]
+        for r in range(m):
+            for c in range(m):
+                s = 0.0
+                for i in range(n):
+                    s += G[r, i] * MG[i, c]
+                S[r, c] = s
+        if res <= target:
             ok = True
             break
         if it == max_iter:
             break
         iters += 1
+        for r in range(m):
+            rhs[r, 0] = -g[r]
+        dnu = gauss_solve(S, rhs)
         for i in range(n):
             for r in range(m):
-                MG[i, r] = G[r, i] / ma.mdiag[i]
-        S[:, :] = G @ MG
-        dnu = np.linalg.solve(S, -g)
-        dq = MG @ dnu
+                q1[i] += MG[i, r] * dnu[r, 0]
+    # velocities, with the rows at q1 (those of the last evaluation)
+    for r in range(m):
+        c = dgdt[r]
         for i in range(n):
-            q1[i] += dq[i]
-    bilateral(q1, v_t, t1, ma, g, G, gm, dgdt)
+            c += G[r, i] * v_t[i]
+        rhs[r, 0] = -c
+    mu = gauss_solve(S, rhs)
     for i in range(n):
         for r in range(m):
-            MG[i, r] = G[r, i] / ma.mdiag[i]
-    S[:, :] = G @ MG
-    c = G @ v_t + dgdt
-    mu = np.linalg.solve(S, -c)
-    dv = MG @ mu
-    for i in range(n):
-        v1[i] = v_t[i] + dv[i]
+            v1[i] += MG[i, r] * mu[r, 0]
     return iters, ok
 
 
@@ -125,8 +135,6 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out):
     q1 = np.zeros(n)
     v1 = np.zeros(n)
     cwork = np.zeros((11, nc))
-    f_end = np.zeros(n)
-    WT_end = np.zeros((6, nc))
     first_bad = -1
     for k in range(k0, k1):
         t1 = st.t0 + (k + 1) * h
@@ -143,15 +151,19 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out):
             v[i] = v1[i]
             acc[i] = acc1[i]
             vdot[i] = vdot1[i]
-        # contact forces of the accepted state
-        FN_old = cs.FN.copy()
-        FT_old = cs.FT.copy()
-        contact_forces(q, v, ma, cs.v_pre, st.v_reg, f_end, K_t, K_t, False, cs.FN, cs.FT,
-                       cs.gap, cs.vn, cs.vt, WT_end)
+        # contact forces of the step: those of the converged smooth stage (the joint
+        # projection moves the state by the joints' drift only, far below the indentations)
         for j in range(nc):
+            FN_old = cs.FN[j]
+            FT_old = cs.FT[j]
+            cs.FN[j] = cwork[0, j]
+            cs.FT[j] = cwork[1, j]
+            cs.gap[j] = cwork[2, j]
+            cs.vn[j] = cwork[3, j]
+            cs.vt[j] = cwork[4, j]
             cs.closed[j] = 1 if cs.gap[j] < 0.0 else 0
-            cs.LN[j] += 0.5 * h * (FN_old[j] + cs.FN[j])
-            cs.LT[j] += 0.5 * h * (FT_old[j] + cs.FT[j])
+            cs.LN[j] += 0.5 * h * (FN_old + cs.FN[j])
+            cs.LT[j] += 0.5 * h * (FT_old + cs.FT[j])
             if cs.FN[j] > cs.FN_max[j]:
                 cs.FN_max[j] = cs.FN[j]
                 cs.FT_at_max[j] = cs.FT[j]

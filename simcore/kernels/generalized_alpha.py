@@ -9,7 +9,7 @@ from numba import njit
 
 from .hertz import contact_forces
 from .joints import bilateral, joint_row_count
-from .linalg import block_inverse
+from .linalg import block_inverse, gauss_solve, solve_mass_like
 from .springs import smooth_forces
 
 
@@ -156,9 +156,11 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             for j in range(n):
                 J[i, j] = (C_t[i, j] * h * gam + K_t[i, j] * h * h * beta) * ca
             J[i, i] += mdiag[i]
-        dv, dlam = _newton_direction(J, rhs, G, h * gam * ca)
         if compliant:
+            dv, dlam = _newton_direction_compliant(J, rhs, G, h * gam * ca)
             dv, dlam = _friction_branches(J, rhs, G, h * gam * ca, dv, dlam, ma, v_reg, cwork)
+        else:
+            dv, dlam = _newton_direction(J, rhs, G, h * gam * ca)
         for r in range(m):
             lam[r] += dlam[r]
         for i in range(n):
@@ -181,6 +183,40 @@ def _newton_direction(J, rhs, G, cv):
         S = cG @ JG
         dlam = np.linalg.solve(S, rhs[n:] - cG @ dv)
         dv += JG @ dlam
+    return dv, dlam
+
+
+@njit(cache=True)
+def _newton_direction_compliant(J, rhs, G, cv):
+    """As :func:`_newton_direction`, with the hand-written solves of :mod:`.linalg`: one
+    elimination of the coupled block for the residual and the joint columns together."""
+    n = J.shape[0]
+    m = G.shape[0]
+    B = np.empty((n, m + 1))
+    for i in range(n):
+        B[i, 0] = rhs[i]
+        for r in range(m):
+            B[i, 1 + r] = G[r, i]
+    X = solve_mass_like(J, B)
+    dv = X[:, 0].copy()
+    dlam = np.zeros(m)
+    if m > 0:
+        S = np.empty((m, m))
+        b = np.empty((m, 1))
+        for r in range(m):
+            gd = 0.0
+            for i in range(n):
+                gd += G[r, i] * dv[i]
+            b[r, 0] = rhs[n + r] - cv * gd
+            for c in range(m):
+                s = 0.0
+                for i in range(n):
+                    s += G[r, i] * X[i, 1 + c]
+                S[r, c] = cv * s
+        dlam = gauss_solve(S, b)[:, 0].copy()
+        for i in range(n):
+            for c in range(m):
+                dv[i] += X[i, 1 + c] * dlam[c]
     return dv, dlam
 
 
@@ -252,5 +288,5 @@ def _friction_branches(J, rhs, G, cv, dv, dlam, ma, v_reg, cwork):
                     if bc < 0:
                         continue
                     J2[ra, 3 * bc + c % 3] += coeff * cwork[5 + a, k] * cwork[5 + c, k]
-        dv, dlam = _newton_direction(J2, r2, G, cv)
+        dv, dlam = _newton_direction_compliant(J2, r2, G, cv)
     return dv, dlam
