@@ -5,6 +5,7 @@ Public API
 load_config(path=None, overrides=())  -> validated configuration dict
 run(config)                           -> xarray.Dataset of one run (SPEC section 5)
 write_netcdf(ds, path)                -> atomic netCDF writing
+zoom(run_ds, time, window, dt=...)    -> compliant re-simulation from a run's state
 """
 
 from importlib.metadata import PackageNotFoundError, version
@@ -32,5 +33,14 @@ def write_netcdf(ds, path, complevel=4):
     return _write(ds, path, complevel=complevel)
 
 
+def zoom(run_ds, time, window=2e-3, dt=1e-6, overrides=(), output_dt=None,
+         until_released=True, progress=False):
+    """Compliant zoom on a run; see :func:`simcore.compliant_zoom.zoom`."""
+    from .compliant_zoom import zoom as _zoom
+
+    return _zoom(run_ds, time, window=window, dt=dt, overrides=overrides, output_dt=output_dt,
+                 until_released=until_released, progress=progress)
+
+
 __all__ = ["ConfigError", "SolverError", "load_config", "load_schema", "validate_config", "run",
-           "write_netcdf", "__version__"]
+           "write_netcdf", "zoom", "__version__"]

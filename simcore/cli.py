@@ -1,4 +1,8 @@
-"""Command line: ``python -m simcore run [--config FILE] [--set KEY=VALUE ...] --out FILE.nc``."""
+"""Command line:
+
+- ``python -m simcore run [--config FILE] [--set KEY=VALUE ...] --out FILE.nc``
+- ``python -m simcore zoom RUN.nc --time T [--window W] [--dt H] [--set KEY=VALUE] --out Z.nc``
+"""
 
 from __future__ import annotations
 
@@ -20,6 +24,16 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--out", required=True, help="output netCDF file")
     r.add_argument("--threads", type=int, default=None, help="Numba threads (default: all)")
     r.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    z = sub.add_parser("zoom", help="re-simulate a run around a time with compliant contacts")
+    z.add_argument("run", help="netCDF file of a run (with q and v)")
+    z.add_argument("--time", type=float, required=True,
+                   help="time of interest [s]; the zoom starts from the run's sample before it")
+    z.add_argument("--window", type=float, default=2e-3, help="longest zoom duration [s]")
+    z.add_argument("--dt", type=float, default=1e-6, help="step of the zoom [s]")
+    z.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a setting of the zoom, e.g. --set model.youngs_modulus=2.1e11")
+    z.add_argument("--out", required=True, help="output netCDF file")
+    z.add_argument("--quiet", action="store_true", help="print nothing but errors")
     return p
 
 
@@ -31,7 +45,9 @@ def summary_lines(ds) -> list[str]:
     paper_max = {"smooth": 3, "position": 23, "velocity": 5}
     paper_mean = {"smooth": 2, "position": 5, "velocity": 2}
     lines = [
-        f"steps: {it.shape[0]}  dt = {ds.attrs['solver.dt']} s  t_end = {float(ds.time[-1]):.4g} s",
+        f"steps: {round(float(ds.time[-1] - ds.time[0]) / ds.attrs['solver.dt'])}  "
+        f"dt = {ds.attrs['solver.dt']} s  t_end = {float(ds.time[-1]):.4g} s  "
+        f"({ds.attrs.get('contact_model', 'nonsmooth')} contacts, {it.shape[0]} output rows)",
         f"wall time (integration): {ds.attrs['wall_time_s']:.3f} s",
         "Newton iterations per step   max  mean   (paper: max / mean)",
     ]
@@ -43,11 +59,77 @@ def summary_lines(ds) -> list[str]:
                  f"contact {int(ds.contact[k[1]])} (ball {int(ds.ball[k[1]])}, "
                  f"{ds.race.values[k[1]]} race)")
     lines.append(f"min gap_N: {float(ds['gap_N'].min()):.3g} m")
+    if "F_N" in ds:
+        F = ds["F_N"]
+        k = np.unravel_index(int(np.argmax(F.values)), F.shape)
+        lines.append(f"largest F_N: {F.values[k]:.4g} N at t = {float(ds.time[k[0]]):.6g} s, "
+                     f"contact {int(ds.contact[k[1]])} (ball {int(ds.ball[k[1]])}, "
+                     f"{ds.race.values[k[1]]} race)")
     return lines
+
+
+def _zoom_main(args) -> int:
+    from pathlib import Path
+
+    from .config import ConfigError
+    from .model import SolverError
+
+    out_dir = Path(args.out).resolve().parent
+    if not out_dir.is_dir():
+        print(f"error: --out: folder {out_dir} does not exist", file=sys.stderr)
+        return 2
+    import xarray as xr
+
+    try:
+        with xr.open_dataset(args.run) as run_ds:
+            run_ds = run_ds.load()
+    except (OSError, ValueError) as exc:
+        print(f"error: RUN: cannot read {args.run}: {exc}", file=sys.stderr)
+        return 2
+    from .compliant_zoom import start_index, zoom, zoom_config
+    from .io import write_netcdf
+
+    try:  # every check before any work
+        zoom_config(run_ds, window=args.window, dt=args.dt, overrides=args.overrides)
+        start_index(run_ds, args.time)
+    except ConfigError as exc:
+        msg = str(exc)
+        if msg.startswith("time:"):
+            msg = "--time:" + msg[len("time:"):]
+        elif msg.startswith("solver.t_end:"):
+            msg = "--window:" + msg[len("solver.t_end:"):]
+        elif msg.startswith("solver.dt:"):
+            msg = "--dt:" + msg[len("solver.dt:"):]
+        print(f"error: {msg}", file=sys.stderr)
+        return 2
+    start = time.perf_counter()
+    try:
+        ds = zoom(run_ds, args.time, window=args.window, dt=args.dt, overrides=args.overrides,
+                  progress=not args.quiet)
+    except SolverError as exc:
+        print(f"error: {exc}; no output written", file=sys.stderr)
+        return 3
+    try:
+        write_netcdf(ds, args.out)
+    except OSError as exc:
+        print(f"error: --out: cannot write {args.out}: {exc}", file=sys.stderr)
+        return 4
+    if not args.quiet:
+        F = ds["F_N"]
+        k = np.unravel_index(int(np.argmax(F.values)), F.shape)
+        print(f"zoom from t = {ds.attrs['zoom_start_time']:.6g} s, {ds.sizes['time'] - 1} "
+              f"samples of {ds.attrs['solver.output_dt']:.3g} s")
+        print(f"largest F_N: {F.values[k]:.4g} N at t = {float(ds.time[k[0]]):.6g} s, contact "
+              f"{int(ds.contact[k[1]])} (ball {int(ds.ball[k[1]])}, {ds.race.values[k[1]]} race)")
+        print(f"wall time: {time.perf_counter() - start:.2f} s")
+        print(f"written: {args.out}")
+    return 0
 
 
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
+    if args.command == "zoom":
+        return _zoom_main(args)
     from .config import ConfigError, load_config
     from .model import SolverError
 

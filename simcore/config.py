@@ -164,6 +164,23 @@ def _check_consistency(cfg: Mapping[str, Any]) -> None:
         raise ConfigError(
             f"model.crank_length: {model['crank_length']!r} is not allowed; allowed: "
             f"< model.rod_length ({model['rod_length']}) so that the crank turns fully")
+    dt, out_dt = solver["dt"], solver.get("output_dt")
+    if out_dt is not None:
+        ratio = out_dt / dt
+        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio:
+            raise ConfigError(f"solver.output_dt: {out_dt!r} is not allowed; allowed: a whole "
+                              f"multiple of solver.dt ({dt})")
+        if model["contact_model"] == "nonsmooth" and round(ratio) != 1:
+            raise ConfigError(f"solver.output_dt: {out_dt!r} is not allowed; allowed: "
+                              f"solver.dt ({dt}) or null with model.contact_model = nonsmooth "
+                              "(the impulse filter needs every step)")
+    if model["contact_model"] == "compliant" and model["damping_law"] == "flores":
+        e_values = list(cfg.get("sweep", {}).get("e_N", [])) + [model["e_N"]]
+        if min(e_values) <= 0.0:
+            raise ConfigError("model.e_N: 0 is not allowed with model.damping_law = flores in "
+                              "the compliant model (chi = 8 (1 - e) / (5 e) is infinite); "
+                              "allowed: (0, 1], or damping_law hunt_crossley or "
+                              "lankarani_nikravesh")
     clearances = list(cfg.get("sweep", {}).get("clearance", [])) + [model["clearance"]]
     for g in clearances:
         pitch = model["inner_radius"] + model["ball_radius"] + 0.5 * g
@@ -174,6 +191,14 @@ def _check_consistency(cfg: Mapping[str, Any]) -> None:
                 f"model.n_balls: {model['n_balls']!r} is not allowed; allowed: balls must fit "
                 f"on the pitch circle, at most {n_max} for ball_radius={model['ball_radius']} "
                 f"and inner_radius={model['inner_radius']}")
+
+
+def output_every(cfg: Mapping[str, Any]) -> int:
+    """Steps per output sample of a validated configuration (solver.output_dt / solver.dt)."""
+    solver = cfg["solver"]
+    if solver.get("output_dt") is None:
+        return 1
+    return int(round(solver["output_dt"] / solver["dt"]))
 
 
 def parse_override(item: str) -> tuple[list[str], Any]:

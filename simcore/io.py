@@ -98,6 +98,7 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
     jx, jy = cx - ax, cy - ay
     crank_angle = q[:, layout.crank, 2]
     TC = ("time", "contact")
+    compliant = getattr(traj, "contact_model", "nonsmooth") == "compliant"
     data = {
         "Lambda_N": (TC, traj.lambda_N, _attrs(
             "N s", "normal contact impulse of the velocity jump of the step ending at time")),
@@ -133,6 +134,36 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
         "converged": (("time",), traj.converged.astype(np.int8), _attrs(
             "1", "1 where every sub-problem of the step converged")),
     }
+    if compliant:
+        data.update({
+            "Lambda_N": (TC, traj.lambda_N, _attrs(
+                "N s", "normal contact impulse over the output interval ending at time "
+                "(integral of F dt)")),
+            "Lambda_T": (TC, traj.lambda_T, _attrs(
+                "N s", "tangential contact impulse over the output interval, along t = e_z x n")),
+            "nu_N": (TC, traj.nu_N, _attrs(
+                "N s^2", "position-correction multiplier (0: compliant contacts have none)")),
+            "gap_N": (TC, traj.gap_N, _attrs(
+                "m", "smallest normal gap in the output interval (negative: indentation)")),
+            "vn_pre": (TC, traj.vn_pre, _attrs(
+                "m s-1", "normal relative velocity at the start of the output interval "
+                "(negative: approaching)")),
+            "vn_post": (TC, traj.vn_post, _attrs(
+                "m s-1", "normal relative velocity at time (negative: approaching)")),
+            "vn_free": (TC, traj.vn_free, _attrs(
+                "m s-1", "normal relative velocity at time (compliant: no jump, = vn_post)")),
+            "F_N": (TC, traj.F_N, _attrs(
+                "N", "largest normal contact force in the output interval ending at time")),
+            "F_T": (TC, traj.F_T, _attrs(
+                "N", "friction force along t = e_z x n at the instant of the largest normal "
+                "force of the interval")),
+            "energy": (("time",), traj.energy, _attrs(
+                "J", "kinetic + gravitational + cage spring + contact elastic energy")),
+            "iterations": (("time", "stage"), traj.iterations.astype(np.int32), _attrs(
+                "1", "largest Newton iterations per step in the output interval (smooth: "
+                "generalized-alpha step with contact forces, position: joint projection, "
+                "velocity: 0)")),
+        })
     contact = np.arange(2 * n_balls)
     coords = {
         "time": ("time", traj.time, _attrs("s", "time")),
@@ -151,9 +182,15 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
         "omega0": ((), float(m["omega0"]), _attrs("rad s-1", "crank speed")),
         "e_N": ((), float(m["e_N"]), _attrs("1", "normal restitution coefficient")),
     }
+    out_every = int(round(cfg["solver"].get("output_dt") / cfg["solver"]["dt"])) if cfg[
+        "solver"].get("output_dt") is not None else 1
     attrs = {
         "Conventions": "CF-1.10",
-        "title": "Ball bearing (SKF 6012) in a crank-slider: nonsmooth generalized-alpha run",
+        "title": ("Ball bearing (SKF 6012) in a crank-slider: "
+                  + ("compliant (Hertz) contact run" if compliant
+                     else "nonsmooth generalized-alpha run")),
+        "contact_model": "compliant" if compliant else "nonsmooth",
+        "output_interval_s": float(cfg["solver"]["dt"]) * out_every,
         "source": f"bearingsim {__version__} (simcore)",
         "outer_radius": layout.outer_radius,
         "pitch_radius": layout.pitch_radius,
@@ -166,4 +203,5 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
         "n_unconverged_steps": int(np.sum(traj.converged == 0)),
     }
     attrs.update(_flatten(cfg))
+    attrs["solver.output_dt"] = float(cfg["solver"]["dt"]) * out_every
     return xr.Dataset(data, coords=coords, attrs=attrs)

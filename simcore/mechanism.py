@@ -65,7 +65,8 @@ def crank_slider(model: dict) -> tuple[Model, BearingLayout]:
     rA, rB, g = model["inner_radius"], model["ball_radius"], model["clearance"]
     rC = rA + 2.0 * rB + g
     n = int(model["n_balls"])
-    m = Model(gravity=model["gravity"])
+    m = Model(gravity=model["gravity"], youngs_modulus=model["youngs_modulus"],
+              poisson_ratio=model["poisson_ratio"])
 
     # crank + inner race, about the combined centre of mass on the crank axis
     mc, sc, ic = _combine([(model["crank_mass"], 0.5 * L1, model["crank_inertia"]),
@@ -121,23 +122,26 @@ def crank_slider(model: dict) -> tuple[Model, BearingLayout]:
 # validation scenes (closed-form checks)
 # ------------------------------------------------------------------------------------------
 def ball_on_plane(radius=0.1, mass=1.0, height=1.0, spin=0.0, mu=0.0, e_N=0.5, e_T=0.0,
-                  gravity=9.81, inertia=None) -> Model:
-    """A ball (centre at ``height`` [m]) released above the ground plane y = 0, with an
-    initial spin [rad/s]. Inertia default: solid sphere 0.4 m R^2."""
-    m = Model(gravity=gravity)
+                  gravity=9.81, inertia=None, speed=(0.0, 0.0), youngs_modulus=2.1e11,
+                  poisson_ratio=0.3) -> Model:
+    """A ball (centre at ``height`` [m]) released above the ground plane y = 0 with velocity
+    ``speed`` [m/s] and an initial spin [rad/s]. Inertia default: solid sphere 0.4 m R^2.
+    ``youngs_modulus`` [Pa] and ``poisson_ratio`` matter for the compliant contact model."""
+    m = Model(gravity=gravity, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio)
     inertia = 0.4 * mass * radius**2 if inertia is None else inertia
-    b = m.add_body("ball", mass, inertia, q0=(0.0, height, 0.0), v0=(0.0, 0.0, spin))
+    b = m.add_body("ball", mass, inertia, q0=(0.0, height, 0.0), v0=(speed[0], speed[1], spin))
     m.add_contact("plane", -1, (0.0, 0.0), np.pi / 2, b, (0.0, 0.0), radius, mu=mu, e_N=e_N,
                   e_T=e_T, name="ball-ground")
     return m
 
 
 def ball_in_ring(ring_radius=0.05, radius=0.005, speed=(1.0, 0.37), e_N=1.0, mu=0.0,
-                 gravity=0.0, mass=2.7e-3) -> Model:
-    """A ball moving inside a fixed ring (the sphere-in-sphere element), starting at its
-    centre with velocity ``speed`` [m/s]."""
-    m = Model(gravity=gravity)
-    b = m.add_body("ball", mass, 0.4 * mass * radius**2, q0=(0.0, 0.0, 0.0),
+                 gravity=0.0, mass=2.7e-3, start=(0.0, 0.0), youngs_modulus=2.1e11,
+                 poisson_ratio=0.3) -> Model:
+    """A ball moving inside a fixed ring (the sphere-in-sphere element), starting at ``start``
+    (default: the centre) [m] with velocity ``speed`` [m/s]."""
+    m = Model(gravity=gravity, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio)
+    b = m.add_body("ball", mass, 0.4 * mass * radius**2, q0=(start[0], start[1], 0.0),
                    v0=(speed[0], speed[1], 0.0))
     m.add_contact("inside", -1, (0.0, 0.0), ring_radius, b, (0.0, 0.0), radius, mu=mu, e_N=e_N,
                   name="ball-ring")

@@ -17,8 +17,50 @@ import numpy as np
 
 from . import kernels as nb
 
+CONTACT_MODELS = ("nonsmooth", "compliant")
+DAMPING_LAWS = ("flores", "hunt_crossley", "lankarani_nikravesh")
+
 CONTACT_KINDS = {"plane": nb.CONTACT_PLANE, "outside": nb.CONTACT_OUTSIDE,
                  "inside": nb.CONTACT_INSIDE}
+
+
+def damping_factor(e_N: float, law: str = "flores") -> float:
+    """Hysteresis damping factor chi of F = K delta^1.5 (1 + chi delta_dot / v_pre) [-].
+
+    flores: 8 (1 - e) / (5 e); hunt_crossley: 3 (1 - e) / 2; lankarani_nikravesh:
+    3 (1 - e^2) / 4. The Flores law is undefined for e = 0 (refused)."""
+    e = float(e_N)
+    if law == "flores":
+        if e <= 0.0:
+            raise ValueError("model.e_N: 0 is not allowed with model.damping_law = flores "
+                             "(chi = 8 (1 - e) / (5 e) is infinite); allowed: (0, 1], or "
+                             "damping_law hunt_crossley or lankarani_nikravesh")
+        return 8.0 * (1.0 - e) / (5.0 * e)
+    if law == "hunt_crossley":
+        return 1.5 * (1.0 - e)
+    if law == "lankarani_nikravesh":
+        return 0.75 * (1.0 - e * e)
+    raise ValueError(f"model.damping_law: {law!r} is not allowed; allowed: "
+                     + ", ".join(DAMPING_LAWS))
+
+
+def hertz_stiffness(kind: str, radius_a: float, radius_b: float, youngs_modulus: float,
+                    poisson_ratio: float) -> float:
+    """Hertz stiffness K = (4/3) E* sqrt(R_eff) [N m^-1.5] of a contact element, both bodies of
+    the same material: E* = E / (2 (1 - nu^2)); R_eff = r_b on a plane, r_a r_b / (r_a + r_b)
+    for a sphere on a sphere (convex), r_a r_b / (r_a - r_b) for a sphere inside a ring of
+    radius r_a (concave)."""
+    e_star = youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
+    if kind == "plane":
+        r_eff = radius_b
+    elif kind == "outside":
+        r_eff = radius_a * radius_b / (radius_a + radius_b)
+    elif kind == "inside":
+        r_eff = radius_a * radius_b / (radius_a - radius_b)
+    else:
+        raise ValueError(f"contact kind {kind!r} is not allowed; allowed: plane, outside, "
+                         "inside")
+    return 4.0 / 3.0 * e_star * np.sqrt(r_eff)
 
 
 class SolverError(RuntimeError):
@@ -38,7 +80,13 @@ def _finite(name, value, positive=False, nonneg=False):
 
 @dataclass
 class Trajectory:
-    """Plain-array result of :meth:`Model.simulate` (one row per time, t = 0 included)."""
+    """Plain-array result of :meth:`Model.simulate` (one row per output time, t0 included).
+
+    Nonsmooth runs: one row per step, the impulses of the step's velocity jump. Compliant runs:
+    one row per output interval; ``lambda_N``/``lambda_T`` are the impulses over the interval,
+    ``F_N`` the largest normal force in it and ``F_T`` the friction force at that peak,
+    ``gap_N`` the smallest gap in it, ``vn_pre``/``vn_post`` the normal velocity at its start
+    and end (``vn_free`` = ``vn_post``: nothing jumps), ``nu_N`` zero."""
 
     time: np.ndarray
     q: np.ndarray
@@ -54,6 +102,9 @@ class Trajectory:
     iterations: np.ndarray
     converged: np.ndarray
     drive_torque: np.ndarray
+    F_N: np.ndarray | None = None
+    F_T: np.ndarray | None = None
+    contact_model: str = "nonsmooth"
     wall_time_s: float = 0.0
     first_unconverged_step: int = -1
     extras: dict = field(default_factory=dict)
@@ -71,8 +122,14 @@ class Model:
     0
     """
 
-    def __init__(self, gravity: float = 9.81):
+    def __init__(self, gravity: float = 9.81, youngs_modulus: float = 2.1e11,
+                 poisson_ratio: float = 0.3):
         self.gravity = _finite("gravity", gravity, nonneg=True)
+        self.youngs_modulus = _finite("model.youngs_modulus", youngs_modulus, positive=True)
+        self.poisson_ratio = _finite("model.poisson_ratio", poisson_ratio, nonneg=True)
+        if self.poisson_ratio >= 0.5:
+            raise ValueError(f"model.poisson_ratio: {poisson_ratio!r} is not allowed; "
+                             "allowed: in [0, 0.5)")
         self.body_names: list[str] = []
         self.mass: list[float] = []
         self.inertia: list[float] = []
@@ -206,8 +263,11 @@ class Model:
         return len(self.contacts) - 1
 
     # -- arrays for the kernels --------------------------------------------------------------
-    def arrays(self) -> nb.ModelArrays:
-        """Flat arrays of the model, as the kernels take them (one namedtuple bundle)."""
+    def arrays(self, damping_law: str = "flores", compliant: bool = False) -> nb.ModelArrays:
+        """Flat arrays of the model, as the kernels take them (one namedtuple bundle).
+
+        ``ct_hertz`` holds each contact's Hertz stiffness and damping factor for
+        ``damping_law``; it is checked (e_N > 0 for Flores) only when ``compliant``."""
         nbody = len(self.body_names)
         if nbody == 0:
             raise ValueError("the model has no body")
@@ -226,10 +286,21 @@ class Model:
         ct_body = np.array([[c[1], c[2]] for c in self.contacts], dtype=np.int64).reshape(-1, 2)
         ct_geom = np.array([c[3] for c in self.contacts], dtype=np.float64).reshape(-1, 6)
         ct_law = np.array([c[4] for c in self.contacts], dtype=np.float64).reshape(-1, 3)
+        if damping_law not in DAMPING_LAWS:
+            raise ValueError(f"model.damping_law: {damping_law!r} is not allowed; allowed: "
+                             + ", ".join(DAMPING_LAWS))
+        kinds = {code: name for name, code in CONTACT_KINDS.items()}
+        ct_hertz = np.zeros((len(self.contacts), 2))
+        for k, (code, _a, _b, geom, law) in enumerate(self.contacts):
+            ct_hertz[k, 0] = hertz_stiffness(kinds[code], geom[4], geom[5], self.youngs_modulus,
+                                             self.poisson_ratio)
+            if compliant or law[1] > 0.0 or damping_law != "flores":
+                ct_hertz[k, 1] = damping_factor(law[1], damping_law)
         return nb.ModelArrays(mdiag=mdiag, mass=mass, gvec=np.array([0.0, -self.gravity]),
                               jt_type=jt_type, jt_body=jt_body, jt_geom=jt_geom,
                               sp_body=sp_body, sp_geom=sp_geom, ct_type=ct_type,
-                              ct_body=ct_body, ct_geom=ct_geom, ct_law=ct_law)
+                              ct_body=ct_body, ct_geom=ct_geom, ct_law=ct_law,
+                              ct_hertz=ct_hertz)
 
     def initial_state(self):
         """(q0, v0) as flat arrays."""
@@ -247,30 +318,52 @@ class Model:
 
     # -- time loop ---------------------------------------------------------------------------
     def simulate(self, dt, t_end, rho_inf=0.0, tol=1e-5, max_iter=50, proximal=1e-6,
-                 on_nonconvergence="error", progress=False, chunk=500) -> Trajectory:
-        """Integrate with the decoupled nonsmooth generalized-alpha scheme.
+                 on_nonconvergence="error", progress=False, chunk=500,
+                 contact_model="nonsmooth", damping_law="flores", friction_regularization=1e-4,
+                 output_every=1, v_pre_min=1e-3, q0=None, v0=None, t0=0.0,
+                 stop_when_released=False) -> Trajectory:
+        """Integrate with the decoupled nonsmooth generalized-alpha scheme, or with compliant
+        (Hertz) contacts in the generalized-alpha smooth step.
 
         Parameters
         ----------
         dt : float
             Time step h [s].
         t_end : float
-            End time [s]; the number of steps is round(t_end / dt).
+            Duration [s] (from ``t0``); the number of steps is round(t_end / dt).
         rho_inf : float
             Spectral radius at infinity, in [0, 1].
         tol : float
-            Newton tolerance (SPEC section 4: m/s for velocities, |g|/h for gaps, relative for
-            the smooth residual).
+            Newton tolerance (m/s for velocities, |g|/h for gaps, relative for the smooth
+            residual).
         max_iter : int
             Iteration cap per sub-problem.
         proximal : float
-            Proximal regularisation eta of active contact rows [-].
+            Proximal regularisation eta of active contact rows [-] (nonsmooth).
         on_nonconvergence : {"error", "warn"}
             Raise :class:`SolverError` at the first unconverged step, or warn and flag it.
         progress : bool
             Print a progress bar on stderr.
         chunk : int
             Steps per kernel call (the progress bar and the error check run between calls).
+        contact_model : {"nonsmooth", "compliant"}
+            Impacts as impulses (the paper's scheme) or Hertz contact forces.
+        damping_law : {"flores", "hunt_crossley", "lankarani_nikravesh"}
+            Hysteresis damping of the compliant law.
+        friction_regularization : float
+            Slip speed below which the compliant Coulomb friction is linear [m/s], > 0.
+        output_every : int
+            Compliant: steps per output row (peaks and impulses are kept per interval).
+            Nonsmooth: must be 1.
+        v_pre_min : float
+            Floor of the onset approach speed in the damping term [m/s].
+        q0, v0 : array, optional
+            Initial state (default: the bodies' initial values).
+        t0 : float
+            Start time [s] (matters for a prescribed rotation).
+        stop_when_released : bool
+            Compliant: stop at the end of the first chunk where every contact that closed
+            during the run is open again.
         """
         dt = _finite("solver.dt", dt, positive=True)
         t_end = _finite("solver.t_end", t_end, positive=True)
@@ -279,36 +372,54 @@ class Model:
         if on_nonconvergence not in ("error", "warn"):
             raise ValueError(f"solver.on_nonconvergence: {on_nonconvergence!r} is not allowed; "
                              "allowed: 'error', 'warn'")
+        if contact_model not in CONTACT_MODELS:
+            raise ValueError(f"model.contact_model: {contact_model!r} is not allowed; allowed: "
+                             + ", ".join(CONTACT_MODELS))
+        compliant = contact_model == "compliant"
+        v_reg = _finite("model.friction_regularization", friction_regularization, positive=True)
+        output_every = int(output_every)
+        if output_every < 1 or (not compliant and output_every != 1):
+            raise ValueError(f"solver.output_dt: {output_every} steps per output is not "
+                             "allowed; allowed: 1 for the nonsmooth model (its impulse filter "
+                             "needs every step), a whole number >= 1 of steps for compliant")
         n_steps = int(round(t_end / dt))
-        arr = self.arrays()
+        if n_steps % output_every:
+            n_steps += output_every - n_steps % output_every
+        arr = self.arrays(damping_law, compliant=compliant)
         q, v = self.initial_state()
+        if q0 is not None:
+            q = np.array(q0, dtype=np.float64).copy()
+            v = np.array(v0, dtype=np.float64).copy()
         ndof = q.size
         nc = arr.ct_type.size
         nbil = int(nb.joint_row_count(arr.jt_type))
         acc = np.zeros(ndof)
         vdot = np.zeros(ndof)
         lam_s = np.zeros(nbil)
+        gap0 = np.zeros(nc)
+        vn0 = np.zeros(nc)
+        vt0 = np.zeros(nc)
+        nb.contact_velocities(q, v, arr, gap0, vn0, vt0)
+        v_pre = np.maximum(-vn0, v_pre_min)
         try:
-            nb.initial_acceleration(q, v, 0.0, arr, vdot, lam_s)
+            nb.initial_acceleration(q, v, float(t0), arr, vdot, lam_s, compliant, v_pre, v_reg)
         except np.linalg.LinAlgError as exc:
             raise SolverError(f"the joints at t = 0 are redundant or singular: {exc}") from None
         acc[:] = vdot
         lam_b = np.zeros(nbil)
         lamN = np.zeros(nc)
         lamT = np.zeros(nc)
-        gap0 = np.zeros(nc)
-        vn0 = np.zeros(nc)
-        vt0 = np.zeros(nc)
-        nb.contact_velocities(q, v, arr, gap0, vn0, vt0)
+        n_out = n_steps // output_every + 1
         out = Trajectory(
-            time=np.arange(n_steps + 1) * dt,
-            q=np.zeros((n_steps + 1, ndof)), v=np.zeros((n_steps + 1, ndof)),
-            lambda_N=np.zeros((n_steps + 1, nc)), lambda_T=np.zeros((n_steps + 1, nc)),
-            nu_N=np.zeros((n_steps + 1, nc)), gap_N=np.zeros((n_steps + 1, nc)),
-            vn_pre=np.zeros((n_steps + 1, nc)), vn_post=np.zeros((n_steps + 1, nc)),
-            vn_free=np.zeros((n_steps + 1, nc)),
-            energy=np.zeros(n_steps + 1), iterations=np.zeros((n_steps + 1, 3), np.int64),
-            converged=np.ones(n_steps + 1, np.int8), drive_torque=np.zeros(n_steps + 1))
+            time=float(t0) + np.arange(n_out) * dt * output_every,
+            q=np.zeros((n_out, ndof)), v=np.zeros((n_out, ndof)),
+            lambda_N=np.zeros((n_out, nc)), lambda_T=np.zeros((n_out, nc)),
+            nu_N=np.zeros((n_out, nc)), gap_N=np.zeros((n_out, nc)),
+            vn_pre=np.zeros((n_out, nc)), vn_post=np.zeros((n_out, nc)),
+            vn_free=np.zeros((n_out, nc)),
+            energy=np.zeros(n_out), iterations=np.zeros((n_out, 3), np.int64),
+            converged=np.ones(n_out, np.int8), drive_torque=np.zeros(n_out),
+            contact_model=contact_model)
         out.q[0] = q
         out.v[0] = v
         out.gap_N[0] = gap0
@@ -320,45 +431,96 @@ class Model:
             out.drive_torque[0] = lam_s[drive_row]
         out.energy[0] = nb.total_energy(q, v, arr)
         settings = nb.StepSettings(float(dt), float(rho_inf), float(tol), int(max_iter),
-                                   float(proximal), int(drive_row))
+                                   float(proximal), int(drive_row), float(t0), v_reg,
+                                   float(v_pre_min))
         state = nb.StepState(q, v, acc, vdot, lam_s, lam_b, lamN, lamT, vn0, vt0)
-        outputs = nb.ChunkOutputs(out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N,
-                                  out.gap_N, out.vn_pre, out.vn_post, out.vn_free, out.energy,
-                                  out.iterations, out.converged, out.drive_torque)
+        if compliant:
+            out.F_N = np.zeros((n_out, nc))
+            out.F_T = np.zeros((n_out, nc))
+            FN0, FT0 = np.zeros(nc), np.zeros(nc)
+            nb.contact_forces(q, v, arr, v_pre, v_reg, np.zeros(ndof), np.zeros((1, 1)),
+                              np.zeros((1, 1)), False, FN0, FT0, gap0.copy(), vn0.copy(),
+                              vt0.copy(), np.zeros((6, nc)))
+            out.F_N[0] = FN0
+            out.F_T[0] = FT0
+            out.energy[0] += nb.elastic_energy(q, arr)
+            cstate = nb.CompliantState(
+                v_pre=v_pre, closed=(gap0 < 0.0).astype(np.int8), FN=FN0, FT=FT0,
+                gap=gap0.copy(), vn=vn0.copy(), vt=vt0.copy(), FN_max=np.zeros(nc),
+                FT_at_max=np.zeros(nc), LN=np.zeros(nc), LT=np.zeros(nc),
+                gap_min=np.full(nc, np.inf), vn_start=vn0.copy(),
+                it_max=np.zeros(3, np.int64), ok=np.ones(1, np.int8))
+            outputs = nb.CompliantOutputs(out.q, out.v, out.F_N, out.F_T, out.lambda_N,
+                                          out.lambda_T, out.gap_N, out.vn_pre, out.vn_post,
+                                          out.energy, out.iterations, out.converged,
+                                          out.drive_torque)
+            chunk = max(1, int(chunk) // output_every) * output_every
+
+            def advance(k, k_next):
+                return nb.integrate_compliant_chunk(k, k_next, output_every, settings, arr,
+                                                    state, cstate, outputs)
+        else:
+            outputs = nb.ChunkOutputs(out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N,
+                                      out.gap_N, out.vn_pre, out.vn_post, out.vn_free,
+                                      out.energy, out.iterations, out.converged,
+                                      out.drive_torque)
+
+            def advance(k, k_next):
+                return nb.integrate_chunk(k, k_next, settings, arr, state, outputs)
+
         start = time.perf_counter()
         show = progress and sys.stderr.isatty()
         k = 0
         first_bad = -1
+        ever_closed = np.zeros(nc, dtype=bool)
         while k < n_steps:
             k_next = min(n_steps, k + chunk)
             try:
-                bad = nb.integrate_chunk(k, k_next, settings, arr, state, outputs)
+                bad = advance(k, k_next)
             except np.linalg.LinAlgError as exc:
                 # a singular Newton matrix: report it as what it is, a failed step
                 raise SolverError(f"singular Newton matrix between steps {k + 1} and {k_next} "
-                                  f"(t = {(k + 1) * dt:.6g} to {k_next * dt:.6g} s): {exc}"
-                                  ) from None
+                                  f"(t = {t0 + (k + 1) * dt:.6g} to {t0 + k_next * dt:.6g} s): "
+                                  f"{exc}") from None
             if bad >= 0 and first_bad < 0:
                 first_bad = int(bad)
+                row = (bad + 1 + output_every - 1) // output_every
                 stages = [s for s, it in zip(("smooth", "position", "velocity"),
-                                             out.iterations[bad + 1], strict=True)
+                                             out.iterations[row], strict=True)
                           if it >= max_iter]
-                msg = (f"solver did not converge at step {bad + 1} (t = {(bad + 1) * dt:.6g} s)"
-                       f"; stage(s) at the iteration cap: {', '.join(stages) or 'fallback'}"
-                       f" (solver.max_iter = {max_iter}, solver.tol = {tol})")
+                msg = (f"solver did not converge at step {bad + 1} "
+                       f"(t = {t0 + (bad + 1) * dt:.6g} s); stage(s) at the iteration cap: "
+                       f"{', '.join(stages) or 'fallback'} (solver.max_iter = {max_iter}, "
+                       f"solver.tol = {tol})")
                 if on_nonconvergence == "error":
                     raise SolverError(msg)
                 warnings.warn(msg + "; flagged in `converged`", RuntimeWarning, stacklevel=2)
             if not np.all(np.isfinite(q)):
-                raise SolverError(f"non-finite state at step {k_next} (t = {k_next * dt:.6g} s)")
+                raise SolverError(f"non-finite state at step {k_next} "
+                                  f"(t = {t0 + k_next * dt:.6g} s)")
             k = k_next
             if show:
                 frac = k / n_steps
                 bar = "#" * int(30 * frac)
-                sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f}%  t = {k * dt:.4f} s")
+                sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f}%  t = {t0 + k * dt:.4f} s")
                 sys.stderr.flush()
+            if compliant and stop_when_released:
+                rows = slice(0, k // output_every + 1)
+                ever_closed |= (out.F_N[rows] > 0.0).any(axis=0)
+                if ever_closed.any() and not (cstate.closed[ever_closed] > 0).any():
+                    break
         if show:
             sys.stderr.write("\n")
+        out.extras["step_state"] = state
+        if compliant:
+            out.extras["compliant_state"] = cstate
+            out.vn_free[:] = out.vn_post
+            if k < n_steps:  # stopped early: keep the rows written
+                n_keep = k // output_every + 1
+                for name in ("time", "q", "v", "lambda_N", "lambda_T", "nu_N", "gap_N",
+                             "vn_pre", "vn_post", "vn_free", "energy", "iterations",
+                             "converged", "drive_torque", "F_N", "F_T"):
+                    setattr(out, name, getattr(out, name)[:n_keep])
         out.wall_time_s = time.perf_counter() - start
         out.first_unconverged_step = first_bad
         return out

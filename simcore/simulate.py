@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .config import validate_config
+from .config import output_every, validate_config
 from .mechanism import crank_slider
 from .model import SolverError  # noqa: F401  (re-exported)
 
@@ -33,8 +33,12 @@ def run(config: dict, progress: bool = False):
     cfg = validate_config(config)
     solver = cfg["solver"]
     model, layout = crank_slider(cfg["model"])
+    m = cfg["model"]
     traj = model.simulate(solver["dt"], solver["t_end"], rho_inf=solver["rho_inf"],
                           tol=solver["tol"], max_iter=solver["max_iter"],
                           proximal=solver["proximal"],
-                          on_nonconvergence=solver["on_nonconvergence"], progress=progress)
+                          on_nonconvergence=solver["on_nonconvergence"], progress=progress,
+                          contact_model=m["contact_model"], damping_law=m["damping_law"],
+                          friction_regularization=m["friction_regularization"],
+                          output_every=output_every(cfg))
     return trajectory_dataset(traj, model, layout, cfg)

@@ -111,7 +111,7 @@ def test_initial_acceleration_of_free_fall():
     arr = model.arrays()
     q, v = model.initial_state()
     vdot, lam = np.zeros(3), np.zeros(0)
-    nb.initial_acceleration(q, v, 0.0, arr, vdot, lam)
+    nb.initial_acceleration(q, v, 0.0, arr, vdot, lam, False, np.zeros(1), 1.0)
     np.testing.assert_allclose(vdot, [0.0, -9.81, 0.0])
 
 
@@ -166,3 +166,123 @@ def test_contact_hessian_matches_finite_differences(bearing):
                                 np.zeros(6))
                 rows.append(wN.copy())
             np.testing.assert_allclose((rows[0] - rows[1]) / (2 * eps), H[:, c], atol=1e-5)
+
+
+def _pressed_bearing(mu):
+    """The bearing with every ball pushed 2 um into the inner race, small random velocities."""
+    cfg = load_config(overrides=["model.youngs_modulus=2.1e11", f"model.mu={mu}"])
+    model, layout = crank_slider(cfg["model"])
+    arr = model.arrays()
+    q, v = model.initial_state()
+    pin = np.array([cfg["model"]["crank_length"], 0.0])
+    for b in layout.balls:
+        c = q[3 * b:3 * b + 2] - pin
+        c *= 1.0 - (0.5 * cfg["model"]["clearance"] + 2e-6) / np.hypot(*c)
+        q[3 * b:3 * b + 2] = pin + c
+    v = v + 1e-3 * np.sin(np.arange(v.size))
+    return model, arr, q, v
+
+
+def _forces(arr, q, v, v_pre, v_reg, tangent=False):
+    n, nc = q.size, arr.ct_type.size
+    f, K, C = np.zeros(n), np.zeros((n, n)), np.zeros((n, n))
+    FN, FT, gap, vn, vt = (np.zeros(nc) for _ in range(5))
+    nb.contact_forces(q, v, arr, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt,
+                      np.zeros((6, nc)))
+    return f, K, C, FN, FT, vt
+
+
+def test_hertz_normal_force_and_its_derivatives():
+    K, chi, v_pre = 1e10, 0.2, 0.5
+    for delta, rate in ((1e-6, 0.1), (2e-5, -0.3)):
+        F, dd, ddot = nb.normal_force(delta, rate, K, chi, v_pre)
+        assert F == pytest.approx(K * delta**1.5 * (1 + chi * rate / v_pre))
+        eps = 1e-6
+        assert dd == pytest.approx((nb.normal_force(delta * (1 + eps), rate, K, chi, v_pre)[0]
+                                    - F) / (delta * eps), rel=1e-5)
+        assert ddot == pytest.approx((nb.normal_force(delta, rate + eps, K, chi, v_pre)[0]
+                                      - F) / eps, rel=1e-5)
+    # open, or pulling (damping larger than the elastic part): no force
+    assert nb.normal_force(-1e-6, 0.0, K, chi, v_pre) == (0.0, 0.0, 0.0)
+    assert nb.normal_force(1e-6, -10.0, K, chi, v_pre) == (0.0, 0.0, 0.0)
+
+
+def test_compliant_tangents_match_finite_differences():
+    """Without friction K = -df/dq and C = -df/dv are exact (normal stiffness, damping and the
+    sphere elements' geometric term); with friction on saturated slips C is exact."""
+    model, arr, q, v = _pressed_bearing(mu=0.0)
+    nc = arr.ct_type.size
+    v_pre = np.full(nc, 0.3)
+    f, K, C, FN, _, _ = _forces(arr, q, v, v_pre, 1e-4, tangent=True)
+    assert np.count_nonzero(FN) == 8  # the eight inner contacts
+    for i in range(q.size):
+        for which, M, h in (("q", K, 1e-10), ("v", C, 1e-6)):
+            xp, xm = q.copy(), q.copy()
+            vp, vm = v.copy(), v.copy()
+            if which == "q":
+                xp[i] += h
+                xm[i] -= h
+            else:
+                vp[i] += h
+                vm[i] -= h
+            fd = -(_forces(arr, xp, vp, v_pre, 1e-4)[0] - _forces(arr, xm, vm, v_pre, 1e-4)[0])
+            np.testing.assert_allclose(fd / (2 * h), M[:, i], rtol=1e-4,
+                                       atol=1e-6 * np.abs(M).max())
+    model, arr, q, v = _pressed_bearing(mu=0.1)
+    f, K, C, FN, FT, vt = _forces(arr, q, v, v_pre, 1e-6, tangent=True)
+    closed = FN > 0
+    assert np.all(np.abs(vt[closed]) > 1e-6)  # saturated
+    np.testing.assert_allclose(np.abs(FT[closed]), 0.1 * FN[closed], rtol=1e-12)
+    for i in range(q.size):
+        vp, vm = v.copy(), v.copy()
+        vp[i] += 1e-9
+        vm[i] -= 1e-9
+        fd = -(_forces(arr, q, vp, v_pre, 1e-6)[0] - _forces(arr, q, vm, v_pre, 1e-6)[0])
+        np.testing.assert_allclose(fd / 2e-9, C[:, i], rtol=1e-4, atol=1e-6 * np.abs(C).max())
+
+
+def test_contact_elastic_energy_is_the_potential_of_the_undamped_force():
+    model, arr, q, v = _pressed_bearing(mu=0.0)
+    arr = arr._replace(ct_hertz=np.column_stack([arr.ct_hertz[:, 0], np.zeros(16)]))
+    v_pre = np.full(16, 0.3)
+    f = _forces(arr, q, v, v_pre, 1e-4)[0]
+    f_gravity = np.zeros(q.size)
+    nb.smooth_forces(q, v, arr._replace(sp_body=np.zeros((0, 2), np.int64),
+                                        sp_geom=np.zeros((0, 7))), f_gravity,
+                     np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), False)
+    assert nb.elastic_energy(q, arr) > 0.0
+    for i in range(q.size):
+        dq = np.zeros(q.size)
+        dq[i] = 1e-10
+        grad = (nb.elastic_energy(q + dq, arr) - nb.elastic_energy(q - dq, arr)) / 2e-10
+        assert grad == pytest.approx(-(f[i]), rel=1e-4, abs=1e-6 * np.abs(f).max())
+
+
+def test_project_joints_restores_positions_and_velocities(bearing):
+    model, _, arr = bearing
+    q, v = model.initial_state()
+    q_t = q + 1e-6 * np.cos(np.arange(q.size))
+    v_t = v + 1e-3 * np.sin(np.arange(q.size))
+    q1, v1 = np.zeros(q.size), np.zeros(q.size)
+    its, ok = nb.project_joints(q_t, v_t, 0.0, 1e-4, 1e-5, 20, arr, q1, v1)
+    assert ok and its >= 1
+    m = nb.joint_row_count(arr.jt_type)
+    g, G, gam, dgdt = np.zeros(m), np.zeros((m, q.size)), np.zeros(m), np.zeros(m)
+    nb.bilateral(q1, v1, 0.0, arr, g, G, gam, dgdt)
+    assert np.abs(g).max() <= 1e-9
+    np.testing.assert_allclose(G @ v1 + dgdt, 0.0, atol=1e-12)
+
+
+def test_small_dense_solves():
+    from simcore.kernels.linalg import gauss_solve, solve_mass_like
+
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(6, 6)) + 0.1 * np.eye(6)
+    A[0, 0] = 0.0  # needs pivoting
+    B = rng.normal(size=(6, 3))
+    np.testing.assert_allclose(A @ gauss_solve(A, B), B, atol=1e-10)
+    M = np.diag(rng.uniform(1.0, 2.0, 9))
+    M[2, 7] = 0.4
+    M[7, 2] = -0.3
+    np.testing.assert_allclose(M @ solve_mass_like(M, B.repeat(3, axis=0)[:9]),
+                               B.repeat(3, axis=0)[:9], atol=1e-12)

@@ -7,7 +7,10 @@
 - :mod:`.linalg`: small dense algebra; :mod:`.generalized_alpha`: coefficients, initial
   acceleration and the smooth stage shared by both models;
 - :mod:`.nonsmooth_step`: position correction, velocity jump and the time loop of the
-  nonsmooth model.
+  nonsmooth model;
+- :mod:`.hertz`: the compliant contact law (Hertz force with hysteresis damping, regularised
+  Coulomb friction) with exact tangents; :mod:`.compliant_step`: joint projection and the time
+  loop of the compliant model with output sampling.
 
 The model is handed over as one :class:`~.bundles.ModelArrays` (a namedtuple of arrays).
 Numba's cache is keyed by a hash of these sources (:mod:`simcore.numba_cache`) before any of
@@ -27,7 +30,15 @@ from .bodies import (  # noqa: E402
     transverse_form,
     unit_direction,
 )
-from .bundles import ChunkOutputs, ModelArrays, StepSettings, StepState  # noqa: E402
+from .bundles import (  # noqa: E402
+    ChunkOutputs,
+    CompliantOutputs,
+    CompliantState,
+    ModelArrays,
+    StepSettings,
+    StepState,
+)
+from .compliant_step import integrate_compliant_chunk, project_joints  # noqa: E402
 from .contact import (  # noqa: E402
     CONTACT_INSIDE,
     CONTACT_OUTSIDE,
@@ -37,6 +48,7 @@ from .contact import (  # noqa: E402
     contact_velocities,
 )
 from .generalized_alpha import alpha_coefficients, initial_acceleration, smooth_step  # noqa: E402
+from .hertz import contact_forces, elastic_energy, normal_force  # noqa: E402
 from .joints import (  # noqa: E402
     JOINT_ANGLE,
     JOINT_PRISMATIC,
@@ -59,10 +71,12 @@ from .springs import smooth_forces, spring_state, total_energy  # noqa: E402
 __all__ = [
     "CACHE_DIR", "CONTACT_INSIDE", "CONTACT_OUTSIDE", "CONTACT_PLANE", "JOINT_ANGLE",
     "JOINT_PRISMATIC", "JOINT_REVOLUTE", "STAGE_POSITION", "STAGE_SMOOTH", "STAGE_VELOCITY",
-    "ChunkOutputs", "ModelArrays", "StepSettings", "StepState", "alpha_coefficients",
+    "ChunkOutputs", "CompliantOutputs", "CompliantState", "ModelArrays", "StepSettings",
+    "StepState", "alpha_coefficients",
     "bilateral", "block_inverse", "body_omega", "body_point", "contact_hessian", "contact_rows",
     "contact_velocities", "initial_acceleration", "integrate_chunk", "joint_row_count",
     "pair_point_jacobians", "position_step", "row_dot", "scatter_row", "smooth_forces",
     "smooth_step", "solve_velocity_problem", "spring_state", "total_energy", "transverse_form",
-    "unit_direction", "velocity_step",
+    "unit_direction", "velocity_step", "contact_forces", "elastic_energy", "normal_force",
+    "integrate_compliant_chunk", "project_joints",
 ]

@@ -7,8 +7,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .hertz import contact_forces
 from .joints import bilateral, joint_row_count
-from .linalg import block_inverse
+from .linalg import block_inverse, gauss_solve, solve_mass_like
 from .springs import smooth_forces
 
 
@@ -23,8 +24,9 @@ def alpha_coefficients(rho_inf):
 
 
 @njit(cache=True)
-def initial_acceleration(q, v, t, ma, vdot, lam):
-    """Smooth acceleration at t = 0 from M vdot = f + G^T lam, G vdot + gamma = 0."""
+def initial_acceleration(q, v, t, ma, vdot, lam, compliant, v_pre, v_reg):
+    """Smooth acceleration at t = 0 from M vdot = f + G^T lam, G vdot + gamma = 0 (with
+    ``compliant`` the Hertz contact forces are part of f)."""
     mdiag = ma.mdiag
     jt_type = ma.jt_type
     n = q.shape[0]
@@ -32,6 +34,11 @@ def initial_acceleration(q, v, t, ma, vdot, lam):
     f = np.zeros(n)
     K = np.zeros((n, n))
     smooth_forces(q, v, ma, f, K, K, K, False)
+    if compliant:
+        nc = ma.ct_type.shape[0]
+        w = np.zeros((5, nc))
+        contact_forces(q, v, ma, v_pre, v_reg, f, K, K, False, w[0], w[1], w[2], w[3], w[4],
+                       np.zeros((6, nc)))
     g = np.zeros(m)
     G = np.zeros((m, n))
     gam = np.zeros(m)
@@ -54,10 +61,21 @@ def initial_acceleration(q, v, t, ma, vdot, lam):
 
 @njit(cache=True)
 def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, acc1, vdot1,
-                f_t, K_t, C_t, Ks_t):
+                f_t, K_t, C_t, Ks_t, compliant, v_pre, v_reg, cwork):
     """Generalized-alpha prediction with smooth forces and bilateral joints (velocity level).
 
     Newton on ``vdot1``; fills q_t, v_t, acc1, vdot1, lam and the forces/tangents at (q_t, v_t).
+    With ``compliant`` the Hertz contact forces (onset speeds ``v_pre``, friction
+    regularisation ``v_reg``) are smooth forces too, with their tangents in the Newton matrix;
+    ``cwork`` (11, nc) then receives FN, FT, gap, vn, vt and the 6 tangential Jacobian
+    entries of the contacts at (q_t, v_t).
+
+    Regularised friction is piecewise linear in the slip (slope mu F / v_reg inside the band
+    |v_T| < v_reg, flat outside), and one step changes a slip by far more than v_reg at the
+    bearing's forces: plain Newton then jumps from one slip direction to the other and back.
+    Each Newton step therefore solves its linear model with each contact's friction branch
+    (band, slipping +, slipping -) chosen consistently with the slip the step predicts, by an
+    active-set loop like the one for stick/slip in the nonsmooth velocity problem.
     Returns (iterations, converged).
     """
     am, af, gam, beta = coef
@@ -74,14 +92,27 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
     vdot1[:] = vdot
     iters = 0
     converged = False
+    # compliant: backtracking safeguard (see below)
+    merit_prev = np.inf
+    vdot_prev = vdot1.copy()
+    lam_prev = lam.copy()
+    halvings = 0
     for it in range(max_iter + 1):
         for i in range(n):
             acc1[i] = ((1.0 - af) * vdot1[i] + af * vdot[i] - am * acc[i]) / (1.0 - am)
             q_t[i] = q[i] + h * v[i] + h * h * (0.5 - beta) * acc[i] + h * h * beta * acc1[i]
             v_t[i] = v[i] + h * (1.0 - gam) * acc[i] + h * gam * acc1[i]
         smooth_forces(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, True)
+        if compliant:
+            contact_forces(q_t, v_t, ma, v_pre, v_reg, f_t, K_t, C_t, True, cwork[0], cwork[1],
+                           cwork[2], cwork[3], cwork[4], cwork[5:11])
         bilateral(q_t, v_t, t1, ma, g, G, gm, dgdt)
         scale = 1e-300
+        if compliant:
+            # contact forces and the loads they balance cancel in f_t: the force scale of the
+            # residual is that of the largest contact force
+            for k in range(cwork.shape[1]):
+                scale = max(scale, cwork[0, k])
         res_f = 0.0
         for i in range(n):
             react = 0.0
@@ -103,22 +134,159 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
         if it == max_iter:
             break
         iters += 1
+        if compliant:
+            # the normal force is clipped at zero where the damping term would pull: across
+            # that kink Newton can alternate between two iterates; a step that does not
+            # reduce the scaled residual is halved back towards the previous iterate
+            merit = max(res_f / (tol * scale), res_c / tol)
+            if merit > (1.0 - 1e-4) * merit_prev and halvings < 10:
+                halvings += 1
+                for i in range(n):
+                    vdot1[i] = 0.5 * (vdot1[i] + vdot_prev[i])
+                for r in range(m):
+                    lam[r] = 0.5 * (lam[r] + lam_prev[r])
+                continue
+            halvings = 0
+            merit_prev = merit
+            vdot_prev[:] = vdot1
+            lam_prev[:] = lam
         # Newton step on [J, -G^T; c G, 0] by the Schur complement of the joints: J is
         # diagonal but for the bodies joined by springs, so block_inverse keeps it cheap
         for i in range(n):
             for j in range(n):
                 J[i, j] = (C_t[i, j] * h * gam + K_t[i, j] * h * h * beta) * ca
             J[i, i] += mdiag[i]
-        Jinv = block_inverse(J)
-        dv = Jinv @ rhs[:n]
-        if m > 0:
-            cG = G * (h * gam * ca)
-            JG = Jinv @ G.T
-            S = cG @ JG
-            dlam = np.linalg.solve(S, rhs[n:] - cG @ dv)
-            dv += JG @ dlam
-            for r in range(m):
-                lam[r] += dlam[r]
+        if compliant:
+            dv, dlam = _newton_direction_compliant(J, rhs, G, h * gam * ca)
+            dv, dlam = _friction_branches(J, rhs, G, h * gam * ca, dv, dlam, ma, v_reg, cwork)
+        else:
+            dv, dlam = _newton_direction(J, rhs, G, h * gam * ca)
+        for r in range(m):
+            lam[r] += dlam[r]
         for i in range(n):
             vdot1[i] += dv[i]
     return iters, converged
+
+
+@njit(cache=True)
+def _newton_direction(J, rhs, G, cv):
+    """Solve [J, -G^T; cv G, 0] (dv, dlam) = rhs by the Schur complement of the joints (J is
+    diagonal but for the coupled bodies, so block_inverse keeps it cheap)."""
+    n = J.shape[0]
+    m = G.shape[0]
+    Jinv = block_inverse(J)
+    dv = Jinv @ rhs[:n]
+    dlam = np.zeros(m)
+    if m > 0:
+        cG = G * cv
+        JG = Jinv @ G.T
+        S = cG @ JG
+        dlam = np.linalg.solve(S, rhs[n:] - cG @ dv)
+        dv += JG @ dlam
+    return dv, dlam
+
+
+@njit(cache=True)
+def _newton_direction_compliant(J, rhs, G, cv):
+    """As :func:`_newton_direction`, with the hand-written solves of :mod:`.linalg`: one
+    elimination of the coupled block for the residual and the joint columns together."""
+    n = J.shape[0]
+    m = G.shape[0]
+    B = np.empty((n, m + 1))
+    for i in range(n):
+        B[i, 0] = rhs[i]
+        for r in range(m):
+            B[i, 1 + r] = G[r, i]
+    X = solve_mass_like(J, B)
+    dv = X[:, 0].copy()
+    dlam = np.zeros(m)
+    if m > 0:
+        S = np.empty((m, m))
+        b = np.empty((m, 1))
+        for r in range(m):
+            gd = 0.0
+            for i in range(n):
+                gd += G[r, i] * dv[i]
+            b[r, 0] = rhs[n + r] - cv * gd
+            for c in range(m):
+                s = 0.0
+                for i in range(n):
+                    s += G[r, i] * X[i, 1 + c]
+                S[r, c] = cv * s
+        dlam = gauss_solve(S, b)[:, 0].copy()
+        for i in range(n):
+            for c in range(m):
+                dv[i] += X[i, 1 + c] * dlam[c]
+    return dv, dlam
+
+
+@njit(cache=True)
+def _branch(x):
+    """Friction branch of a scaled slip x = v_T / v_reg: 0 inside the band, else its sign."""
+    if abs(x) < 1.0:
+        return 0
+    return 1 if x > 0.0 else -1
+
+
+@njit(cache=True)
+def _friction_branches(J, rhs, G, cv, dv, dlam, ma, v_reg, cwork):
+    """Re-solve the Newton step with each contact's friction on the branch its predicted slip
+    falls on (slope mu F / v_reg in the band, 0 outside, with the model's value shifted to that
+    branch's line), until the branches agree with the prediction. Returns (dv, dlam)."""
+    nc = ma.ct_type.shape[0]
+    FN = cwork[0]
+    FT = cwork[1]
+    vt = cwork[4]
+    current = np.zeros(nc, dtype=np.int64)
+    assumed = np.zeros(nc, dtype=np.int64)
+    for k in range(nc):
+        current[k] = _branch(vt[k] / v_reg)
+        assumed[k] = current[k]
+    for _pass in range(2 * nc + 2):
+        changed = False
+        for k in range(nc):
+            mu = ma.ct_law[k, 0]
+            if FN[k] <= 0.0 or mu <= 0.0:
+                continue
+            ia = ma.ct_body[k, 0]
+            ib = ma.ct_body[k, 1]
+            dvt = 0.0
+            for a in range(3):
+                if ia >= 0:
+                    dvt += cwork[5 + a, k] * dv[3 * ia + a]
+                if ib >= 0:
+                    dvt += cwork[8 + a, k] * dv[3 * ib + a]
+            predicted = _branch((vt[k] + cv * dvt) / v_reg)
+            if predicted != assumed[k]:
+                # the residual is monotone in the slip: a slipping branch whose step lands
+                # elsewhere has its root on the band side, so go to the band first
+                assumed[k] = 0 if assumed[k] != 0 else predicted
+                changed = True
+        if not changed:
+            break
+        J2 = J.copy()
+        r2 = rhs.copy()
+        for k in range(nc):
+            if assumed[k] == current[k]:
+                continue
+            mu = ma.ct_law[k, 0]
+            x = vt[k] / v_reg
+            slope_used = 1.0 / v_reg if current[k] == 0 else 0.0
+            slope_new = 1.0 / v_reg if assumed[k] == 0 else 0.0
+            coeff = cv * mu * FN[k] * (slope_new - slope_used)
+            ft_model = -mu * FN[k] * (x if assumed[k] == 0 else float(assumed[k]))
+            ia = ma.ct_body[k, 0]
+            ib = ma.ct_body[k, 1]
+            for a in range(6):
+                ba = ia if a < 3 else ib
+                if ba < 0:
+                    continue
+                ra = 3 * ba + a % 3
+                r2[ra] += (ft_model - FT[k]) * cwork[5 + a, k]
+                for c in range(6):
+                    bc = ia if c < 3 else ib
+                    if bc < 0:
+                        continue
+                    J2[ra, 3 * bc + c % 3] += coeff * cwork[5 + a, k] * cwork[5 + c, k]
+        dv, dlam = _newton_direction_compliant(J2, r2, G, cv)
+    return dv, dlam

@@ -567,11 +567,14 @@ def integrate_chunk(k0, k1, st, ma, state, out):
     vn_free = np.zeros(nc)
     vt_free = np.zeros(nc)
     gap_close = tol * h
+    no_vpre = np.zeros(0)
+    no_work = np.zeros((11, 0))
     first_bad = -1
     for k in range(k0, k1):
         t1 = (k + 1) * h
         it_s, ok_s = smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, tol, max_iter, ma,
-                                 q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t)
+                                 q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, False, no_vpre,
+                                 1.0, no_work)
         it_p, ok_p = position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap)
         contact_velocities(q1, v_t, ma, gap_free, vn_free, vt_free)
         it_v, ok_v = velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t,

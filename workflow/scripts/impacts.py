@@ -36,6 +36,10 @@ with job_log(sm.log[0]):
                 r_eff=settings["r_eff"],
                 v_min=settings["v_min"],
             )
+            if settings.get("zoom_top", 0) > 0:
+                from analysis.zoom import add_zoom_forces
+
+                impacts = add_zoom_forces(run, impacts, zoom_top=settings["zoom_top"])
             impacts = impacts.assign_coords(coords)
             impacts.attrs.setdefault("failed", 0)
             print(f"{label(coords)}: {impacts.sizes.get('impact', 0)} impacts, "

@@ -1,0 +1,131 @@
+"""Speed of the compliant (Hertz) model on the paper's case, and the cost of one zoom.
+
+Prints:
+- steps per second of the compliant paper case (dt = 1e-6 s, E = 2.1e11 Pa, output every
+  10 steps), median of N runs of ``--t-end`` seconds in one process on one thread (kernels
+  loaded before timing), by wall time and by CPU time;
+- Newton iterations per step (smooth stage) and joint projection iterations;
+- where the time goes: one step's parts timed apart in compiled loops (force evaluation with
+  tangents, the Newton matrix solve, the joint projection, the energy of an output sample);
+- the cost of one zoom (0.5 ms at dt = 1e-6 s from the largest impact of a nonsmooth run).
+
+Usage: python benchmarks/bench_compliant.py [--repeats 5] [--t-end 0.05]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+
+def main() -> None:
+    p = argparse.ArgumentParser()
+    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--t-end", type=float, default=0.05)
+    args = p.parse_args()
+
+    import numba
+
+    numba.set_num_threads(1)
+    import simcore
+    from simcore import kernels as nb
+    from simcore.config import load_config
+    from simcore.mechanism import crank_slider
+
+    cfg = load_config(overrides=["model.youngs_modulus=2.1e11"])
+    model, _ = crank_slider(cfg["model"])
+    dt = 1e-6
+    model.simulate(dt, 20 * dt, contact_model="compliant", output_every=10)  # load kernels
+    walls, cpus = [], []
+    for _ in range(args.repeats):
+        c0 = time.process_time()
+        traj = model.simulate(dt, args.t_end, contact_model="compliant", output_every=10)
+        cpus.append(time.process_time() - c0)
+        walls.append(traj.wall_time_s)
+    n_steps = round(args.t_end / dt)
+    med = statistics.median(walls)
+    cmed = statistics.median(cpus)
+    print(f"compliant paper case (E = 2.1e11 Pa, dt = 1e-6 s, {n_steps} steps, 1 thread), "
+          f"median of {args.repeats}: wall {med:.3f} s -> {n_steps / med:,.0f} steps/s; "
+          f"CPU time {cmed:.3f} s -> {n_steps / cmed:,.0f} steps/s, "
+          f"{1e6 * cmed / n_steps:.1f} us/step (CPU time: the machine may be shared)")
+    it = traj.iterations[1:]
+    print(f"Newton iterations per step (largest of each 10-step interval): smooth max "
+          f"{it[:, 0].max()}, mean {it[:, 0].mean():.2f}; joint projection max {it[:, 1].max()}")
+
+    # the parts of one step, timed apart inside compiled loops (a call from Python would
+    # mostly time the unboxing of the model bundle) at the loaded state where the run ended
+    st = traj.extras["step_state"]
+    cs = traj.extras["compliant_state"]
+    arr = model.arrays()
+    from numba import njit
+
+    from simcore.kernels.generalized_alpha import _newton_direction_compliant
+
+    @njit
+    def loop_forces(q, v, ma, v_pre, reps):
+        n, nc = q.shape[0], ma.ct_type.shape[0]
+        f, K, C, Ks = np.zeros(n), np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
+        w = np.zeros((11, nc))
+        for _ in range(reps):
+            nb.smooth_forces(q, v, ma, f, K, C, Ks, True)
+            nb.contact_forces(q, v, ma, v_pre, 1e-4, f, K, C, True, w[0], w[1], w[2], w[3],
+                              w[4], w[5:11])
+        return K, C
+
+    @njit
+    def loop_solve(J, rhs, G, reps):
+        for _ in range(reps):
+            _newton_direction_compliant(J, rhs, G, 1.5e-6)
+
+    @njit
+    def loop_project(q, v, ma, reps):
+        q1, v1 = np.zeros(q.shape[0]), np.zeros(q.shape[0])
+        for _ in range(reps):
+            nb.project_joints(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1)
+
+    @njit
+    def loop_energy(q, v, ma, reps):
+        e = 0.0
+        for _ in range(reps):
+            e += nb.total_energy(q, v, ma) + nb.elastic_energy(q, ma)
+        return e
+
+    def cpu(fn, *a):
+        fn(*a, 1)
+        t0 = time.process_time()
+        fn(*a, 20000)
+        return (time.process_time() - t0) / 20000 * 1e6
+
+    K, C = loop_forces(st.q, st.v, arr, cs.v_pre, 1)
+    n = st.q.size
+    m = nb.joint_row_count(arr.jt_type)
+    G = np.zeros((m, n))
+    nb.bilateral(st.q, st.v, 0.0, arr, np.zeros(m), G, np.zeros(m), np.zeros(m))
+    J = np.diag(arr.mdiag) + 1e-12 * K + 1.5e-6 * C
+    rhs = np.ones(n + m)
+    print(f"parts of a step (CPU us, {int(cs.closed.sum())} contacts closed): forces and tangents "
+          f"{cpu(loop_forces, st.q, st.v, arr, cs.v_pre):.2f} per evaluation, Newton solve "
+          f"{cpu(loop_solve, J, rhs, G):.2f}, joint projection "
+          f"{cpu(loop_project, st.q, st.v, arr):.2f}, energy (per output sample) "
+          f"{cpu(loop_energy, st.q, st.v, arr):.2f}")
+
+    run = simcore.run(load_config(overrides=["solver.t_end=0.004"]))
+    lam = run["Lambda_N"].values
+    k = np.unravel_index(int(np.argmax(lam)), lam.shape)
+    t_imp = float(run.time[k[0]])
+    simcore.zoom(run, t_imp, window=1e-5)  # load
+    zooms = []
+    for _ in range(3):
+        start = time.perf_counter()
+        simcore.zoom(run, t_imp, window=5e-4, dt=1e-6)
+        zooms.append(time.perf_counter() - start)
+    print(f"one zoom (0.5 ms at dt = 1e-6 s, 500 steps, incl. model build and Dataset): "
+          f"{statistics.median(zooms):.3f} s median of 3")
+
+
+if __name__ == "__main__":
+    main()

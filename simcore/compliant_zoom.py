@@ -1,0 +1,122 @@
+"""Compliant zoom: restart the whole mechanism from the state of a run just before a chosen
+time, with compliant (Hertz) contacts and a small step, and return the force histories."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .config import ConfigError, output_every, parse_override, validate_config
+from .mechanism import crank_slider
+
+DEFAULT_WINDOW = 2e-3   # [s]
+DEFAULT_DT = 1e-6       # [s]
+
+
+def config_of_run(run_ds) -> dict:
+    """The model and solver sections of the configuration that made ``run_ds`` (from its
+    ``model.*`` / ``solver.*`` attributes)."""
+    cfg: dict = {"model": {}, "solver": {}}
+    for key, value in run_ds.attrs.items():
+        section, _, name = key.partition(".")
+        if section in cfg and name:
+            if isinstance(value, np.generic):
+                value = value.item()
+            cfg[section][name] = value
+    return cfg
+
+
+def zoom_config(run_ds, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(),
+                output_dt=None) -> dict:
+    """Validated configuration of a zoom on ``run_ds``: the run's model with
+    ``contact_model = compliant``, step ``dt`` [s] for ``window`` [s], then ``overrides``
+    (``section.key=value`` strings)."""
+    cfg = config_of_run(run_ds)
+    cfg["model"]["contact_model"] = "compliant"
+    cfg["solver"].update({"dt": float(dt), "t_end": float(window), "output_dt": output_dt})
+    for item in overrides:
+        keys, value = parse_override(item)
+        node = cfg
+        for k in keys[:-1]:
+            node = node.setdefault(k, {})
+        node[keys[-1]] = value
+    return validate_config(cfg)
+
+
+def start_index(run_ds, time: float) -> int:
+    """Index of the last sample of ``run_ds`` strictly before ``time`` [s] (the state before
+    the step that ends at ``time``); a one-line ConfigError naming ``time`` when it is not
+    inside the run."""
+    t = np.asarray(run_ds["time"].values, dtype=float)
+    time = float(time)
+    if not np.isfinite(time) or time <= t[0] or time > t[-1]:
+        raise ConfigError(f"time: {time!r} is not allowed; allowed: a time inside the run, "
+                          f"in ({t[0]:.6g}, {t[-1]:.6g}] s")
+    return int(np.searchsorted(t, time, side="left") - 1)
+
+
+def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), output_dt=None,
+         until_released=True, progress=False):
+    """Re-simulate the whole mechanism with compliant contacts from the state of ``run_ds``
+    just before ``time``.
+
+    Parameters
+    ----------
+    run_ds : xarray.Dataset
+        A run (needs ``q`` and ``v`` (time, body, dof) and the ``model.*`` attributes).
+    time : float
+        Time of interest [s], inside the run; the zoom starts from the last sample before it.
+    window : float
+        Longest duration of the zoom [s].
+    dt : float
+        Step of the zoom [s].
+    overrides : sequence of str
+        ``section.key=value`` settings applied to the zoom (e.g. ``model.youngs_modulus=2.1e11``).
+    output_dt : float, optional
+        Output interval [s] (default: every step).
+    until_released : bool
+        Stop early once every contact that closed during the zoom is open again (checked
+        every 100 steps).
+
+    Returns
+    -------
+    xarray.Dataset
+        A compliant run dataset (``F_N``, ``F_T``, ``Lambda_N``, ``gap_N``, ``q``, ``v``, ...)
+        starting at the run's sample before ``time``, with attributes ``zoom_time``,
+        ``zoom_start_time`` [s] and ``zoom_source`` (the run's title).
+
+    Raises
+    ------
+    simcore.ConfigError
+        Bad settings or a time outside the run (one line naming the key), before any work.
+    """
+    from .io import trajectory_dataset
+
+    for name in ("q", "v"):
+        if name not in run_ds:
+            raise ConfigError(f"run: the run file has no variable {name!r} (needed to restart "
+                              "from its state)")
+    cfg = zoom_config(run_ds, window=window, dt=dt, overrides=overrides, output_dt=output_dt)
+    i = start_index(run_ds, time)
+    model, layout = crank_slider(cfg["model"])
+    q0 = np.asarray(run_ds["q"].isel(time=i).values, dtype=float).ravel()
+    v0 = np.asarray(run_ds["v"].isel(time=i).values, dtype=float).ravel()
+    if q0.size != 3 * len(model.body_names):
+        raise ConfigError("run: its bodies do not match the model its attributes describe")
+    t0 = float(run_ds["time"].values[i])
+    s, m = cfg["solver"], cfg["model"]
+    every = output_every(cfg)
+    traj = model.simulate(s["dt"], s["t_end"], rho_inf=s["rho_inf"], tol=s["tol"],
+                          max_iter=s["max_iter"], on_nonconvergence=s["on_nonconvergence"],
+                          progress=progress, chunk=max(100, every), contact_model="compliant",
+                          damping_law=m["damping_law"],
+                          friction_regularization=m["friction_regularization"],
+                          output_every=every, q0=q0, v0=v0, t0=t0,
+                          stop_when_released=until_released)
+    ds = trajectory_dataset(traj, model, layout, cfg)
+    ds.attrs.update({
+        "zoom_time": float(time),
+        "zoom_start_time": t0,
+        "zoom_source": str(run_ds.attrs.get("title", "")),
+        "solver.output_dt": float(s["dt"]) * every,
+    })
+    return ds

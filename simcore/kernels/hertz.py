@@ -1,0 +1,131 @@
+"""Compliant (Hertz) contact law on the shared contact elements of :mod:`.contact`.
+
+Normal force F = K delta^(3/2) (1 + chi delta_dot / v_pre), F >= 0, with delta = -g_N the
+indentation, K the Hertz stiffness of the element and chi the damping factor of the chosen law
+(Flores, Hunt-Crossley, Lankarani-Nikravesh; see :func:`simcore.model.damping_factor`); v_pre
+is the approach speed at the onset of the contact (a per-contact state of the time loop).
+Friction is Coulomb's, regularised below the slip speed v_reg: F_T = -mu F sat(v_T / v_reg),
+sat(x) = clip(x, -1, 1).
+
+The generalized force of a contact is F wN + F_T wT (wN, wT: the element's Jacobian rows), so a
+positive F opens the gap. Tangents K = -df/dq, C = -df/dv are exact for the normal force
+(stiffness, damping and the geometric term F d2g/dq2 of the sphere elements). For friction the
+tangent is exact (mu F / v_reg inside the regularisation band |v_T| < v_reg, 0 outside), and
+the turning of the tangent row with q is left out (a term of size mu F / L).
+
+``ma.ct_hertz[k]`` holds (K [N m^-1.5], chi [-]) of contact k.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .bodies import row_dot
+from .contact import contact_hessian, contact_rows
+
+
+@njit(cache=True)
+def normal_force(delta, delta_dot, K, chi, v_pre):
+    """Hertz force with hysteresis damping and its partial derivatives.
+
+    Returns (F [N], dF/d(delta) [N/m], dF/d(delta_dot) [N s/m]); all zero where the contact is
+    open (delta <= 0) or the damping term would pull (F < 0)."""
+    if delta <= 0.0:
+        return 0.0, 0.0, 0.0
+    root = np.sqrt(delta)
+    elastic = K * delta * root
+    damp = 1.0 + chi * delta_dot / v_pre
+    F = elastic * damp
+    if F <= 0.0:
+        return 0.0, 0.0, 0.0
+    return F, 1.5 * K * root * damp, elastic * chi / v_pre
+
+
+@njit(cache=True)
+def contact_forces(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt, WT):
+    """Add the compliant contact forces to ``f`` [N, N m] and, with ``tangent``, their
+    stiffness ``K`` and damping ``C`` to the matrices (in place). Fills the per-contact normal
+    force ``FN`` [N], friction force ``FT`` [N] (along t = e_z x n), gap [m] and the normal and
+    tangential relative velocities [m/s], and ``WT`` (6, nc) the tangential Jacobian entries
+    of each contact. The friction slope is the exact one: mu F / v_reg inside the band
+    |v_T| < v_reg, 0 outside (see :func:`simcore.kernels.generalized_alpha.smooth_step` for
+    how Newton copes with the kink)."""
+    wN = np.zeros(6)
+    wT = np.zeros(6)
+    H = np.zeros((6, 6))
+    loc = np.zeros(6)
+    Hv = np.zeros(6)
+    dFdq = np.zeros(6)
+    idx = np.zeros(6, dtype=np.int64)
+    for k in range(ma.ct_type.shape[0]):
+        ia = ma.ct_body[k, 0]
+        ib = ma.ct_body[k, 1]
+        g = contact_rows(q, k, ma, wN, wT)
+        gap[k] = g
+        vN = row_dot(wN, ia, ib, v)
+        vT = row_dot(wT, ia, ib, v)
+        vn[k] = vN
+        vt[k] = vT
+        F, dF_dd, dF_ddot = normal_force(-g, -vN, ma.ct_hertz[k, 0], ma.ct_hertz[k, 1],
+                                         v_pre[k])
+        mu = ma.ct_law[k, 0]
+        x = vT / v_reg
+        sat = min(max(x, -1.0), 1.0)
+        Ft = -mu * F * sat
+        FN[k] = F
+        FT[k] = Ft
+        for a in range(6):
+            WT[a, k] = wT[a]
+        if F == 0.0:
+            continue
+        for a in range(3):
+            idx[a] = 3 * ia + a
+            idx[3 + a] = 3 * ib + a
+        for a in range(6):
+            body = ia if a < 3 else ib
+            if body >= 0:
+                f[idx[a]] += F * wN[a] + Ft * wT[a]
+        if not tangent:
+            continue
+        # local velocities and H v (H = d2 g / dq2 of the element)
+        contact_hessian(q, k, ma, H)
+        for a in range(6):
+            body = ia if a < 3 else ib
+            loc[a] = v[idx[a]] if body >= 0 else 0.0
+        for a in range(6):
+            s = 0.0
+            for c in range(6):
+                s += H[a, c] * loc[c]
+            Hv[a] = s
+        # dF/dq = -dF/d(delta) wN - dF/d(delta_dot) H v ;  dF/dv = -dF/d(delta_dot) wN
+        for a in range(6):
+            dFdq[a] = -dF_dd * wN[a] - dF_ddot * Hv[a]
+        dsat = 1.0 / v_reg if abs(x) < 1.0 else 0.0
+        for a in range(6):
+            ba = ia if a < 3 else ib
+            if ba < 0:
+                continue
+            for c in range(6):
+                bc = ia if c < 3 else ib
+                if bc < 0:
+                    continue
+                # normal: f = F wN ; friction: f = Ft wT, Ft = -mu F sat(vT / v_reg)
+                kk = -(wN[a] * dFdq[c] + F * H[a, c]) + mu * sat * wT[a] * dFdq[c]
+                cc = (dF_ddot * wN[a] * wN[c] - mu * sat * wT[a] * dF_ddot * wN[c]
+                      + mu * F * dsat * wT[a] * wT[c])
+                K[idx[a], idx[c]] += kk
+                C[idx[a], idx[c]] += cc
+
+
+@njit(cache=True)
+def elastic_energy(q, ma):
+    """Energy stored in the compliant contacts, sum of (2/5) K delta^(5/2) [J]."""
+    wN = np.zeros(6)
+    wT = np.zeros(6)
+    e = 0.0
+    for k in range(ma.ct_type.shape[0]):
+        delta = -contact_rows(q, k, ma, wN, wT)
+        if delta > 0.0:
+            e += 0.4 * ma.ct_hertz[k, 0] * delta * delta * np.sqrt(delta)
+    return e

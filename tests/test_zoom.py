@@ -1,0 +1,99 @@
+"""Compliant zoom on a nonsmooth run: restart from the run's state, force histories, the CLI
+verb, and the impact table's F_max_zoom."""
+
+import numpy as np
+import pytest
+
+import analysis
+import simcore
+from analysis.zoom import add_zoom_forces
+from simcore.cli import main
+from simcore.config import ConfigError, load_config
+
+
+@pytest.fixture(scope="module")
+def run_ds():
+    return simcore.run(load_config(overrides=["solver.t_end=0.004"]))
+
+
+@pytest.fixture(scope="module")
+def first_impact(run_ds):
+    lam = run_ds["Lambda_N"].values
+    k = np.unravel_index(int(np.argmax(lam)), lam.shape)
+    return float(run_ds.time[k[0]]), int(run_ds.contact[k[1]])
+
+
+def test_zoom_restarts_from_the_state_before_the_impact(run_ds, first_impact):
+    time, contact = first_impact
+    z = simcore.zoom(run_ds, time, window=1e-3, dt=1e-6)
+    i = int(np.searchsorted(run_ds.time.values, time)) - 1
+    assert z.attrs["zoom_start_time"] == pytest.approx(float(run_ds.time[i]))
+    assert z.attrs["contact_model"] == "compliant"
+    np.testing.assert_array_equal(z["q"].isel(time=0).values, run_ds["q"].isel(time=i).values)
+    np.testing.assert_array_equal(z["v"].isel(time=0).values, run_ds["v"].isel(time=i).values)
+    F = z["F_N"].sel(contact=contact).values
+    assert F.max() > 0.0 and F[0] == 0.0
+    # the bearing then carries the load: its contacts stay closed, the window bounds the zoom
+    assert float(z.time[-1]) == pytest.approx(float(z.time[0]) + 1e-3)
+    assert int(z["converged"].min()) == 1
+    # same mechanism as the run: the slider does not jump at the restart
+    assert abs(float(z.slider_x[1]) - float(run_ds.slider_x[i])) < 1e-5
+
+
+def test_zoom_time_outside_the_run_is_refused(run_ds):
+    with pytest.raises(ConfigError, match=r"^time: 0\.5 is not allowed"):
+        simcore.zoom(run_ds, 0.5)
+    with pytest.raises(ConfigError, match=r"^time: 0\.0 is not allowed"):
+        simcore.zoom(run_ds, 0.0)
+
+
+def test_cli_zoom(run_ds, first_impact, tmp_path, capsys):
+    run_file = tmp_path / "run.nc"
+    simcore.write_netcdf(run_ds, run_file)
+    out = tmp_path / "z.nc"
+    assert main(["zoom", str(run_file), "--time", "0.5", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: --time: 0.5 is not allowed") and "\n" not in err
+    assert not out.exists()
+    assert main(["zoom", str(run_file), "--time", "0.001", "--set", "model.damping_law=x",
+                 "--out", str(out)]) == 2
+    assert "model.damping_law" in capsys.readouterr().err and not out.exists()
+    time, _ = first_impact
+    assert main(["zoom", str(run_file), "--time", str(time), "--window", "5e-4", "--quiet",
+                 "--out", str(out)]) == 0
+    import xarray as xr
+
+    with xr.open_dataset(out) as z:
+        assert float(z["F_N"].max()) > 0.0
+        assert z["F_N"].attrs["units"] == "N"
+
+
+def test_impact_table_gets_zoom_forces(run_ds):
+    imp = analysis.extract_impacts(run_ds)
+    table = add_zoom_forces(run_ds, imp, zoom_top=2)
+    zoomed = np.isfinite(table["F_max_zoom"].values)
+    top = np.argsort(-imp["impulse"].values, kind="stable")[:2]
+    assert set(np.flatnonzero(zoomed)) == set(top)
+    assert np.all(table["F_max_zoom"].values[zoomed] > 0.0)
+    ct = table["contact_time_zoom"].values[zoomed]
+    assert np.all(np.isnan(ct) | (ct > 0.0))
+    assert table["F_max_zoom"].attrs["units"] == "N"
+    assert table["contact_time_zoom"].attrs["units"] == "s"
+    off = add_zoom_forces(run_ds, imp, zoom_top=0)
+    assert np.all(np.isnan(off["F_max_zoom"].values))
+    with pytest.raises(ValueError, match="analysis.zoom_top"):
+        add_zoom_forces(run_ds, imp, zoom_top=-1)
+
+
+def test_simulation_stops_once_the_contacts_have_opened_again():
+    """stop_when_released: a ball thrown at a plane (no gravity) stops the run soon after it
+    leaves the plane, long before the requested end."""
+    from simcore.mechanism import ball_on_plane
+
+    model = ball_on_plane(radius=0.01, mass=0.0327, height=0.01 + 1e-6, e_N=1.0, gravity=0.0,
+                          speed=(0.0, -1.0))
+    traj = model.simulate(1e-7, 1e-2, contact_model="compliant", stop_when_released=True,
+                          chunk=100)
+    assert traj.F_N.max() > 0.0 and traj.F_N[-1, 0] == 0.0
+    assert traj.time[-1] < 2e-4
+    assert traj.v[-1, 1] > 0.99
