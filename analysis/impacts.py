@@ -93,6 +93,10 @@ def _model_value(run_ds: xr.Dataset, key: str) -> float:
 
 
 def _time_step(run_ds: xr.Dataset) -> float:
+    """Interval of the impulse series [s]: the output interval of a sampled (compliant) run,
+    else the solver step."""
+    if "output_interval_s" in run_ds.attrs:
+        return float(run_ds.attrs["output_interval_s"])
     if "solver.dt" in run_ds.attrs:
         return float(run_ds.attrs["solver.dt"])
     t = np.asarray(run_ds["time"].values, dtype=float)
