@@ -69,7 +69,7 @@ def _impacts(path, point, new_format=True, failed=False, series=SERIES):
     if failed:
         xr.Dataset(coords=point, attrs={"failed": 1}).to_netcdf(path)
         return
-    time, race, kind, force = (np.array(c) for c in zip(*series))
+    time, race, kind, force = (np.array(c) for c in zip(*series, strict=True))
     data = {"time": ("impact", time.astype(float)), "F_max": ("impact", force.astype(float))}
     if new_format:  # integer categories (codes in a different order than the summary's)
         race_names, kind_names = ["outer", "inner"], ["multi", "pinch", "persistent", "simple"]
