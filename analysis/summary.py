@@ -42,8 +42,8 @@ from typing import Sequence
 import numpy as np
 import xarray as xr
 
-__all__ = ["summarize", "steady_window", "category_codes", "impact_numbers", "SWEPT", "STAGES",
-           "RACES", "KINDS", "N_TOP"]
+__all__ = ["summarize", "summary_table", "steady_window", "category_codes", "impact_numbers",
+           "SWEPT", "STAGES", "RACES", "KINDS", "N_TOP"]
 
 #: Swept parameters, in the order of the summary's dimensions.
 SWEPT = ("clearance", "mu", "omega0", "e_N")
@@ -524,3 +524,64 @@ def summarize(run_files: Sequence[str], impact_files: Sequence[str], scheduler=N
         if value is not None:
             summary.attrs[f"analysis.{key}"] = value
     return summary
+
+
+# --- the study in one table -----------------------------------------------------------------
+
+def _where(da: xr.DataArray) -> str:
+    """``clearance=0.0004, mu=0.05, ...`` of the largest finite value of ``da``."""
+    values = np.asarray(da.values, dtype=float)
+    if not np.isfinite(values).any():
+        return ""
+    idx = np.unravel_index(np.nanargmax(values), values.shape)
+    return ", ".join(f"{d}={float(da[d].values[i]):g}" for d, i in zip(da.dims, idx, strict=True))
+
+
+def summary_table(summary: xr.Dataset):
+    """The study in numbers: each quantity's smallest, median and largest value over the grid.
+
+    Parameters
+    ----------
+    summary : xarray.Dataset
+        Output of :func:`summarize`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``quantity``, ``unit``, ``min``, ``median``, ``max``, ``largest at`` (the grid
+        point of the largest value); failed runs are left out (their values are missing).
+    """
+    import pandas as pd
+
+    rows = []
+
+    def add(name, unit, da, scale=1.0):
+        values = np.asarray(da.values, dtype=float) * scale
+        finite = values[np.isfinite(values)]
+        if not finite.size:
+            return
+        rows.append({"quantity": name, "unit": unit, "min": f"{finite.min():.4g}",
+                     "median": f"{np.median(finite):.4g}", "max": f"{finite.max():.4g}",
+                     "largest at": _where(da)})
+
+    n_runs = int(summary["failed"].size)
+    n_failed = int((summary["failed"] > 0).sum())
+    grid = " x ".join(f"{summary.sizes[d]} {d}" for d in SWEPT if d in summary.dims)
+    rows.append({"quantity": f"runs, of which {n_failed} failed", "unit": "1", "min": "",
+                 "median": "", "max": str(n_runs), "largest at": f"grid: {grid}"})
+    for r, race in enumerate(RACES[::-1]):
+        add(f"peak force, {race} race", "kN", summary["peak_force"].isel(race=1 - r), 1e-3)
+    for r, race in enumerate(RACES[::-1]):
+        add(f"peak contact pressure p_max, {race} race", "MPa",
+            summary["p_max"].isel(race=1 - r), 1e-6)
+    add("start-up peak force", "kN", summary["startup_peak_force"], 1e-3)
+    for i, level in enumerate(summary["level"].values):
+        add(f"impacts per revolution with F_max >= {level:g} N", "1",
+            summary["above_per_rev"].isel(level=i).sum("race", min_count=1))
+    add("impacts per revolution (relative zero threshold)", "1",
+        summary["impacts_per_rev"].sum(["race", "kind"], min_count=1))
+    add("steady revolutions per run", "1", summary["revolutions"])
+    add("Newton iterations per step, largest (any stage)", "1", summary["iter_max"].max("stage"))
+    add("wall time per run", "s", summary["wall_time_s"])
+    return pd.DataFrame(rows, columns=["quantity", "unit", "min", "median", "max",
+                                       "largest at"])

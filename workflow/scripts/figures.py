@@ -18,6 +18,7 @@ with job_log(sm.log[0]):
     import xarray as xr
 
     from analysis.figures import plot_reference, plot_run, plot_study
+    from analysis.summary import summary_table
 
     settings = sm.params.analysis
     target = Path(sm.output[0])
@@ -27,7 +28,9 @@ with job_log(sm.log[0]):
     tmp.chmod(0o755)
     try:
         with xr.open_dataset(sm.input.summary) as summary:
-            written = list(plot_study(summary.load(), tmp))
+            summary = summary.load()
+        written = list(plot_study(summary, tmp))
+        summary_table(summary).to_csv(tmp / "summary_table.csv", index=False)
         with xr.open_dataset(sm.input.run) as run, xr.open_dataset(sm.input.impacts) as imp:
             if int(run.attrs.get("failed", 0)):
                 print(f"reference run {label(sm.params.reference)} failed: no run figures")
