@@ -683,8 +683,7 @@ def _facet_figure(da, swept, path, label, failed, title):
     if vmax <= vmin:
         vmax = vmin + 1.0
     norm = matplotlib.colors.Normalize(vmin=vmin, vmax=vmax)
-    cmap = plt.get_cmap("viridis").copy()
-    cmap.set_bad("0.85")
+    cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
     fig, axes = plt.subplots(nrow, ncol, figsize=(3.4 * ncol + 1.6, 2.9 * nrow + 1.3),
                              squeeze=False, sharex=True, sharey=True, layout="constrained")
     mesh = None
@@ -734,8 +733,7 @@ def _pairs_figure(da, swept, path, label, how, failed, title):
     values = values[np.isfinite(values)]
     vmin, vmax = (float(values.min()), float(values.max())) if values.size else (0.0, 1.0)
     norm = matplotlib.colors.Normalize(vmin=vmin, vmax=max(vmax, vmin + 1e-12))
-    cmap = plt.get_cmap("viridis").copy()
-    cmap.set_bad("0.85")
+    cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
     fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol + 1.4, 3.5 * nrow + 1.2),
                              squeeze=False, layout="constrained")
     mesh = None

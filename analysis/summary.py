@@ -569,19 +569,31 @@ def summary_table(summary: xr.Dataset):
     grid = " x ".join(f"{summary.sizes[d]} {d}" for d in SWEPT if d in summary.dims)
     rows.append({"quantity": f"runs, of which {n_failed} failed", "unit": "1", "min": "",
                  "median": "", "max": str(n_runs), "largest at": f"grid: {grid}"})
-    for r, race in enumerate(RACES[::-1]):
-        add(f"peak force, {race} race", "kN", summary["peak_force"].isel(race=1 - r), 1e-3)
-    for r, race in enumerate(RACES[::-1]):
-        add(f"peak contact pressure p_max, {race} race", "MPa",
-            summary["p_max"].isel(race=1 - r), 1e-6)
-    add("start-up peak force", "kN", summary["startup_peak_force"], 1e-3)
-    for i, level in enumerate(summary["level"].values):
-        add(f"impacts per revolution with F_max >= {level:g} N", "1",
-            summary["above_per_rev"].isel(level=i).sum("race", min_count=1))
-    add("impacts per revolution (relative zero threshold)", "1",
-        summary["impacts_per_rev"].sum(["race", "kind"], min_count=1))
-    add("steady revolutions per run", "1", summary["revolutions"])
-    add("Newton iterations per step, largest (any stage)", "1", summary["iter_max"].max("stage"))
-    add("wall time per run", "s", summary["wall_time_s"])
+    def have(*names):
+        return all(name in summary for name in names)
+
+    for r in (1, 0):
+        if have("peak_force"):
+            add(f"peak force, {RACES[r]} race", "kN", summary["peak_force"].isel(race=r), 1e-3)
+    for r in (1, 0):
+        if have("p_max"):
+            add(f"peak contact pressure p_max, {RACES[r]} race", "MPa",
+                summary["p_max"].isel(race=r), 1e-6)
+    if have("startup_peak_force"):
+        add("start-up peak force", "kN", summary["startup_peak_force"], 1e-3)
+    if have("above_per_rev"):
+        for i, level in enumerate(summary["level"].values):
+            add(f"impacts per revolution with F_max >= {level:g} N", "1",
+                summary["above_per_rev"].isel(level=i).sum("race", min_count=1))
+    if have("impacts_per_rev"):
+        add("impacts per revolution (relative zero threshold)", "1",
+            summary["impacts_per_rev"].sum(["race", "kind"], min_count=1))
+    if have("revolutions"):
+        add("steady revolutions per run", "1", summary["revolutions"])
+    if have("iter_max"):
+        add("Newton iterations per step, largest (any stage)", "1",
+            summary["iter_max"].max("stage"))
+    if have("wall_time_s"):
+        add("wall time per run", "s", summary["wall_time_s"])
     return pd.DataFrame(rows, columns=["quantity", "unit", "min", "median", "max",
                                        "largest at"])
