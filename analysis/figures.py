@@ -643,6 +643,23 @@ def _edges(dim, values):
     return 10**edges if log else edges
 
 
+def _norm(values):
+    """Colour scale of a heat map: logarithmic for positive values spanning more than a factor
+    of 10 (peak forces), square root for counts with zeros and a long tail, else linear."""
+    values = np.asarray(values, dtype=float)
+    values = values[np.isfinite(values)]
+    if not values.size:
+        return matplotlib.colors.Normalize(vmin=0.0, vmax=1.0)
+    lo, hi = float(values.min()), float(values.max())
+    if hi <= lo:
+        return matplotlib.colors.Normalize(vmin=lo - 0.5, vmax=hi + 0.5)
+    if lo > 0 and hi / lo > 10:
+        return matplotlib.colors.LogNorm(vmin=lo, vmax=hi)
+    if lo >= 0 and hi > 10 * np.median(values[values > 0]):
+        return matplotlib.colors.PowerNorm(gamma=0.5, vmin=lo, vmax=hi)
+    return matplotlib.colors.Normalize(vmin=lo, vmax=hi)
+
+
 def _heat_panel(ax, da, x, y, norm, cmap, failed):
     """One heat map of ``da`` (dims y, x) with every cell's value written in it."""
     xv, yv = _positions(x, da[x].values), _positions(y, da[y].values)
@@ -661,7 +678,7 @@ def _heat_panel(ax, da, x, y, norm, cmap, failed):
                 txt, colour = "–", "k"
             else:
                 val = float(z[j, i])
-                txt = f"{val:.3g}"
+                txt = f"{val:.0f}" if 1e3 <= abs(val) < 1e6 else f"{val:.3g}"
                 rgba = cmap(norm(val))
                 light = 0.299 * rgba[0] + 0.587 * rgba[1] + 0.114 * rgba[2]
                 colour = "k" if light > 0.5 else "w"
@@ -677,12 +694,7 @@ def _facet_figure(da, swept, path, label, failed, title):
     row = swept[3] if len(swept) > 3 else None
     ncol = da.sizes[col] if col else 1
     nrow = da.sizes[row] if row else 1
-    finite = np.asarray(da.values, dtype=float)
-    finite = finite[np.isfinite(finite)]
-    vmin, vmax = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
-    if vmax <= vmin:
-        vmax = vmin + 1.0
-    norm = matplotlib.colors.Normalize(vmin=vmin, vmax=vmax)
+    norm = _norm(da.values)
     cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
     fig, axes = plt.subplots(nrow, ncol, figsize=(3.4 * ncol + 1.6, 2.9 * nrow + 1.3),
                              squeeze=False, sharex=True, sharey=True, layout="constrained")
@@ -729,10 +741,7 @@ def _pairs_figure(da, swept, path, label, how, failed, title):
         red = (masked.max(rest, skipna=True) if how == "max" else masked.mean(rest, skipna=True)) \
             if rest else masked
         reduced[(a, b)] = red
-    values = np.concatenate([np.ravel(r.values) for r in reduced.values()])
-    values = values[np.isfinite(values)]
-    vmin, vmax = (float(values.min()), float(values.max())) if values.size else (0.0, 1.0)
-    norm = matplotlib.colors.Normalize(vmin=vmin, vmax=max(vmax, vmin + 1e-12))
+    norm = _norm(np.concatenate([np.ravel(r.values) for r in reduced.values()]))
     cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
     fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol + 1.4, 3.5 * nrow + 1.2),
                              squeeze=False, layout="constrained")
