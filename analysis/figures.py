@@ -660,6 +660,16 @@ def _norm(values):
     return matplotlib.colors.Normalize(vmin=lo, vmax=hi)
 
 
+def _colorbar(fig, mesh, axes, label):
+    """Colour bar with plain-number ticks (1, 2, 5 per decade on a log scale)."""
+    bar = fig.colorbar(mesh, ax=axes, label=label, shrink=0.9)
+    if isinstance(mesh.norm, matplotlib.colors.LogNorm):
+        bar.ax.yaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+        bar.ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    bar.ax.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}"))
+    return bar
+
+
 def _heat_panel(ax, da, x, y, norm, cmap, failed):
     """One heat map of ``da`` (dims y, x) with every cell's value written in it."""
     xv, yv = _positions(x, da[x].values), _positions(y, da[y].values)
@@ -722,7 +732,7 @@ def _facet_figure(da, swept, path, label, failed, title):
                 _ticks(ax, "x", x, da[x].values)
             if j == 0 and y is not None:
                 _ticks(ax, "y", y, da[y].values)
-    fig.colorbar(mesh, ax=axes, label=label, shrink=0.9)
+    _colorbar(fig, mesh, axes, label)
     fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -755,7 +765,7 @@ def _pairs_figure(da, swept, path, label, how, failed, title):
         ax.set_title(f"{how} over {', '.join(rest)}" if rest else "", fontsize=9)
     for ax in axes.ravel()[len(pairs):]:
         ax.set_axis_off()
-    fig.colorbar(mesh, ax=axes, label=label, shrink=0.9)
+    _colorbar(fig, mesh, axes, label)
     fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -809,8 +819,7 @@ def plot_study(summary_ds: xr.Dataset, outdir) -> list[Path]:
     single = [d for d in STUDY_PARAMETERS if d in summary_ds.dims and d not in swept]
     held = ", ".join(_fmt_param(d, float(summary_ds[d].values[0])) for d in single)
     settle = summary_ds.attrs.get("analysis.settle", summary_ds.attrs.get("settle_revolutions"))
-    note = (f"steady window after {settle:g} revolution(s)" if settle is not None else "")
-    note += f"; {held}" if held else ""
+    held = f"; {held}" if held else ""
     quantities = _study_quantities(summary_ds)
     paths = []
     if not swept:
@@ -828,6 +837,12 @@ def plot_study(summary_ds: xr.Dataset, outdir) -> list[Path]:
     fsq = failed.isel({d: 0 for d in single}) if failed is not None else None
     for stem, da, label, how in quantities:
         da = da.isel({d: 0 for d in single})
+        if settle is None:
+            note = held[2:]
+        elif stem.startswith("startup"):
+            note = f"start-up: the first {settle:g} crank revolution(s) of each run{held}"
+        else:
+            note = f"steady window: after the first {settle:g} crank revolution(s){held}"
         title = f"{label}: every grid point" + (f"\n({note})" if note else "")
         if len(swept) == 1:
             paths.append(_line_figure(da, swept[0], outdir / f"study_{stem}.png", label, fsq,
