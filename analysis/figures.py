@@ -818,7 +818,7 @@ def plot_study(summary_ds: xr.Dataset, outdir) -> list[Path]:
     failed = summary_ds["failed"] > 0 if "failed" in summary_ds else None
     single = [d for d in STUDY_PARAMETERS if d in summary_ds.dims and d not in swept]
     held = ", ".join(_fmt_param(d, float(summary_ds[d].values[0])) for d in single)
-    settle = summary_ds.attrs.get("analysis.settle", summary_ds.attrs.get("settle_revolutions"))
+    settle = summary_ds.attrs.get("settle_revolutions", summary_ds.attrs.get("analysis_settle"))
     held = f"; {held}" if held else ""
     quantities = _study_quantities(summary_ds)
     paths = []

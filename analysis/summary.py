@@ -472,7 +472,7 @@ def summarize(run_files: Sequence[str], impact_files: Sequence[str], scheduler=N
     force_levels : sequence of float
         Absolute force levels of ``n_above``/``above_per_rev`` [N].
     settings : dict, optional
-        The analysis settings, recorded as attributes ``analysis.<key>``.
+        The analysis settings, recorded as attributes ``analysis_<key>`` (no dots: CF names).
 
     Returns
     -------
@@ -522,7 +522,7 @@ def summarize(run_files: Sequence[str], impact_files: Sequence[str], scheduler=N
     )
     for key, value in (settings or {}).items():
         if value is not None:
-            summary.attrs[f"analysis.{key}"] = value
+            summary.attrs[f"analysis_{key}"] = value
     return summary
 
 

@@ -59,7 +59,7 @@ def _summary(shape, fill=None, failed_at=None):
         {"peak_force": var("race"), "p_max": var("race"), "startup_peak_force": var(),
          "above_per_rev": var("race", "level"), "impacts_per_rev": var("race", "kind"),
          "iter_max": var("stage"), "failed": (dims, np.zeros(shape))},
-        coords=coords, attrs={"analysis.settle": 1.0})
+        coords=coords, attrs={"settle_revolutions": 1.0})
     if failed_at is not None:
         ds["failed"][failed_at] = 1.0
         for name in ds.data_vars:

@@ -15,7 +15,7 @@ with job_log(sm.log[0]):
                         settle=settings["settle"], force_levels=settings["force_levels"],
                         settings=settings)
     if sm.params.revolutions is not None:
-        summary.attrs["study.revolutions"] = float(sm.params.revolutions)
+        summary.attrs["study_revolutions"] = float(sm.params.revolutions)
     simcore.write_netcdf(summary, sm.output[0])
     n_failed = int(summary["failed"].sum())
     print(f"wrote {sm.output[0]}: {dict(summary.sizes)}, {n_failed} failed run(s)", flush=True)
