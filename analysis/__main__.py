@@ -5,7 +5,7 @@
     python -m analysis top-forces RUN.nc [-n 3]
     python -m analysis dt-check RUN.nc [--t-check T] [--tol 0.1] [-n 6] [--out IMPACTS.nc]
     python -m analysis figures RUN.nc --outdir DIR [--impacts IMPACTS.nc] [--prefix NAME]
-    python -m analysis study-figures SUMMARY.nc --outdir DIR
+    python -m analysis study-figures SUMMARY.nc [--outdir DIR]
 """
 
 from __future__ import annotations
@@ -72,9 +72,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--prefix", default=None)
     p.add_argument("--r-eff", choices=("concave", "paper"), default="concave")
     _common(p)
-    p = sub.add_parser("study-figures", help="figures of the study summary")
+    p = sub.add_parser("study-figures",
+                       help="figures of the study summary (every grid point) and its table")
     p.add_argument("summary")
-    p.add_argument("--outdir", required=True)
+    p.add_argument("--outdir", default=None,
+                   help="output folder (default: figures/ next to SUMMARY.nc)")
     return ap
 
 
@@ -165,11 +167,20 @@ def main(argv=None) -> int:
             return 2
     try:
         if args.cmd == "study-figures":
-            from .figures import plot_study
+            from pathlib import Path
 
+            from .figures import plot_study
+            from .summary import summary_table
+
+            outdir = Path(args.outdir or Path(args.summary).parent / "figures")
             with xr.open_dataset(args.summary) as ds:
-                for p in plot_study(ds.load(), args.outdir):
-                    print(p)
+                summary = ds.load()
+            for p in plot_study(summary, outdir):
+                print(p)
+            table = summary_table(summary)
+            table.to_csv(outdir / "summary_table.csv", index=False)
+            print(outdir / "summary_table.csv")
+            print(table.to_string(index=False))
             return 0
         with xr.open_dataset(args.run) as ds:
             run_ds = ds.load()

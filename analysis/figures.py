@@ -23,7 +23,7 @@ import xarray as xr  # noqa: E402
 from .filtering import impact_masks, split_impulses, zero_threshold  # noqa: E402
 from .impacts import STUDY_PARAMETERS  # noqa: E402
 
-__all__ = ["plot_run", "plot_study", "run_label", "run_prefix"]
+__all__ = ["plot_run", "plot_reference", "plot_study", "run_label", "run_prefix"]
 
 _PARAM = {
     # name: (label, unit shown, factor from SI)
@@ -307,95 +307,552 @@ def plot_run(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, outdir, zero_tol
     return [Path(p) for p in out]
 
 
-def _axis_values(ds, dim):
+# --- reference run: steady operation ------------------------------------------------------
+
+_RACE_COLOURS = {0: "tab:blue", 1: "tab:red"}
+_KIND_MARKERS = {0: "o", 1: "x", 2: "s", 3: "^"}
+
+
+def _impact_columns(impacts_ds, run_ds, settle):
+    """Impact table as plain arrays with race/kind codes, crank angle and steady mask."""
+    from .summary import KINDS, RACES, category_codes, steady_window
+
+    n = 0 if impacts_ds is None else impacts_ds.sizes.get("impact", 0)
+
+    def col(name, fill=np.nan):
+        if n and name in impacts_ds:
+            return np.asarray(impacts_ds[name].values)
+        return np.full(n, fill)
+
+    def codes(name, names):
+        if n and name in impacts_ds:
+            return category_codes(impacts_ds[name].values,
+                                  impacts_ds[name].attrs.get("flag_meanings"), names)
+        return np.full(n, -1)
+
+    t = np.asarray(run_ds["time"].values, dtype=float)
+    theta = np.asarray(run_ds["crank_angle"].values, dtype=float)
+    t_settle, revs = steady_window(t, theta, settle)
+    time = col("time").astype(float)
+    out = {
+        "time": time,
+        "race": codes("race", RACES),
+        "kind": codes("kind", KINDS),
+        "F_max": col("F_max").astype(float),
+        "v_pre": col("v_pre").astype(float),
+        "ball": col("ball", -1).astype(float),
+        "theta": np.interp(time, t, theta) if n else np.zeros(0),
+        "steady": time > t_settle,
+        "settle_time": t_settle,
+        "revolutions": revs,
+    }
+    return out
+
+
+def _steady_title(cols, settle):
+    return (f"statistics over t > {cols['settle_time']:.3g} s (after {settle:g} start-up "
+            f"revolution(s)): {cols['revolutions']:.3g} revolutions")
+
+
+def _plot_force_angle(run_ds, cols, path, settle, zero_tol, zero_floor):
+    """Persistent force per race (Λ_S/h summed over the balls) and impact peaks over the crank
+    angle, every steady revolution overlaid."""
+    lam = np.asarray(run_ds["Lambda_N"].transpose("contact", "time").values, dtype=float)
+    h = float(run_ds.attrs.get("solver.dt", np.median(np.diff(run_ds["time"].values))))
+    _, smooth, _ = split_impulses(lam, zero_tol, zero_floor)
+    from .summary import RACES, category_codes
+
+    race_of_contact = category_codes(run_ds["race"].values,
+                                     run_ds["race"].attrs.get("flag_meanings"), RACES)
+    t = np.asarray(run_ds["time"].values, dtype=float)
+    theta = np.asarray(run_ds["crank_angle"].values, dtype=float)
+    deg = np.degrees(np.mod(theta, 2 * np.pi))
+    steady_t = t > cols["settle_time"]
+    rev = np.floor((theta - theta[0]) / (2 * np.pi)).astype(int)
+    fig, axes = plt.subplots(2, 1, figsize=(11, 8), sharex=True, layout="constrained")
+    for r, ax in enumerate(axes):
+        force = smooth[race_of_contact == r].sum(axis=0) / h
+        for k in np.unique(rev[steady_t]):
+            sel = steady_t & (rev == k)
+            # break the line where the angle wraps from 360 to 0 degrees
+            y = np.where(np.r_[False, np.diff(deg[sel]) < 0], np.nan, force[sel])
+            ax.plot(deg[sel], y, "-", color="0.4", lw=0.7,
+                    label="persistent force Λ_S/h, all balls (one line per revolution)"
+                    if k == np.unique(rev[steady_t])[0] else None)
+        m = cols["steady"] & (cols["race"] == r) & np.isfinite(cols["F_max"])
+        ax.plot(np.degrees(np.mod(cols["theta"][m], 2 * np.pi)), cols["F_max"][m], ".",
+                color=_RACE_COLOURS[r], ms=4, label=f"impact peak force F_max ({m.sum()})")
+        ax.set_yscale("symlog", linthresh=10.0)
+        ax.set_ylabel("force [N]")
+        ax.set_title(f"{RACES[r]} race")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="lower center", framealpha=0.9)
+    axes[-1].set_xlabel("crank angle [deg] (0 = crank along +x, slider at its far end)")
+    axes[-1].set_xticks(np.arange(0, 361, 45))
+    fig.suptitle("Contact force over the crank angle, reference run\n"
+                 f"{run_label(run_ds)}; {_steady_title(cols, settle)}")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _ball_angles(run_ds, cols):
+    """Angle of each impact's ball around its race, in the race's own body frame [rad]."""
+    q = np.asarray(run_ds["q"].transpose("time", "body", "dof").values, dtype=float)
+    t = np.asarray(run_ds["time"].values, dtype=float)
+    L1 = float(run_ds.attrs["model.crank_length"])
+    theta = np.asarray(run_ds["crank_angle"].values, dtype=float)
+    idx = np.clip(np.searchsorted(t, cols["time"]), 0, t.size - 1)
+    balls = cols["ball"].astype(int)
+    ok = (balls >= 0) & (balls + 3 < q.shape[1])
+    pin = np.stack([L1 * np.cos(theta), L1 * np.sin(theta)], axis=1)
+    outer = pin + np.stack([run_ds["journal_x"].values, run_ds["journal_y"].values], axis=1)
+    angles = np.full(idx.size, np.nan)
+    for k in np.flatnonzero(ok):
+        i, b = idx[k], balls[k] + 3  # bodies: crank, rod, slider, ball0, ball1, ...
+        if cols["race"][k] == 0:
+            d, frame = q[i, b, :2] - pin[i], theta[i]
+        else:
+            d, frame = q[i, b, :2] - outer[i], q[i, 1, 2]
+        angles[k] = np.arctan2(d[1], d[0]) - frame
+    return np.mod(angles, 2 * np.pi)
+
+
+def _plot_ball_load(run_ds, cols, path, settle):
+    angles = _ball_angles(run_ds, cols)
+    n_balls = int(run_ds.attrs.get("model.n_balls", np.nanmax(cols["ball"]) + 1))
+    fig, axes = plt.subplots(1, 2, figsize=(13, 8.2), subplot_kw={"projection": "polar"},
+                             layout="constrained")
+    cmap = plt.get_cmap("tab10")
+    for r, (ax, frame) in enumerate(zip(axes, ("crank frame: 0° points from the crank pivot "
+                                                "through the pin", "rod frame: 0° points from "
+                                                "the big end towards the slider"), strict=True)):
+        for b in range(n_balls):
+            m = (cols["steady"] & (cols["race"] == r) & (cols["ball"] == b)
+                 & np.isfinite(cols["F_max"]) & np.isfinite(angles))
+            peak = f", peak {_fmt_force(cols['F_max'][m].max())}" if m.any() else ""
+            ax.scatter(angles[m], cols["F_max"][m] / 1e3, s=9, color=cmap(b % 10), alpha=0.7,
+                       label=f"ball {b}: {m.sum()} impacts{peak}")
+        ax.set_title(f"{('inner', 'outer')[r]} race, {frame}\nradius: peak force F_max [kN]",
+                     fontsize=9)
+        ax.set_rlabel_position(100)
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.06), ncol=2)
+    fig.suptitle("Where the impacts land: angle of the hit ball on each race (in the race's "
+                 "own frame) and its peak force\n"
+                 f"{run_label(run_ds)}; {_steady_title(cols, settle)}")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _plot_exceedance(run_ds, cols, path, settle, force_levels):
+    fig, ax = plt.subplots(figsize=(9, 6), layout="constrained")
+    revs = cols["revolutions"]
+    for r, name in enumerate(("inner", "outer")):
+        f = np.sort(cols["F_max"][cols["steady"] & (cols["race"] == r)
+                                  & np.isfinite(cols["F_max"])])[::-1]
+        f = f[f > 0]
+        if f.size and revs > 0:
+            rate = np.arange(1, f.size + 1) / revs
+            ax.step(f, rate, where="post", color=_RACE_COLOURS[r],
+                    label=f"{name} race ({f.size} impacts with a force)")
+        s = cols["F_max"][~cols["steady"] & (cols["race"] == r)]
+        if np.isfinite(s).any():
+            ax.axvline(np.nanmax(s), color=_RACE_COLOURS[r], ls="--", lw=0.8,
+                       label=f"{name} race, start-up peak {_fmt_force(np.nanmax(s))}")
+    for level in force_levels:
+        ax.axvline(level, color="0.3", ls=":", lw=1)
+        ax.text(level, 1.0, f" {_fmt_force(level)}", transform=ax.get_xaxis_transform(),
+                va="top", fontsize=8)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("force F [N]")
+    ax.set_ylabel("impacts per crank revolution with a peak force F_max ≥ F")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8, loc="lower left")
+    ax.set_title("Exceedance of the impact peak force, per race (dotted: analysis.force_levels)"
+                 f"\n{run_label(run_ds)}\n{_steady_title(cols, settle)}", fontsize=10)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _plot_force_speed(run_ds, cols, path, settle):
+    from .summary import KINDS
+
+    fig, ax = plt.subplots(figsize=(9, 6.5), layout="constrained")
+    ok = np.isfinite(cols["F_max"]) & (cols["v_pre"] > 0)
+    m = ok & ~cols["steady"]
+    ax.scatter(cols["v_pre"][m], cols["F_max"][m], s=10, color="0.7", marker="o",
+               label=f"start-up ({m.sum()})")
+    for r, name in enumerate(("inner", "outer")):
+        for k, kind in enumerate(KINDS):
+            m = ok & cols["steady"] & (cols["race"] == r) & (cols["kind"] == k)
+            if m.any():
+                ax.scatter(cols["v_pre"][m], cols["F_max"][m], s=12, color=_RACE_COLOURS[r],
+                           marker=_KIND_MARKERS[k], alpha=0.7, linewidths=0.8,
+                           label=f"{name} race, {kind} ({m.sum()})")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("approach speed v_pre [m/s]")
+    ax.set_ylabel("peak force F_max [N]")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8, loc="upper left")
+    ax.set_title("Impact peak force against approach speed (Hertz: F_max ∝ m_eff^0.6 "
+                 f"v_pre^1.2 at a given stiffness)\n{run_label(run_ds)}\n"
+                 f"{_steady_title(cols, settle)}", fontsize=10)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _plot_iterations(run_ds, cols, path, settle):
+    it = np.asarray(run_ds["iterations"].transpose("time", "stage").values, dtype=float)[1:]
+    t = np.asarray(run_ds["time"].values, dtype=float)[1:]
+    names = ("smooth", "position", "velocity")
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 5.5), layout="constrained",
+                                 gridspec_kw={"width_ratios": (2, 1)})
+    for s in range(it.shape[1]):
+        a1.plot(t * 1e3, it[:, s] + 0.12 * (s - 1), ".", ms=1.5, color=f"C{s}",
+                label=f"{names[s]}: max {int(it[:, s].max())}, mean {it[:, s].mean():.2f}")
+        counts = np.bincount(it[:, s].astype(int))
+        used = np.flatnonzero(counts)
+        a2.plot(used, counts[used], "o-", color=f"C{s}", ms=4, label=names[s])
+    a1.axvspan(0, cols["settle_time"] * 1e3, color="0.9", label="start-up (not in statistics)")
+    a1.set_xlabel("time [ms]")
+    a1.set_ylabel("Newton iterations of the step (stages offset by ±0.12)")
+    a1.grid(alpha=0.3)
+    a1.legend(fontsize=8, markerscale=6, loc="upper right")
+    a2.set_yscale("log")
+    a2.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
+    a2.set_xlabel("Newton iterations of the step")
+    a2.set_ylabel("number of steps")
+    a2.grid(alpha=0.3, which="both")
+    a2.legend(fontsize=8)
+    n_bad = int(np.sum(np.asarray(run_ds["converged"].values)[1:] == 0))
+    fig.suptitle(f"Solver iterations per step and sub-problem ({t.size} steps, {n_bad} "
+                 f"unconverged)\n{run_label(run_ds)}")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_reference(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, outdir, settle=0.0,
+                   force_levels=(100.0, 1000.0), zero_tol=1e-4, zero_floor=1e-12,
+                   prefix="reference") -> list[Path]:
+    """Figures of one run in steady operation (the study's reference run).
+
+    Parameters
+    ----------
+    run_ds : xarray.Dataset
+        One run, with ``crank_angle``, ``q``, ``journal_x``/``journal_y``, ``iterations``.
+    impacts_ds : xarray.Dataset or None
+        Its impact table (columns ``time``, ``race``, ``kind``, ``ball``, ``F_max``,
+        ``v_pre``; string or integer categories).
+    outdir : str or Path
+        Output folder (created).
+    settle : float
+        Start-up left out [crank revolutions] (:func:`analysis.summary.steady_window`).
+    force_levels : sequence of float
+        Absolute force levels marked on the exceedance curve [N].
+    zero_tol, zero_floor : float
+        Filter settings for the persistent force (as for the impact table).
+    prefix : str
+        File-name prefix.
+
+    Returns
+    -------
+    list of Path
+        ``<prefix>_force_angle.png`` (persistent force and impact peaks over the crank angle),
+        ``<prefix>_ball_load.png`` (polar: where the impacts land on each race),
+        ``<prefix>_exceedance.png`` (impacts per revolution above a force, per race),
+        ``<prefix>_force_speed.png`` (F_max against approach speed),
+        ``<prefix>_iterations.png`` (Newton iterations per step and stage).
+    """
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    cols = _impact_columns(impacts_ds, run_ds, settle)
+    return [
+        _plot_force_angle(run_ds, cols, outdir / f"{prefix}_force_angle.png", settle, zero_tol,
+                          zero_floor),
+        _plot_ball_load(run_ds, cols, outdir / f"{prefix}_ball_load.png", settle),
+        _plot_exceedance(run_ds, cols, outdir / f"{prefix}_exceedance.png", settle,
+                         force_levels),
+        _plot_force_speed(run_ds, cols, outdir / f"{prefix}_force_speed.png", settle),
+        _plot_iterations(run_ds, cols, outdir / f"{prefix}_iterations.png", settle),
+    ]
+
+
+# --- the study: every grid point --------------------------------------------------------------
+
+def _study_quantities(summary_ds):
+    """(file stem, DataArray over the swept dims, colour-bar label, reduction over others)."""
+    out = []
+    races = ("inner", "outer")
+    if "peak_force" in summary_ds:
+        pf = summary_ds["peak_force"]
+        for r in (1, 0):
+            out.append((f"peak_force_{races[r]}", pf.isel(race=r) / 1e3,
+                        f"peak force F_max, {races[r]} race [kN]", "max"))
+    if "p_max" in summary_ds and bool(summary_ds["p_max"].notnull().any()):
+        for r in (1, 0):
+            out.append((f"p_max_{races[r]}", summary_ds["p_max"].isel(race=r) / 1e6,
+                        f"peak contact pressure p_max, {races[r]} race [MPa]", "max"))
+    if "startup_peak_force" in summary_ds:
+        out.append(("startup_peak_force", summary_ds["startup_peak_force"] / 1e3,
+                    "start-up peak force (both races) [kN]", "max"))
+    if "above_per_rev" in summary_ds:
+        for i, level in enumerate(summary_ds["level"].values):
+            da = summary_ds["above_per_rev"].isel(level=i).sum("race", min_count=1)
+            out.append((f"above_{level:g}N_per_rev", da,
+                        f"impacts per revolution with F_max ≥ {_fmt_force(level)} "
+                        "(both races)", "mean"))
+    if "impacts_per_rev" in summary_ds:
+        da = summary_ds["impacts_per_rev"].sum(["race", "kind"], min_count=1)
+        out.append(("impacts_per_rev", da,
+                    "impacts per revolution (relative zero threshold, all kinds)", "mean"))
+    return out
+
+
+def _positions(dim, values):
+    """Where a swept value sits on its axis: clearance at its value (log axis), the others at
+    equal steps (their values are uneven, e.g. mu = 0, 0.01, 0.05)."""
+    values = np.asarray(values, dtype=float)
+    return values if dim == "clearance" else np.arange(values.size, dtype=float)
+
+
+def _ticks(ax, axis, dim, values):
     label, unit, fac = _PARAM.get(dim, (dim, "", 1.0))
-    return np.asarray(ds[dim].values, dtype=float) * fac, f"{label} [{unit or '–'}]"
+    text = [f"{v * fac:.3g}" for v in np.asarray(values, dtype=float)]
+    (ax.set_xticks if axis == "x" else ax.set_yticks)(_positions(dim, values), text)
+    target = ax.xaxis if axis == "x" else ax.yaxis
+    target.set_minor_locator(matplotlib.ticker.NullLocator())
+    (ax.set_xlabel if axis == "x" else ax.set_ylabel)(f"{label} [{unit or '–'}]")
+
+
+def _edges(dim, values):
+    """Cell edges around the positions of :func:`_positions` (geometric means for clearance)."""
+    v = _positions(dim, values)
+    log = dim == "clearance"
+    v = np.log10(v) if log else v
+    if v.size == 1:
+        edges = np.array([v[0] - 0.5, v[0] + 0.5])
+    else:
+        inner = 0.5 * (v[1:] + v[:-1])
+        edges = np.r_[v[0] - (inner[0] - v[0]), inner, v[-1] + (v[-1] - inner[-1])]
+    return 10**edges if log else edges
+
+
+def _norm(values):
+    """Colour scale of a heat map: logarithmic for positive values spanning more than a factor
+    of 10 (peak forces), square root for counts with zeros and a long tail, else linear."""
+    values = np.asarray(values, dtype=float)
+    values = values[np.isfinite(values)]
+    if not values.size:
+        return matplotlib.colors.Normalize(vmin=0.0, vmax=1.0)
+    lo, hi = float(values.min()), float(values.max())
+    if hi <= lo:
+        return matplotlib.colors.Normalize(vmin=lo - 0.5, vmax=hi + 0.5)
+    if lo > 0 and hi / lo > 10:
+        return matplotlib.colors.LogNorm(vmin=lo, vmax=hi)
+    if lo >= 0 and hi > 10 * np.median(values[values > 0]):
+        return matplotlib.colors.PowerNorm(gamma=0.5, vmin=lo, vmax=hi)
+    return matplotlib.colors.Normalize(vmin=lo, vmax=hi)
+
+
+def _colorbar(fig, mesh, axes, label):
+    """Colour bar with plain-number ticks (1, 2, 5 per decade on a log scale)."""
+    bar = fig.colorbar(mesh, ax=axes, label=label, shrink=0.9)
+    if isinstance(mesh.norm, matplotlib.colors.LogNorm):
+        bar.ax.yaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+        bar.ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    bar.ax.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}"))
+    return bar
+
+
+def _heat_panel(ax, da, x, y, norm, cmap, failed):
+    """One heat map of ``da`` (dims y, x) with every cell's value written in it."""
+    xv, yv = _positions(x, da[x].values), _positions(y, da[y].values)
+    z = np.ma.masked_invalid(da.transpose(y, x).values.astype(float))
+    mesh = ax.pcolormesh(_edges(x, da[x].values), _edges(y, da[y].values), z, norm=norm,
+                         cmap=cmap)
+    for dim, setter in ((x, ax.set_xscale), (y, ax.set_yscale)):
+        if dim == "clearance":
+            setter("log")
+    bad = failed.transpose(y, x).values if failed is not None else np.zeros(z.shape, bool)
+    for j, yy in enumerate(yv):
+        for i, xx in enumerate(xv):
+            if bad[j, i]:
+                txt, colour = "failed", "k"
+            elif np.ma.is_masked(z[j, i]):
+                txt, colour = "–", "k"
+            else:
+                val = float(z[j, i])
+                txt = f"{val:.0f}" if 1e3 <= abs(val) < 1e6 else f"{val:.3g}"
+                rgba = cmap(norm(val))
+                light = 0.299 * rgba[0] + 0.587 * rgba[1] + 0.114 * rgba[2]
+                colour = "k" if light > 0.5 else "w"
+            ax.text(xx, yy, txt, ha="center", va="center", fontsize=8, color=colour)
+    return mesh
+
+
+def _facet_figure(da, swept, path, label, failed, title):
+    """All grid points: x, y = first two swept dims, columns and rows = the next two."""
+    x = swept[0]
+    y = swept[1] if len(swept) > 1 else None
+    col = swept[2] if len(swept) > 2 else None
+    row = swept[3] if len(swept) > 3 else None
+    ncol = da.sizes[col] if col else 1
+    nrow = da.sizes[row] if row else 1
+    norm = _norm(da.values)
+    cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
+    fig, axes = plt.subplots(nrow, ncol, figsize=(3.4 * ncol + 1.6, 2.9 * nrow + 1.3),
+                             squeeze=False, sharex=True, sharey=True, layout="constrained")
+    mesh = None
+    for i in range(nrow):
+        for j in range(ncol):
+            ax = axes[i, j]
+            sel = {}
+            if row:
+                sel[row] = i
+            if col:
+                sel[col] = j
+            sub = da.isel(sel)
+            fsub = failed.isel(sel) if failed is not None else None
+            if y is None:
+                sub = sub.expand_dims(_y=[0.0])
+                fsub = fsub.expand_dims(_y=[0.0]) if fsub is not None else None
+                mesh = _heat_panel(ax, sub, x, "_y", norm, cmap, fsub)
+                ax.set_yticks([])
+            else:
+                mesh = _heat_panel(ax, sub, x, y, norm, cmap, fsub)
+            heads = [_fmt_param(d, float(da[d].values[k])) for d, k in ((row, i), (col, j)) if d]
+            ax.set_title(", ".join(heads), fontsize=9)
+            if i == nrow - 1:
+                _ticks(ax, "x", x, da[x].values)
+            if j == 0 and y is not None:
+                _ticks(ax, "y", y, da[y].values)
+    _colorbar(fig, mesh, axes, label)
+    fig.suptitle(title, fontsize=11)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def _pairs_figure(da, swept, path, label, how, failed, title):
+    """One heat map per pair of swept dims, the others reduced (max or mean over them)."""
+    pairs = [(a, b) for i, a in enumerate(swept) for b in swept[i + 1:]]
+    ncol = min(3, len(pairs))
+    nrow = int(math.ceil(len(pairs) / ncol))
+    masked = da.where(~failed) if failed is not None else da
+    reduced = {}
+    for a, b in pairs:
+        rest = [d for d in swept if d not in (a, b)]
+        red = (masked.max(rest, skipna=True) if how == "max" else masked.mean(rest, skipna=True)) \
+            if rest else masked
+        reduced[(a, b)] = red
+    norm = _norm(np.concatenate([np.ravel(r.values) for r in reduced.values()]))
+    cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol + 1.4, 3.5 * nrow + 1.2),
+                             squeeze=False, layout="constrained")
+    mesh = None
+    for ax, (a, b) in zip(axes.ravel(), pairs, strict=False):
+        xdim, ydim = (b, a) if a != "clearance" and b == "clearance" else (a, b)
+        mesh = _heat_panel(ax, reduced[(a, b)], xdim, ydim, norm, cmap, None)
+        _ticks(ax, "x", xdim, reduced[(a, b)][xdim].values)
+        _ticks(ax, "y", ydim, reduced[(a, b)][ydim].values)
+        rest = [_PARAM.get(d, (d,))[0].split()[-1] for d in swept if d not in (a, b)]
+        ax.set_title(f"{how} over {', '.join(rest)}" if rest else "", fontsize=9)
+    for ax in axes.ravel()[len(pairs):]:
+        ax.set_axis_off()
+    _colorbar(fig, mesh, axes, label)
+    fig.suptitle(title, fontsize=11)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def _line_figure(da, dim, path, label, failed, title):
+    fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+    x = _positions(dim, da[dim].values)
+    ax.plot(x, da.values.astype(float), "o-")
+    if failed is not None and bool(failed.any()):
+        for xx in x[failed.values.astype(bool)]:
+            ax.axvline(xx, color="r", ls=":", lw=1)
+    if dim == "clearance":
+        ax.set_xscale("log")
+    _ticks(ax, "x", dim, da[dim].values)
+    ax.set_ylabel(label)
+    ax.grid(alpha=0.3)
+    ax.set_title(title, fontsize=10)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
 
 
 def plot_study(summary_ds: xr.Dataset, outdir) -> list[Path]:
-    """Peak force and impact counts against each swept parameter.
+    """Every grid point of the study: heat maps of peak forces, p_max and counts.
 
     Parameters
     ----------
     summary_ds : xarray.Dataset
-        Dims among ``clearance``, ``mu``, ``omega0``, ``e_N`` (and ``rank``), variables
-        ``peak_force`` [N], ``n_simple``, ``n_persistent`` (NaN marks a failed run).
+        The study summary (:func:`analysis.summary.summarize`): dims ``clearance``, ``mu``,
+        ``omega0``, ``e_N`` (any of length 1) and ``race``, ``kind``, ``level``, ...
     outdir : str or Path
         Output folder (created).
 
     Returns
     -------
     list of Path
-        One ``study_<dim>.png`` per swept dim of length > 1: peak force (top) and counts
-        (bottom) against it, one line per value of the first other swept dim of length > 1;
-        the remaining dims are held at their middle value (index len // 2), named in the title.
-        If no dim has length > 1, one ``study_single.png`` with the single run's values.
+        For each quantity (peak force and p_max per race, start-up peak, impacts per revolution
+        above each force level, impacts per revolution): ``study_<quantity>.png`` with every grid
+        point (x and y: the first two swept parameters, clearance on a log axis; columns and rows
+        of panels: the next two; the value written in each cell; "failed" where the run
+        failed), and with three or more swept parameters ``pairs_<quantity>.png``: one heat map
+        per pair of swept parameters, the largest (peaks) or mean (counts) over the others.
+        With one swept parameter a line plot, with none ``study_single.png``.
     """
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
-    dims = [d for d in STUDY_PARAMETERS if d in summary_ds.dims]
-    dims += [d for d in summary_ds.dims if d not in dims and d != "rank"]
-    swept = [d for d in dims if summary_ds.sizes[d] > 1]
-    thr_note = ""
-    if "zero_tol" in summary_ds.attrs:
-        thr_note = f"; counts with zero_tol = {summary_ds.attrs['zero_tol']:g}"
+    swept = [d for d in STUDY_PARAMETERS if d in summary_ds.dims and summary_ds.sizes[d] > 1]
+    failed = summary_ds["failed"] > 0 if "failed" in summary_ds else None
+    single = [d for d in STUDY_PARAMETERS if d in summary_ds.dims and d not in swept]
+    held = ", ".join(_fmt_param(d, float(summary_ds[d].values[0])) for d in single)
+    settle = summary_ds.attrs.get("settle_revolutions", summary_ds.attrs.get("analysis_settle"))
+    held = f"; {held}" if held else ""
+    quantities = _study_quantities(summary_ds)
     paths = []
     if not swept:
         path = outdir / "study_single.png"
         fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
-        sub = summary_ds.isel({d: 0 for d in dims})
-        lines = [run_label(sub)]
-        for var, unit in (("peak_force", "N"), ("n_simple", ""), ("n_persistent", "")):
-            if var in sub:
-                lines.append(f"{var} = {float(sub[var].values):.4g} {unit}".rstrip())
-        ax.text(0.05, 0.5, "\n".join(lines), va="center", transform=ax.transAxes)
+        sub = summary_ds.isel({d: 0 for d in single})
+        lines = [run_label(sub)] + [f"{lab}: {float(da.isel({d: 0 for d in single}).values):.4g}"
+                                    for _, da, lab, _ in quantities]
+        ax.text(0.02, 0.5, "\n".join(lines), va="center", transform=ax.transAxes, fontsize=9)
         ax.set_axis_off()
         ax.set_title("Study: a single parameter set (nothing swept)")
         fig.savefig(path, dpi=110)
         plt.close(fig)
         return [path]
-    for dim in swept:
-        others = [d for d in swept if d != dim]
-        line_dim = others[0] if others else None
-        fixed = {d: summary_ds.sizes[d] // 2 for d in dims if d not in (dim, line_dim)}
-        sub = summary_ds.isel(fixed)
-        x, xlabel = _axis_values(sub, dim)
-        fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 8), sharex=True, layout="constrained")
-        line_idx = range(sub.sizes[line_dim]) if line_dim else [None]
-        any_data = False
-        for i, li in enumerate(line_idx):
-            cur = sub.isel({line_dim: li}) if line_dim else sub
-            col = f"C{i % 10}"
-            lab = (_fmt_param(line_dim, float(cur[line_dim].values)) if line_dim else None)
-            if "peak_force" in cur:
-                pf = np.asarray(cur["peak_force"].transpose(dim).values, dtype=float)
-                any_data |= bool(np.isfinite(pf).any())
-                a1.plot(x, pf / 1e3, "o-", color=col, label=lab)
-            for var, ls in (("n_simple", "-"), ("n_persistent", "--")):
-                if var in cur:
-                    n = np.asarray(cur[var].transpose(dim).values, dtype=float)
-                    any_data |= bool(np.isfinite(n).any())
-                    a2.plot(x, n, "o" + ls, color=col,
-                            label=(f"{var.split('_')[1]}" + (f", {lab}" if lab else "")))
-        if not any_data:
-            for ax in (a1, a2):
-                ax.text(0.5, 0.5, "no valid runs (all NaN)", ha="center", va="center",
-                        transform=ax.transAxes, color="r")
-        a1.set_ylabel("peak force F_max [kN]")
-        a2.set_ylabel("number of impacts [–]")
-        a2.set_xlabel(xlabel)
-        for ax in (a1, a2):
-            ax.grid(alpha=0.3)
-            if ax.get_legend_handles_labels()[0] and (line_dim or ax is a2):
-                ax.legend(fontsize=8)
-        fixed_txt = ", ".join(_fmt_param(d, float(sub[d].values)) for d in fixed
-                              if d in sub.coords)
-        notes = ([f"held: {fixed_txt}"] if fixed_txt else []) + ([thr_note[2:]] if thr_note else [])
-        a1.set_title(f"Peak force and impact counts vs {_PARAM.get(dim, (dim,))[0]}"
-                     + (f"\n({'; '.join(notes)})" if notes else ""))
-        a2.set_title("solid: simple impacts, dashed: impacts on persistent contact", fontsize=9)
-        path = outdir / f"study_{dim}.png"
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        paths.append(path)
+    fsq = failed.isel({d: 0 for d in single}) if failed is not None else None
+    for stem, da, label, how in quantities:
+        da = da.isel({d: 0 for d in single})
+        if settle is None:
+            note = held[2:]
+        elif stem.startswith("startup"):
+            note = f"start-up: the first {settle:g} crank revolution(s) of each run{held}"
+        else:
+            note = f"steady window: after the first {settle:g} crank revolution(s){held}"
+        title = f"{label}: every grid point" + (f"\n({note})" if note else "")
+        if len(swept) == 1:
+            paths.append(_line_figure(da, swept[0], outdir / f"study_{stem}.png", label, fsq,
+                                      title))
+            continue
+        paths.append(_facet_figure(da.transpose(*swept), swept, outdir / f"study_{stem}.png",
+                                   label, fsq, title))
+        if len(swept) >= 3:
+            paths.append(_pairs_figure(
+                da.transpose(*swept), swept, outdir / f"pairs_{stem}.png", label, how, fsq,
+                f"{label}: each pair of swept parameters, {how} over the others"
+                + (f"\n({note})" if note else "")))
     return paths

@@ -1,7 +1,8 @@
 """Wall time of the smoke and default studies, and where a job's time goes.
 
-    python benchmarks/bench_study.py            smoke and default studies at -j1 and -j2
-    python benchmarks/bench_study.py --smoke    smoke study only (about a minute)
+    python benchmarks/bench_study.py              smoke and default studies at -j1 and -j2
+    python benchmarks/bench_study.py --smoke      smoke study only (about a minute)
+    python benchmarks/bench_study.py --jobs 2     default and smoke studies at -j2 only
 
 Each study runs from scratch (``--forceall``) into a temporary results folder, so ``results/``
 is left alone. Printed:
@@ -11,13 +12,19 @@ is left alone. Printed:
   Snakemake ``benchmark:`` file against the simulation time of its runs (``wall_time_s`` of the
   run files); the difference is the per-job overhead (process start, imports, Numba cache load,
   writing the files);
-* the same overhead measured directly: a fresh process that imports simcore and runs one step.
+* the time of each rule (simulate, impacts, summarize, figures) summed over its jobs, from the
+  Snakemake ``benchmark:`` files, and the simulated time of the runs (steady runs last
+  (settle + revolutions) turns at their own speed, so slow points dominate);
+* the same overhead measured directly: a fresh process that imports simcore and runs one step;
+* the machine's load average before and after (the numbers are only comparable on an idle
+  machine).
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import os
 import re
 import shutil
 import subprocess
@@ -89,6 +96,30 @@ def _batch_glob(batch: str) -> str:
     return "_".join(f"{key}~{fixed.get(key, '*')}" for key in keys) + ".nc"
 
 
+def rule_costs(results: Path) -> dict[str, float]:
+    """Seconds per rule summed over its jobs (Snakemake benchmark files)."""
+    logs = ROOT / "logs" / "_".join(results.relative_to(results.anchor).parts)
+    costs: dict[str, float] = {}
+    for bench in logs.rglob("*.benchmark.tsv"):
+        rule = bench.parent.name if bench.parent != logs else bench.name.split(".")[0]
+        with open(bench, newline="") as fh:
+            row = next(csv.DictReader(fh, delimiter="\t"))
+        costs[rule] = costs.get(rule, 0.0) + float(row["s"])
+    return costs
+
+
+def simulated_time(results: Path) -> float:
+    """Simulated time summed over the run files [s]."""
+    import xarray as xr
+
+    total = 0.0
+    for path in (results / "runs").glob("*.nc"):
+        with xr.open_dataset(path) as ds:
+            if "time" in ds.dims:
+                total += float(ds["time"][-1] - ds["time"][0])
+    return total
+
+
 def fresh_process() -> tuple[float, float, float, float]:
     """A new process: (imports, first run of one step, one default run, total wall) [s]."""
     start = time.perf_counter()
@@ -102,7 +133,10 @@ def fresh_process() -> tuple[float, float, float, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--smoke", action="store_true", help="smoke study only")
+    parser.add_argument("--jobs", default="1,2", help="comma-separated -j values (default 1,2)")
     args = parser.parse_args()
+    job_counts = [int(j) for j in args.jobs.split(",")]
+    print("load average before (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
     studies = [("smoke", "config/smoke.yaml")]
     if not args.smoke:
         studies.append(("default", None))
@@ -111,7 +145,7 @@ def main() -> None:
     imports, first, run, overhead = fresh_process()
     print(f"per-job overhead: {overhead:.2f} s = process start and exit + imports {imports:.2f} s"
           f" + first call (Numba cache load, one step) {first:.2f} s")
-    print(f"one run at the default settings (t_end 0.3 s, dt 1e-4 s): {run:.2f} s; "
+    print(f"one run of the paper's case (free drive, t_end 0.3 s, dt 1e-4 s): {run:.2f} s; "
           f"a simulate job of 9 runs (study.batch_axes: omega0, e_N) simulates "
           f"{9 * run:.1f} s against {overhead:.2f} s overhead "
           f"({'below' if overhead < 9 * run else 'ABOVE'}); one run per job would be "
@@ -121,7 +155,7 @@ def main() -> None:
     try:
         for name, configfile in studies:
             walls = {}
-            for jobs in (1, 2):
+            for jobs in job_counts:
                 results = tmp / f"{name}-j{jobs}"
                 walls[jobs] = run_study(configfile, jobs, results)
                 job_wall, run_wall, n_runs = job_costs(results)
@@ -132,11 +166,17 @@ def main() -> None:
                       f"jobs of {sum(job_wall) / n_jobs:.2f} s, of which simulation "
                       f"{sim / n_jobs:.2f} s ({sim / max(n_runs, 1):.2f} s per run; the first "
                       f"run of a job includes the Numba cache load)")
-            print(f"{name:8s} speed-up -j2 over -j1: {walls[1] / walls[2]:.2f}x")
+                print(f"{name:8s} -j{jobs}: per rule (summed over jobs): " + ", ".join(
+                    f"{rule} {sec:.1f} s" for rule, sec in sorted(rule_costs(results).items()))
+                    + f"; simulated time {simulated_time(results):.2f} s")
+            if 1 in walls and 2 in walls:
+                print(f"{name:8s} speed-up -j2 over -j1: {walls[1] / walls[2]:.2f}x")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+        print("load average after (1, 5, 15 min): "
+              + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
         for name, _ in studies:
-            for jobs in (1, 2):
+            for jobs in job_counts:
                 shutil.rmtree(ROOT / "logs" / "_".join((tmp / f"{name}-j{jobs}").relative_to(
                     tmp.anchor).parts), ignore_errors=True)
 

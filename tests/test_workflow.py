@@ -9,11 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 import xarray as xr
-
-from analysis.summary import summarize
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -118,76 +115,6 @@ def test_slurm_profile_dry_run():
 def test_lint_is_clean():
     proc = snakemake("--lint")
     assert proc.returncode == 0, proc.stdout + proc.stderr
-
-
-# --- the summary, on small synthetic files ----------------------------------------------------
-
-def _fake_run(path, point, failed=False, lam_max=1e-3):
-    coords = dict(point)
-    if failed:
-        ds = xr.Dataset(coords=coords, attrs={"failed": 1, "error": "did not converge"})
-    else:
-        n = 5
-        lam = np.zeros((n, 2))
-        lam[2, 1] = lam_max
-        iterations = np.array([[0, 0, 0], [2, 3, 1], [2, 5, 2], [3, 4, 1], [2, 3, 1]])
-        ds = xr.Dataset(
-            {
-                "Lambda_N": (("time", "contact"), lam),
-                "iterations": (("time", "stage"), iterations),
-                "converged": ("time", np.array([1, 1, 1, 0, 1], dtype="i1")),
-            },
-            coords={"time": np.arange(n) * 1e-4, "contact": [0, 1],
-                    "stage": ["smooth", "position", "velocity"], **coords},
-            attrs={"wall_time_s": 1.5},
-        )
-    ds.to_netcdf(path)
-
-
-def _fake_impacts(path, point, forces, failed=False):
-    attrs = {"failed": 1} if failed else {"n_simple": 2, "n_persistent": len(forces) - 2}
-    if failed:
-        ds = xr.Dataset(coords=dict(point), attrs=attrs)
-    else:
-        kind = ["simple", "simple"] + ["persistent"] * (len(forces) - 2)
-        ds = xr.Dataset({"F_max": ("impact", np.asarray(forces, dtype=float)),
-                         "kind": ("impact", kind)}, coords=dict(point), attrs=attrs)
-    ds.to_netcdf(path)
-
-
-def test_summarize_grid_and_failed_point(tmp_path):
-    runs, impacts = [], []
-    for clearance in (1e-4, 4e-4):
-        for mu in (0.0, 0.01):
-            point = {"clearance": clearance, "mu": mu, "omega0": 50.0, "e_N": 0.9}
-            name = f"c{clearance}_m{mu}.nc"
-            failed = clearance == 4e-4 and mu == 0.01
-            _fake_run(tmp_path / f"run_{name}", point, failed=failed)
-            forces = [100.0, np.nan, 300.0, 200.0, 50.0] if clearance == 1e-4 else [10.0, 20.0]
-            _fake_impacts(tmp_path / f"imp_{name}", point, forces, failed=failed)
-            runs.append(tmp_path / f"run_{name}")
-            impacts.append(tmp_path / f"imp_{name}")
-    s = summarize(runs, impacts, scheduler="synchronous")
-    assert s["peak_force"].dims == ("clearance", "mu", "omega0", "e_N")
-    assert s.sizes == {"clearance": 2, "mu": 2, "omega0": 1, "e_N": 1, "rank": 3, "stage": 3}
-    ok = dict(clearance=1e-4, mu=0.0, omega0=50.0, e_N=0.9)
-    bad = dict(clearance=4e-4, mu=0.01, omega0=50.0, e_N=0.9)
-    assert float(s["peak_force"].sel(ok)) == 300.0
-    np.testing.assert_array_equal(s["top3_force"].sel(ok), [300.0, 200.0, 100.0])
-    np.testing.assert_array_equal(
-        s["top3_force"].sel(clearance=4e-4, mu=0.0, omega0=50.0, e_N=0.9), [20.0, 10.0, np.nan])
-    assert float(s["n_persistent"].sel(ok)) == 3.0
-    np.testing.assert_array_equal(s["iter_max"].sel(ok), [3, 5, 2])
-    assert float(s["converged_fraction"].sel(ok)) == 0.75
-    assert float(s["max_Lambda_N"].sel(ok)) == 1e-3
-    # the failed point: flagged, and missing (NaN) everywhere else, not zero
-    assert float(s["failed"].sel(bad)) == 1.0 and int(s["failed"].sum()) == 1
-    for name in s.data_vars:
-        if name != "failed":
-            assert bool(s[name].sel(bad).isnull().all()), name
-    for name in s.data_vars:
-        assert s[name].attrs["units"] and s[name].attrs["long_name"]
-    assert s.attrs["n_failed"] == 1
 
 
 def _check_study(results: Path) -> xr.Dataset:

@@ -35,6 +35,7 @@ rule summarize:
     params:
         scheduler=config["study"]["dask_scheduler"],
         analysis=config["analysis"],
+        revolutions=config["study"]["revolutions"],
     threads: 2
     resources:
         runtime=30,

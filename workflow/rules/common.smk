@@ -6,6 +6,7 @@
 import copy
 import itertools
 import logging
+import math
 import re
 from contextlib import contextmanager
 from pathlib import Path
@@ -158,10 +159,42 @@ def batch_points(wildcards):
     return points
 
 
+def run_length(omega0):
+    """End time of a run [s]: (analysis.settle + study.revolutions) crank revolutions at omega0,
+    rounded up to whole steps; solver.t_end where study.revolutions is null."""
+    revolutions = config["study"]["revolutions"]
+    if revolutions is None:
+        return config["solver"]["t_end"]
+    turns = config["analysis"]["settle"] + revolutions
+    steps = math.ceil(turns * 2.0 * math.pi / abs(omega0) / config["solver"]["dt"] - 1e-9)
+    return tidy(steps * config["solver"]["dt"])
+
+
+def _check_run_lengths():
+    if config["study"]["revolutions"] is None:
+        return
+    for omega0 in AXES["omega0"]:
+        if omega0 == 0.0:
+            raise WorkflowError(
+                "invalid configuration: omega0: 0.0 is not allowed with study.revolutions "
+                "(a run lasts (settle + revolutions) 2 pi/|omega0|); allowed: omega0 != 0, "
+                "or study.revolutions: null")
+        if run_length(omega0) > 1000.0:
+            raise WorkflowError(
+                f"invalid configuration: study.revolutions: {config['study']['revolutions']} "
+                f"at omega0 = {omega0} rad/s gives t_end = {run_length(omega0):.4g} s; "
+                "allowed: t_end <= 1000 s")
+
+
+_check_run_lengths()
+
+
 def run_config(point):
-    """Configuration of one run: model and solver sections with the point's values set."""
+    """Configuration of one run: model and solver sections with the point's values set, and
+    the run's length from study.revolutions (see run_length)."""
     cfg = {"model": copy.deepcopy(config["model"]), "solver": copy.deepcopy(config["solver"])}
     cfg["model"].update(point)
+    cfg["solver"]["t_end"] = run_length(point["omega0"])
     return cfg
 
 

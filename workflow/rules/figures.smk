@@ -16,6 +16,8 @@ rule figures:
         ),
     log:
         f"{LOGS}/figures.log",
+    benchmark:
+        f"{LOGS}/figures.benchmark.tsv"
     params:
         analysis=config["analysis"],
         reference=REFERENCE,

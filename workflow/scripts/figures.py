@@ -17,7 +17,8 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 with job_log(sm.log[0]):
     import xarray as xr
 
-    from analysis.figures import plot_run, plot_study
+    from analysis.figures import plot_reference, plot_run, plot_study
+    from analysis.summary import summary_table
 
     settings = sm.params.analysis
     target = Path(sm.output[0])
@@ -27,16 +28,20 @@ with job_log(sm.log[0]):
     tmp.chmod(0o755)
     try:
         with xr.open_dataset(sm.input.summary) as summary:
-            # plot_study draws against every dimension but rank: leave out the iteration
-            # statistics (dimension stage), which it does not plot.
-            study = summary.load().drop_dims([d for d in ("stage",) if d in summary.dims])
-            written = list(plot_study(study, tmp))
+            summary = summary.load()
+        written = list(plot_study(summary, tmp))
+        summary_table(summary).to_csv(tmp / "summary_table.csv", index=False)
         with xr.open_dataset(sm.input.run) as run, xr.open_dataset(sm.input.impacts) as imp:
             if int(run.attrs.get("failed", 0)):
                 print(f"reference run {label(sm.params.reference)} failed: no run figures")
             else:
-                written += plot_run(run.load(), imp.load(), tmp, settings["zero_tol"],
-                                    settings["zero_floor"], prefix="reference")
+                run, imp = run.load(), imp.load()
+                written += plot_run(run, imp, tmp, settings["zero_tol"], settings["zero_floor"],
+                                    prefix="reference")
+                written += plot_reference(run, imp, tmp, settle=settings["settle"],
+                                          force_levels=settings["force_levels"],
+                                          zero_tol=settings["zero_tol"],
+                                          zero_floor=settings["zero_floor"], prefix="reference")
         print("figures:", ", ".join(Path(p).name for p in written), flush=True)
         if target.exists():
             shutil.rmtree(target)

@@ -9,10 +9,13 @@ with job_log(sm.log[0]):
     import simcore
     from analysis.summary import summarize
 
+    settings = dict(sm.params.analysis)
     summary = summarize(list(sm.input.runs), list(sm.input.impacts),
-                        scheduler=sm.params.scheduler, num_workers=sm.threads)
-    for key, value in sm.params.analysis.items():
-        summary.attrs[key] = value  # the filter's threshold goes with the counts
+                        scheduler=sm.params.scheduler, num_workers=sm.threads,
+                        settle=settings["settle"], force_levels=settings["force_levels"],
+                        settings=settings)
+    if sm.params.revolutions is not None:
+        summary.attrs["study_revolutions"] = float(sm.params.revolutions)
     simcore.write_netcdf(summary, sm.output[0])
     n_failed = int(summary["failed"].sum())
     print(f"wrote {sm.output[0]}: {dict(summary.sizes)}, {n_failed} failed run(s)", flush=True)
