@@ -52,6 +52,9 @@ def config_from_run(run_ds: xr.Dataset, overrides=None) -> dict:
     schema = load_schema()
     cfg: dict = {}
     values = {k: v for k, v in run_ds.attrs.items() if "." in k}
+    if values.get("solver.output_dt") == values.get("solver.dt"):
+        # output at every step: stays so at another dt (the default, null)
+        values.pop("solver.output_dt", None)
     values.update(overrides or {})
     for name, value in values.items():
         section, key = name.split(".", 1)
