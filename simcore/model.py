@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import integrator as nb
+from .audit import EnergyAudit
 
 CONTACT_KINDS = {"plane": nb.CONTACT_PLANE, "outside": nb.CONTACT_OUTSIDE,
                  "inside": nb.CONTACT_INSIDE}
@@ -245,7 +246,8 @@ class Model:
 
     # -- time loop ---------------------------------------------------------------------------
     def simulate(self, dt, t_end, rho_inf=0.0, tol=1e-5, max_iter=50, proximal=1e-6,
-                 on_nonconvergence="error", progress=False, chunk=500) -> Trajectory:
+                 on_nonconvergence="error", progress=False, chunk=500,
+                 energy_tol=0.01) -> Trajectory:
         """Integrate with the decoupled nonsmooth generalized-alpha scheme.
 
         Parameters
@@ -269,6 +271,9 @@ class Model:
             Print a progress bar on stderr.
         chunk : int
             Steps per kernel call (the progress bar and the error check run between calls).
+        energy_tol : float
+            Energy audit (:mod:`simcore.audit`): a step creating more than this fraction of the
+            run's energy scale counts as not converged.
         """
         dt = _finite("solver.dt", dt, positive=True)
         t_end = _finite("solver.t_end", t_end, positive=True)
@@ -323,6 +328,7 @@ class Model:
         show = progress and sys.stderr.isatty()
         k = 0
         first_bad = -1
+        audit = EnergyAudit(self, dt, n_steps, energy_tol)
         while k < n_steps:
             k_next = min(n_steps, k + chunk)
             try:
@@ -339,6 +345,13 @@ class Model:
                 raise SolverError(f"singular Newton matrix between steps {k + 1} and {k_next} "
                                   f"(t = {(k + 1) * dt:.6g} to {k_next * dt:.6g} s): {exc}"
                                   ) from None
+            gain = audit.check(out.energy, out.drive_torque, out.converged, k, k_next)
+            if gain >= 0 and first_bad < 0 and (bad < 0 or gain < bad):
+                first_bad = gain
+                if on_nonconvergence == "error":
+                    raise SolverError(audit.message(gain))
+                warnings.warn(audit.message(gain) + "; flagged in `converged`", RuntimeWarning,
+                              stacklevel=2)
             if bad >= 0 and first_bad < 0:
                 first_bad = int(bad)
                 stages = [s for s, it in zip(("smooth", "position", "velocity"),
@@ -362,4 +375,5 @@ class Model:
             sys.stderr.write("\n")
         out.wall_time_s = time.perf_counter() - start
         out.first_unconverged_step = first_bad
+        out.extras["energy_audit"] = audit
         return out
