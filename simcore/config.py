@@ -333,3 +333,74 @@ def load_config(path: str | Path | None = None, overrides: Iterable[str] = ()) -
                 raise ConfigError(f"{'.'.join(keys)}: {k} is not a section")
         node[keys[-1]] = value
     return validate_config(cfg)
+
+
+def _merge(base: dict, over: Mapping[str, Any]) -> dict:
+    """Recursive update of mappings (as Snakemake merges configuration files)."""
+    for key, value in over.items():
+        if isinstance(value, Mapping) and isinstance(base.get(key), dict):
+            _merge(base[key], value)
+        else:
+            base[key] = copy.deepcopy(value)
+    return base
+
+
+def read_study_config(files: Iterable[str | Path], command_line: Mapping[str, Any] = ()) -> dict:
+    """The study's configuration, read with the same loader and types as the CLI.
+
+    Snakemake reads ``--configfile`` with YAML 1.1 (``1.0e5`` becomes a string) and
+    ``--config`` with all values as strings, so a quoted ``"0.2"`` cannot be told from a
+    number once Snakemake has read it. This re-reads the files with :func:`read_yaml` (a quoted
+    value stays a string and is refused by the schema, as on the command line) and merges them
+    in order, then the ``--config`` values, whose number-looking strings are read as numbers.
+
+    Parameters
+    ----------
+    files : iterable of path
+        Configuration files, in the order Snakemake merges them.
+    command_line : mapping
+        Snakemake's ``--config`` values (strings).
+
+    Returns
+    -------
+    dict
+        The merged, not yet validated, configuration.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file.
+    """
+    merged: dict = {}
+    for path in files:
+        try:
+            node = read_yaml(path) or {}
+        except OSError as exc:
+            raise ConfigError(f"--configfile: cannot read {path}: {exc.strerror}") from None
+        except ConfigError as exc:
+            raise ConfigError(str(exc).replace("--config:", "--configfile:", 1)) from None
+        if not isinstance(node, dict):
+            raise ConfigError(f"--configfile: {path} must hold a mapping of sections")
+        _merge(merged, node)
+    return _merge(merged, _strings_to_numbers(dict(command_line)))
+
+
+_INT_TEXT = re.compile(r"^[-+]?\d+$")
+_FLOAT_TEXT = re.compile(r"^[-+]?(?:\d[\d_]*\.?[\d_]*|\.\d[\d_]*)(?:[eE][-+]?\d+)?$")
+
+
+def _strings_to_numbers(node):
+    """Number-looking strings as numbers, "null" as None (Snakemake's --config values)."""
+    if isinstance(node, Mapping):
+        return {key: _strings_to_numbers(value) for key, value in node.items()}
+    if isinstance(node, (list, tuple)):
+        return [_strings_to_numbers(value) for value in node]
+    if isinstance(node, str):
+        text = node.strip()
+        if _INT_TEXT.match(text):
+            return int(text)
+        if _FLOAT_TEXT.match(text):
+            return float(text.replace("_", ""))
+        if text in ("null", "Null", "NULL", "~"):
+            return None
+    return node
