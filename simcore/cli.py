@@ -69,6 +69,15 @@ def check_out(out: str) -> str | None:
         return f"--out: folder {folder} does not exist"
     if not os.access(folder, os.W_OK | os.X_OK):
         return f"--out: folder {folder} is not writable"
+    # root passes os.access everywhere: try what the writer will do, create a file there
+    import tempfile
+
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=folder)
+    except OSError as exc:
+        return f"--out: folder {folder} is not writable ({exc.strerror})"
+    os.close(fd)
+    os.unlink(probe)
     return None
 
 
@@ -81,11 +90,12 @@ def main(argv=None) -> int:
     import warnings
 
     from .config import ConfigError, load_config
-    from .model import SolverError
+    from .limits import check_memory_of_config, check_run_of_config
 
     warnings.formatwarning = _one_line_warning
     try:
         cfg = load_config(args.config, args.overrides)
+        check_memory_of_config(cfg)  # before Numba is even imported
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -101,16 +111,20 @@ def main(argv=None) -> int:
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2
+    try:
+        # step size, before Numba is imported (run() checks it again on the built model)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            check_run_of_config(cfg)
+    except ConfigError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     from .io import write_netcdf
-    from .limits import check_run
+    from .model import SolverError
     from .simulate import run
 
     start = time.perf_counter()
     try:
-        # step size and memory, before any array is allocated (run() checks them again)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            check_run(cfg)
         ds = run(cfg, progress=not args.quiet)
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -143,19 +143,59 @@ def check_step_size(model, dt: float, policy: str = "error") -> str | None:
     return msg
 
 
-def values_per_step(model) -> int:
-    """Numbers stored per time step by :meth:`simcore.model.Model.simulate` [-]."""
-    ndof = 3 * len(model.mass)
-    nc = len(model.contacts)
+def values_per_step(model=None, n_bodies=None, n_contacts=None) -> int:
+    """Numbers stored per time step by :meth:`simcore.model.Model.simulate` [-], from a model
+    or from its numbers of bodies and contacts."""
+    if model is not None:
+        n_bodies, n_contacts = len(model.mass), len(model.contacts)
+    ndof = 3 * n_bodies
     # q, v; Lambda_N, Lambda_T, nu_N, gap_N, vn_pre, vn_post; time, energy, energy_error,
     # drive torque; 3 iteration counts (int64); the converged flag (int8, counted as one)
-    return 2 * ndof + 6 * nc + 4 + 3 + 1
+    return 2 * ndof + 6 * n_contacts + 4 + 3 + 1
 
 
 def memory_estimate(model, dt: float, t_end: float) -> int:
     """Bytes of the arrays of a run: (steps + 1) x values per step x 8 [B]."""
     n_steps = int(round(t_end / dt))
     return (n_steps + 1) * values_per_step(model) * 8
+
+
+def check_memory_of_config(cfg: dict) -> int:
+    """:func:`check_memory` for the crank-slider of a validated configuration, without building
+    the model (and without importing Numba): 3 + n_balls bodies, 2 n_balls contacts."""
+    n = int(cfg["model"]["n_balls"])
+    return check_memory(_Counts(3 + n, 2 * n), cfg["solver"]["dt"], cfg["solver"]["t_end"],
+                        cfg["solver"]["max_memory_gb"])
+
+
+class _Counts:
+    """Stand-in with the sizes :func:`values_per_step` reads."""
+
+    def __init__(self, n_bodies, n_contacts):
+        self.mass = [0.0] * n_bodies
+        self.contacts = [None] * n_contacts
+
+
+class _CageRing:
+    """Stand-in of the crank-slider for :func:`spring_scales`: its springs are the cage
+    springs between neighbouring balls (bodies 3 .. 3 + n - 1), see
+    :func:`simcore.mechanism.crank_slider`."""
+
+    def __init__(self, model: dict):
+        n = int(model["n_balls"])
+        self.mass = [1.0, 1.0, 1.0] + [float(model["ball_mass"])] * n
+        geom = (0.0, 0.0, 0.0, 0.0, float(model["cage_stiffness"]), float(model["cage_damping"]),
+                0.0)
+        self.springs = [(3 + k, 3 + (k + 1) % n, geom) for k in range(n)]
+
+
+def check_run_of_config(cfg: dict) -> list[str]:
+    """:func:`check_run` for the crank-slider of a validated configuration without building
+    the model (and without importing Numba), for a command line that answers at once."""
+    check_memory_of_config(cfg)
+    msg = check_step_size(_CageRing(cfg["model"]), cfg["solver"]["dt"],
+                          cfg["solver"]["on_unresolved_dt"])
+    return [msg] if msg else []
 
 
 def check_memory(model, dt: float, t_end: float, max_gb: float) -> int:

@@ -247,7 +247,7 @@ class Model:
     # -- time loop ---------------------------------------------------------------------------
     def simulate(self, dt, t_end, rho_inf=0.0, tol=1e-5, max_iter=50, proximal=1e-6,
                  on_nonconvergence="error", progress=False, chunk=500,
-                 energy_tol=0.01) -> Trajectory:
+                 energy_tol=0.005) -> Trajectory:
         """Integrate with the decoupled nonsmooth generalized-alpha scheme.
 
         Parameters
