@@ -113,10 +113,10 @@ class EnergyAudit:
         gain, tol = self.error[i], self.tolerance[i]
         if not np.isfinite(gain):
             return f"energy audit: non-finite energy at step {i} (t = {i * self.dt:.6g} s)"
+        scale = max((tol - ENERGY_FLOOR_J) / self.energy_tol, ENERGY_FLOOR_J)
         return (f"energy audit: step {i} (t = {i * self.dt:.6g} s) created {gain:.4g} J "
-                f"({gain / max(self._scale, ENERGY_FLOOR_J):.3g} of the run's energy scale "
-                f"{self._scale:.4g} J; allowed: {tol:.3g} J, solver.energy_tol = "
-                f"{self.energy_tol:g})")
+                f"({gain / scale:.3g} of the run's energy scale {scale:.4g} J; allowed: "
+                f"{tol:.3g} J, solver.energy_tol = {self.energy_tol:g})")
 
     def gains(self) -> np.ndarray:
         """Indices (output rows) of the steps that created energy beyond the tolerance."""

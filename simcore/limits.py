@@ -133,12 +133,14 @@ def check_step_size(model, dt: float, policy: str = "error") -> str | None:
     scales = spring_scales(model)
     if dt <= scales.dt_limit:
         return None
-    msg = (f"solver.dt: {dt!r} is not allowed; allowed: <= {scales.dt_limit:.3g} s, to resolve "
-           f"the fastest spring/mass mode (omega = {scales.omega_damped:.4g} rad/s, damping "
-           f"ratio {scales.zeta:.3g}; omega * dt <= {OMEGA_DT_MAX:g}); lower solver.dt, or set "
-           "solver.on_unresolved_dt=warn")
+    why = (f"<= {scales.dt_limit:.3g} s, to resolve the fastest spring/mass mode (omega = "
+           f"{scales.omega_damped:.4g} rad/s, damping ratio {scales.zeta:.3g}; omega * dt <= "
+           f"{OMEGA_DT_MAX:g})")
     if policy == "error":
-        raise ConfigError(msg)
+        raise ConfigError(f"solver.dt: {dt!r} is not allowed; allowed: {why}; lower solver.dt, "
+                          "or set solver.on_unresolved_dt=warn")
+    msg = (f"solver.dt: {dt!r} is above the limit {why}; running anyway "
+           "(solver.on_unresolved_dt=warn), the energy audit watches every step")
     warnings.warn(msg, RuntimeWarning, stacklevel=2)
     return msg
 
