@@ -80,3 +80,32 @@ def repair_outputs(runs, impacts, summary, remove: bool = True) -> list[str]:
         elif missing:
             drop(summary, f"{len(missing)} of the files it summarises are missing")
     return lines
+
+
+#: Snakemake options under which the workflow is only looked at, never run: a repair would
+#: remove files that nothing then remakes
+LOOK_ONLY_OPTIONS = frozenset({
+    "-n", "--dry-run", "--dryrun", "--dry", "--lint", "--list", "-l", "--list-rules",
+    "--list-target-rules", "--lt", "--summary", "-S", "--detailed-summary", "-D", "--dag",
+    "--rulegraph", "--filegraph", "--d3dag", "--report", "--unlock", "--cleanup-metadata",
+    "--cm", "--touch", "-t", "--list-changes", "--lc", "--list-input-changes", "--li",
+    "--list-params-changes", "--lp", "--list-code-changes", "--list-untracked", "--lu",
+    "--export-cwl", "--containerize", "--archive", "--print-compilation", "--debug-dag",
+    "--delete-all-output", "--delete-temp-output", "--generate-unit-tests", "--version",
+    "-v", "--help", "-h",
+})
+
+
+def looking_only(argv) -> bool:
+    """True when Snakemake was called (``argv``) only to look at the workflow: a dry run, a
+    lint, a report, a listing. Snakemake sets its dry-run flag only after the workflow is
+    parsed, so the command line is read here."""
+    import re
+
+    for arg in list(argv)[1:]:
+        name = arg.split("=", 1)[0]
+        if name in LOOK_ONLY_OPTIONS:
+            return True
+        if re.fullmatch(r"-[A-Za-z]{2,}", arg) and "n" in arg[1:]:  # -np, -pn
+            return True
+    return False

@@ -383,3 +383,28 @@ def test_summary_on_a_local_dask_cluster_equals_the_synchronous_one(tmp_path):
     plain = summarize(runs, impacts, scheduler="synchronous")
     xr.testing.assert_identical(local, plain)
     assert int(local["failed"].sum()) == 1
+
+
+def test_repair_finds_unreadable_and_orphaned_files_and_a_dry_run_touches_nothing(tmp_path):
+    from simcore.repair import looking_only, repair_outputs
+
+    def nc(path):
+        xr.Dataset({"a": ("x", np.arange(1000.0))}).to_netcdf(path)
+        return path
+
+    runs = [nc(tmp_path / f"run{i}.nc") for i in range(3)]
+    tables = [nc(tmp_path / f"imp{i}.nc") for i in range(3)]
+    summary = nc(tmp_path / "summary.nc")
+    with open(runs[0], "r+b") as fh:
+        fh.truncate(runs[0].stat().st_size // 2)
+    runs[1].unlink()
+    before = sorted(tmp_path.iterdir())
+    dry = repair_outputs(runs, tables, summary, remove=False)
+    assert sorted(tmp_path.iterdir()) == before  # a dry run only reports
+    done = repair_outputs(runs, tables, summary)
+    assert dry == done and len(done) == 4  # run0, imp0, imp1, summary
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["imp2.nc", "run2.nc"]
+    assert repair_outputs(runs[2:], tables[2:], summary) == []
+    assert looking_only(["snakemake", "-j2", "-n"]) and looking_only(["snakemake", "-np"])
+    assert looking_only(["snakemake", "--lint"]) and looking_only(["snakemake", "--report=r.html"])
+    assert not looking_only(["snakemake", "-j2", "--nolock", "--configfile", "config/smoke.yaml"])

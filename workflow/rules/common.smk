@@ -125,15 +125,12 @@ ALL_IMPACTS = expand(f"{RES}/impacts/{{p}}.nc", p=list(paramspace.instance_patte
 def _repair():
     """Before Snakemake decides what to run: remove outputs that cannot be opened and the
     impact tables of missing runs, so that the next run remakes them (simcore.repair). Only in
-    the main process (not inside cluster jobs); a dry run only reports."""
-    from simcore.repair import repair_outputs
+    the main process (not inside cluster jobs); a dry run, lint or report only reports."""
+    from simcore.repair import looking_only, repair_outputs
 
     if not workflow.is_main_process:
         return
-    try:
-        dry = bool(workflow.dryrun)
-    except Exception:  # no executor yet (e.g. --lint): do not touch anything
-        dry = True
+    dry = looking_only(sys.argv)
     for line in repair_outputs(ALL_RUNS, ALL_IMPACTS, SUMMARY_NC, remove=not dry):
         print(("would redo (dry run): " if dry else "repair: ") + line, file=sys.stderr)
 
