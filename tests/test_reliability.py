@@ -350,8 +350,8 @@ def test_study_repairs_truncated_and_deleted_outputs(tmp_path):
 
 @pytest.mark.slow
 def test_fuzz_no_silent_gain_or_penetration():
-    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "fuzz_corners.py"), "60",
-                           "0.03", "11"], cwd=ROOT, capture_output=True, text=True,
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "fuzz_corners.py"), "150",
+                           "0.05", "11"], cwd=ROOT, capture_output=True, text=True,
                           timeout=1200, env=dict(os.environ, PYTHONPATH=str(ROOT)))
     assert proc.returncode == 0, proc.stdout + proc.stderr
     print(proc.stdout)
