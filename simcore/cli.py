@@ -6,8 +6,6 @@ import argparse
 import sys
 import time
 
-import numpy as np
-
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m simcore",
@@ -25,6 +23,8 @@ def _parser() -> argparse.ArgumentParser:
 
 def summary_lines(ds) -> list[str]:
     """What a run prints: wall time, Newton iterations against the paper's, largest impulse."""
+    import numpy as np
+
     it = ds["iterations"].values[1:]
     lam = ds["Lambda_N"]
     k = np.unravel_index(int(np.argmax(lam.values)), lam.shape)
@@ -95,7 +95,7 @@ def main(argv=None) -> int:
     warnings.formatwarning = _one_line_warning
     try:
         cfg = load_config(args.config, args.overrides)
-        check_memory_of_config(cfg)  # before Numba is even imported
+        check_memory_of_config(cfg)  # before any model or array is built
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -112,7 +112,7 @@ def main(argv=None) -> int:
         print(f"error: {problem}", file=sys.stderr)
         return 2
     try:
-        # step size, before Numba is imported (run() checks it again on the built model)
+        # step size from the configuration alone (run() checks it again on the built model)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             check_run_of_config(cfg)

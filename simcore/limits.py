@@ -164,7 +164,7 @@ def memory_estimate(model, dt: float, t_end: float) -> int:
 
 def check_memory_of_config(cfg: dict) -> int:
     """:func:`check_memory` for the crank-slider of a validated configuration, without building
-    the model (and without importing Numba): 3 + n_balls bodies, 2 n_balls contacts."""
+    the model: 3 + n_balls bodies, 2 n_balls contacts."""
     n = int(cfg["model"]["n_balls"])
     return check_memory(_Counts(3 + n, 2 * n), cfg["solver"]["dt"], cfg["solver"]["t_end"],
                         cfg["solver"]["max_memory_gb"])
@@ -193,7 +193,7 @@ class _CageRing:
 
 def check_run_of_config(cfg: dict) -> list[str]:
     """:func:`check_run` for the crank-slider of a validated configuration without building
-    the model (and without importing Numba), for a command line that answers at once."""
+    the model, for a command line that answers at once."""
     check_memory_of_config(cfg)
     msg = check_step_size(_CageRing(cfg["model"]), cfg["solver"]["dt"],
                           cfg["solver"]["on_unresolved_dt"])
