@@ -36,8 +36,8 @@ step that creates energy anyway.
 Memory
 ------
 ``(steps + 1) x (values stored per step) x 8 bytes``, with the values per step counted from
-the model (positions and velocities of every body, six arrays per contact, energy, energy error,
-drive torque, time, iterations, flag). Refused above ``solver.max_memory_gb``.
+the model (positions and velocities of every body, six arrays per contact, energy, energy error
+and its tolerance, drive torque, time, iterations, flag). Refused above ``solver.max_memory_gb``.
 """
 
 from __future__ import annotations
@@ -151,9 +151,10 @@ def values_per_step(model=None, n_bodies=None, n_contacts=None) -> int:
     if model is not None:
         n_bodies, n_contacts = len(model.mass), len(model.contacts)
     ndof = 3 * n_bodies
-    # q, v; Lambda_N, Lambda_T, nu_N, gap_N, vn_pre, vn_post; time, energy, energy_error,
-    # drive torque; 3 iteration counts (int64); the converged flag (int8, counted as one)
-    return 2 * ndof + 6 * n_contacts + 4 + 3 + 1
+    # q, v; Lambda_N, Lambda_T, nu_N, gap_N, vn_pre, vn_post; time, energy, energy_error and
+    # its tolerance, drive torque; 3 iteration counts (int64); the converged flag (int8,
+    # counted as one)
+    return 2 * ndof + 6 * n_contacts + 5 + 3 + 1
 
 
 def memory_estimate(model, dt: float, t_end: float) -> int:

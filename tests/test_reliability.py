@@ -168,7 +168,7 @@ def test_memory_estimate_counts_the_arrays_of_a_run():
     traj = model.simulate(1e-4, 0.001)
     arrays = [traj.time, traj.q, traj.v, traj.lambda_N, traj.lambda_T, traj.nu_N, traj.gap_N,
               traj.vn_pre, traj.vn_post, traj.energy, traj.iterations, traj.drive_torque,
-              traj.extras["energy_audit"].error]
+              traj.extras["energy_audit"].error, traj.extras["energy_audit"].tolerance]
     stored = sum(a.nbytes for a in arrays) + traj.converged.size * 8  # flag counted as 8 B
     assert memory_estimate(model, 1e-4, 0.001) == stored
     assert values_per_step(model) * 8 * 11 == stored
