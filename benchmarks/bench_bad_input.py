@@ -24,7 +24,7 @@ def main():
             res, seconds = cli(*args)
             worst = max(worst, seconds)
             line = res.stderr.strip().splitlines()
-            print(f"{name:16s} exit {res.returncode}  {seconds:5.2f} s  "
+            print(f"{name:30s} exit {res.returncode}  {seconds:5.2f} s  "
                   f"{line[0][:90] if line else ''}")
         print(f"slowest: {worst:.2f} s")
 

@@ -81,6 +81,8 @@ def _bad_inputs(tmp):
         ("--out not .nc", ["--out", str(tmp / "run.txt")], ".nc"),
         ("quoted number", [*sets(['model.mu="0.2"']), "--out", out], "model.mu"),
         ("unresolved dt", [*sets(REPRO), "--out", out], "solver.dt"),
+        ("unresolved dt, constant drive", [*sets(REPRO + ["model.drive=constant"]), "--out", out],
+         "solver.dt"),
     ]
 
 
