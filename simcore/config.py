@@ -18,8 +18,66 @@ import yaml
 SCHEMA_PATH = Path(__file__).parent / "schema" / "config.schema.json"
 
 
+# Limits of what a configuration may be: a config is a few dozen numbers, so anything far
+# bigger is a mistake or an attack, refused before it can cost time or memory.
+MAX_FILE_BYTES = 1_000_000   # size of a configuration file
+MAX_DEPTH = 8                # nesting of mappings and lists (the schema needs 3)
+MAX_SCALAR_CHARS = 1000      # length of one value (a number, a name, a path)
+MAX_ITEMS = 10_000           # entries of one mapping or list
+
+
+class ConfigError(ValueError):
+    """A configuration value is missing, unknown or out of range; the message names the key."""
+
+
 class _Loader(yaml.SafeLoader):
-    """SafeLoader that reads ``1.0e5`` as a float (YAML 1.2), not as the string PyYAML makes."""
+    """SafeLoader for configurations.
+
+    - reads ``1.0e5`` as a float (YAML 1.2), not as the string PyYAML makes;
+    - refuses anchors and aliases (a few hundred bytes of aliases expand to billions of nodes);
+    - refuses a key given twice in one mapping (PyYAML keeps the last one silently);
+    - bounds the nesting depth, the length of a value and the number of items of a collection.
+    """
+
+    def compose_node(self, parent, index):
+        event = self.peek_event()
+        if isinstance(event, yaml.AliasEvent) or getattr(event, "anchor", None) is not None:
+            raise ConfigError(f"line {event.start_mark.line + 1}: YAML anchors and aliases "
+                              "(&name, *name) are not allowed in a configuration")
+        if isinstance(event, yaml.ScalarEvent) and len(event.value) > MAX_SCALAR_CHARS:
+            raise ConfigError(f"line {event.start_mark.line + 1}: a value of "
+                              f"{len(event.value)} characters is not allowed; allowed: at most "
+                              f"{MAX_SCALAR_CHARS}")
+        depth = getattr(self, "_depth", 0)
+        if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            if depth >= MAX_DEPTH:
+                raise ConfigError(f"line {event.start_mark.line + 1}: nesting deeper than "
+                                  f"{MAX_DEPTH} levels is not allowed in a configuration")
+            self._depth = depth + 1
+            try:
+                node = super().compose_node(parent, index)
+            finally:
+                self._depth = depth
+            if len(node.value) > MAX_ITEMS:
+                raise ConfigError(f"line {event.start_mark.line + 1}: a collection of "
+                                  f"{len(node.value)} items is not allowed; allowed: at most "
+                                  f"{MAX_ITEMS}")
+            return node
+        return super().compose_node(parent, index)
+
+    def construct_mapping(self, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            try:
+                duplicate = key in seen
+            except TypeError:  # an unhashable key: PyYAML says so itself
+                break
+            if duplicate:
+                raise ConfigError(f"line {key_node.start_mark.line + 1}: key {key!r} is given "
+                                  "twice in the same mapping")
+            seen.add(key)
+        return super().construct_mapping(node, deep=deep)
 
 
 _Loader.add_implicit_resolver(
@@ -36,14 +94,64 @@ _Loader.add_implicit_resolver(
 )
 
 
+def _yaml_problem(exc: yaml.YAMLError) -> str:
+    """A YAML error in one line: what is wrong and where."""
+    problem = getattr(exc, "problem", None) or getattr(exc, "context", None)
+    mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
+    text = str(problem) if problem else str(exc)
+    if mark is not None:
+        text = f"line {mark.line + 1}, column {mark.column + 1}: {text}"
+    return " ".join(text.split())
+
+
+def parse_yaml_text(text: str):
+    """Parse YAML text with the configuration loader.
+
+    Raises
+    ------
+    ConfigError
+        For anchors/aliases, duplicate keys, too deep nesting, too long values and YAML syntax
+        errors, in one line (without the file name; the caller adds where the text came from).
+    """
+    try:
+        return yaml.load(text, Loader=_Loader)  # noqa: S506  (_Loader is a SafeLoader)
+    except yaml.YAMLError as exc:
+        raise ConfigError(_yaml_problem(exc)) from None
+    except RecursionError:
+        raise ConfigError(f"nesting deeper than {MAX_DEPTH} levels is not allowed") from None
+
+
 def read_yaml(path: str | Path):
-    """Read a YAML file with floats such as ``1.0e5`` understood as numbers."""
-    with open(path, encoding="utf-8") as fh:
-        return yaml.load(fh, Loader=_Loader)
+    """Read a YAML configuration file: UTF-8, at most ``MAX_FILE_BYTES``, with the safety rules
+    of the configuration loader (no aliases, no duplicate keys, bounded depth and values) and
+    floats such as ``1.0e5`` understood as numbers.
 
-
-class ConfigError(ValueError):
-    """A configuration value is missing, unknown or out of range; the message names the key."""
+    Raises
+    ------
+    OSError
+        When the file cannot be read.
+    ConfigError
+        One line naming the file and the problem.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"--config: {path} is a directory, not a YAML file")
+    with open(path, "rb") as fh:
+        raw = fh.read(MAX_FILE_BYTES + 1)
+    if len(raw) > MAX_FILE_BYTES:
+        raise ConfigError(f"--config: {path} is larger than {MAX_FILE_BYTES} bytes; a "
+                          "configuration is a few dozen keys")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"--config: {path} is not UTF-8 text (byte {exc.start}: "
+                          f"0x{raw[exc.start]:02x})") from None
+    if "\x00" in text:
+        raise ConfigError(f"--config: {path} is a binary file (it holds NUL bytes), not YAML")
+    try:
+        return parse_yaml_text(text)
+    except ConfigError as exc:
+        raise ConfigError(f"--config: {path}: {exc}") from None
 
 
 def load_schema() -> dict:
@@ -209,10 +317,12 @@ def parse_override(item: str) -> tuple[list[str], Any]:
     path = [p for p in key.strip().split(".") if p]
     if len(path) < 2:
         raise ConfigError(f"{key}: an override must name a section and a key, e.g. model.mu=0")
+    if len(path) > MAX_DEPTH:
+        raise ConfigError(f"{key}: a key path of more than {MAX_DEPTH} parts is not allowed")
     try:
-        value = yaml.load(raw, Loader=_Loader)
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{key}: cannot parse value {raw!r}: {exc}") from None
+        value = parse_yaml_text(raw)
+    except ConfigError as exc:
+        raise ConfigError(f"{key.strip()}: cannot parse value {raw[:60]!r}: {exc}") from None
     return path, value
 
 
@@ -237,8 +347,6 @@ def load_config(path: str | Path | None = None, overrides: Iterable[str] = ()) -
             cfg = read_yaml(path) or {}
         except OSError as exc:
             raise ConfigError(f"--config: cannot read {path}: {exc.strerror}") from None
-        except yaml.YAMLError as exc:
-            raise ConfigError(f"--config: {path} is not valid YAML: {exc}") from None
         if not isinstance(cfg, dict):
             raise ConfigError(f"--config: {path} must hold a mapping of sections")
     for item in overrides:
@@ -250,3 +358,74 @@ def load_config(path: str | Path | None = None, overrides: Iterable[str] = ()) -
                 raise ConfigError(f"{'.'.join(keys)}: {k} is not a section")
         node[keys[-1]] = value
     return validate_config(cfg)
+
+
+def _merge(base: dict, over: Mapping[str, Any]) -> dict:
+    """Recursive update of mappings (as Snakemake merges configuration files)."""
+    for key, value in over.items():
+        if isinstance(value, Mapping) and isinstance(base.get(key), dict):
+            _merge(base[key], value)
+        else:
+            base[key] = copy.deepcopy(value)
+    return base
+
+
+def read_study_config(files: Iterable[str | Path], command_line: Mapping[str, Any] = ()) -> dict:
+    """The study's configuration, read with the same loader and types as the CLI.
+
+    Snakemake reads ``--configfile`` with YAML 1.1 (``1.0e5`` becomes a string) and
+    ``--config`` with all values as strings, so a quoted ``"0.2"`` cannot be told from a
+    number once Snakemake has read it. This re-reads the files with :func:`read_yaml` (a quoted
+    value stays a string and is refused by the schema, as on the command line) and merges them
+    in order, then the ``--config`` values, whose number-looking strings are read as numbers.
+
+    Parameters
+    ----------
+    files : iterable of path
+        Configuration files, in the order Snakemake merges them.
+    command_line : mapping
+        Snakemake's ``--config`` values (strings).
+
+    Returns
+    -------
+    dict
+        The merged, not yet validated, configuration.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file.
+    """
+    merged: dict = {}
+    for path in files:
+        try:
+            node = read_yaml(path) or {}
+        except OSError as exc:
+            raise ConfigError(f"--configfile: cannot read {path}: {exc.strerror}") from None
+        except ConfigError as exc:
+            raise ConfigError(str(exc).replace("--config:", "--configfile:", 1)) from None
+        if not isinstance(node, dict):
+            raise ConfigError(f"--configfile: {path} must hold a mapping of sections")
+        _merge(merged, node)
+    return _merge(merged, _strings_to_numbers(dict(command_line)))
+
+
+_INT_TEXT = re.compile(r"^[-+]?\d+$")
+_FLOAT_TEXT = re.compile(r"^[-+]?(?:\d[\d_]*\.?[\d_]*|\.\d[\d_]*)(?:[eE][-+]?\d+)?$")
+
+
+def _strings_to_numbers(node):
+    """Number-looking strings as numbers, "null" as None (Snakemake's --config values)."""
+    if isinstance(node, Mapping):
+        return {key: _strings_to_numbers(value) for key, value in node.items()}
+    if isinstance(node, (list, tuple)):
+        return [_strings_to_numbers(value) for value in node]
+    if isinstance(node, str):
+        text = node.strip()
+        if _INT_TEXT.match(text):
+            return int(text)
+        if _FLOAT_TEXT.match(text):
+            return float(text.replace("_", ""))
+        if text in ("null", "Null", "NULL", "~"):
+            return None
+    return node

@@ -41,7 +41,11 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4) -> Path:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     try:
-        ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+        try:
+            ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+        except (OSError, RuntimeError) as exc:
+            _raise_if_disk_full(exc, path, ds.nbytes)
+            raise
         # mkstemp creates the file for its owner only; give it the permissions of a file
         # opened the ordinary way (0666 less the umask)
         umask = os.umask(0)
@@ -53,6 +57,27 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4) -> Path:
             os.unlink(tmp)
         raise
     return path
+
+
+def _raise_if_disk_full(exc: BaseException, path: Path, nbytes: int) -> None:
+    """Turn a write failure on a full disk into ``OSError(ENOSPC)`` saying so.
+
+    The netCDF library reports a full disk as "NetCDF: HDF error" (a RuntimeError); the file
+    system's free space tells what happened.
+    """
+    import errno
+    import shutil
+
+    full = isinstance(exc, OSError) and exc.errno == errno.ENOSPC
+    if not full:
+        try:
+            free = shutil.disk_usage(path.parent).free
+        except OSError:
+            return
+        full = free < max(nbytes, 1 << 20)
+    if full:
+        raise OSError(errno.ENOSPC, f"No space left on device while writing {path} "
+                      f"({type(exc).__name__}: {exc})") from exc
 
 
 def _attrs(units: str, long_name: str, **extra) -> dict:
@@ -132,7 +157,8 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
         "iterations": (("time", "stage"), traj.iterations.astype(np.int32), _attrs(
             "1", "Newton iterations of each sub-problem of the step")),
         "converged": (("time",), traj.converged.astype(np.int8), _attrs(
-            "1", "1 where every sub-problem of the step converged")),
+            "1", "1 where every sub-problem of the step converged and the step created no "
+            "energy (energy audit)")),
     }
     if compliant:
         data.update({
@@ -164,6 +190,11 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
                 "generalized-alpha step with contact forces, position: joint projection, "
                 "velocity: 0)")),
         })
+    audit = traj.extras.get("energy_audit")
+    if audit is not None:
+        data["energy_error"] = (("time",), audit.error, _attrs(
+            "J", "energy created by the step ending at time: energy change minus drive work "
+            "(<= 0 when the step only dissipates)"))
     contact = np.arange(2 * n_balls)
     coords = {
         "time": ("time", traj.time, _attrs("s", "time")),
@@ -202,6 +233,8 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
         "wall_time_s": float(traj.wall_time_s),
         "n_unconverged_steps": int(np.sum(traj.converged == 0)),
     }
+    if audit is not None:
+        attrs.update(audit.summary(traj.energy))
     attrs.update(_flatten(cfg))
     attrs["solver.output_dt"] = float(cfg["solver"]["dt"]) * out_every
     return xr.Dataset(data, coords=coords, attrs=attrs)

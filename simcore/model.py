@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import kernels as nb
+from .audit import EnergyAudit
 
 CONTACT_MODELS = ("nonsmooth", "compliant")
 DAMPING_LAWS = ("flores", "hunt_crossley", "lankarani_nikravesh")
@@ -321,7 +322,7 @@ class Model:
                  on_nonconvergence="error", progress=False, chunk=500,
                  contact_model="nonsmooth", damping_law="flores", friction_regularization=1e-4,
                  output_every=1, v_pre_min=1e-3, q0=None, v0=None, t0=0.0,
-                 stop_when_released=False) -> Trajectory:
+                 stop_when_released=False, energy_tol=0.005) -> Trajectory:
         """Integrate with the decoupled nonsmooth generalized-alpha scheme, or with compliant
         (Hertz) contacts in the generalized-alpha smooth step.
 
@@ -364,6 +365,9 @@ class Model:
         stop_when_released : bool
             Compliant: stop at the end of the first chunk where every contact that closed
             during the run is open again.
+        energy_tol : float
+            Energy audit (:mod:`simcore.audit`): a step creating more than this fraction of the
+            run's energy scale counts as not converged.
         """
         dt = _finite("solver.dt", dt, positive=True)
         t_end = _finite("solver.t_end", t_end, positive=True)
@@ -473,6 +477,7 @@ class Model:
         k = 0
         first_bad = -1
         ever_closed = np.zeros(nc, dtype=bool)
+        audit = EnergyAudit(self, dt * output_every, n_out - 1, energy_tol, t0=t0)
         while k < n_steps:
             k_next = min(n_steps, k + chunk)
             try:
@@ -482,6 +487,14 @@ class Model:
                 raise SolverError(f"singular Newton matrix between steps {k + 1} and {k_next} "
                                   f"(t = {t0 + (k + 1) * dt:.6g} to {t0 + k_next * dt:.6g} s): "
                                   f"{exc}") from None
+            row0, row1 = k // output_every, k_next // output_every
+            gain = audit.check(out.energy, out.drive_torque, out.converged, row0, row1)
+            if gain >= 0 and first_bad < 0 and (bad < 0 or gain * output_every < bad):
+                first_bad = gain * output_every
+                if on_nonconvergence == "error":
+                    raise SolverError(audit.message(gain))
+                warnings.warn(audit.message(gain) + "; flagged in `converged`", RuntimeWarning,
+                              stacklevel=2)
             if bad >= 0 and first_bad < 0:
                 first_bad = int(bad)
                 row = (bad + 1 + output_every - 1) // output_every
@@ -521,6 +534,9 @@ class Model:
                              "vn_pre", "vn_post", "vn_free", "energy", "iterations",
                              "converged", "drive_torque", "F_N", "F_T"):
                     setattr(out, name, getattr(out, name)[:n_keep])
+                audit.error = audit.error[:n_keep]
+                audit.tolerance = audit.tolerance[:n_keep]
         out.wall_time_s = time.perf_counter() - start
         out.first_unconverged_step = first_bad
+        out.extras["energy_audit"] = audit
         return out

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from .config import output_every, validate_config
+from .limits import check_run
 from .mechanism import crank_slider
 from .model import SolverError  # noqa: F401  (re-exported)
 
@@ -25,8 +26,13 @@ def run(config: dict, progress: bool = False):
     ------
     simcore.ConfigError
         On bad input, before any work.
+    simcore.ConfigError
+        Also for a step size that cannot resolve the model (``solver.on_unresolved_dt``) and for
+        a run whose arrays would exceed ``solver.max_memory_gb``: checked after building the
+        model, before any array of the time loop is allocated (:mod:`simcore.limits`).
     simcore.SolverError
-        When a step does not converge and ``solver.on_nonconvergence`` is ``"error"``.
+        When a step does not converge, or creates energy (:mod:`simcore.audit`), and
+        ``solver.on_nonconvergence`` is ``"error"``.
     """
     from .io import trajectory_dataset
 
@@ -34,11 +40,13 @@ def run(config: dict, progress: bool = False):
     solver = cfg["solver"]
     model, layout = crank_slider(cfg["model"])
     m = cfg["model"]
+    check_run(cfg, model)
     traj = model.simulate(solver["dt"], solver["t_end"], rho_inf=solver["rho_inf"],
                           tol=solver["tol"], max_iter=solver["max_iter"],
                           proximal=solver["proximal"],
                           on_nonconvergence=solver["on_nonconvergence"], progress=progress,
                           contact_model=m["contact_model"], damping_law=m["damping_law"],
                           friction_regularization=m["friction_regularization"],
-                          output_every=output_every(cfg))
+                          output_every=output_every(cfg),
+                          energy_tol=solver["energy_tol"])
     return trajectory_dataset(traj, model, layout, cfg)

@@ -126,3 +126,21 @@ def test_cli_refuses_bad_options_in_one_line(tmp_path, args, key):
     assert res.returncode != 0
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and key in lines[0], res.stderr
+
+
+def test_study_config_is_read_with_the_cli_types(tmp_path):
+    """Files merged in order, a quoted number stays a string (refused by the schema), the
+    command line's --config strings are read as numbers."""
+    from simcore.config import read_study_config, validate_config
+
+    base, extra = tmp_path / "base.yaml", tmp_path / "extra.yaml"
+    base.write_text("model:\n  mu: 0.1\n  e_N: 0.5\nsweep:\n  mu: [0.0, 0.1]\n")
+    extra.write_text("model:\n  mu: 0.2\n")
+    cfg = read_study_config([base, extra], {"solver": {"dt": "5.0e-5"}})
+    assert cfg["model"] == {"mu": 0.2, "e_N": 0.5} and cfg["solver"]["dt"] == 5e-5
+    extra.write_text('sweep:\n  mu: ["0.2"]\n')
+    with pytest.raises(ConfigError, match=r"^sweep\.mu\.0: '0\.2' is not allowed"):
+        validate_config(read_study_config([base, extra]))
+    extra.write_text("model:\n  mu: 0.1\n  mu: 0.2\n")
+    with pytest.raises(ConfigError, match="--configfile: .*twice"):
+        read_study_config([base, extra])

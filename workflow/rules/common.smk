@@ -8,6 +8,7 @@ import itertools
 import logging
 import math
 import re
+import sys
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -20,29 +21,6 @@ from simcore.config import SCHEMA_PATH
 
 # The swept model keys, in the order of the file names and of the summary's dimensions.
 SWEPT = ("clearance", "mu", "omega0", "e_N")
-
-# YAML 1.1 (PyYAML, used by Snakemake for --configfile) reads 1.0e5 as a string, and Snakemake
-# reads the values nested in --config "section={...}" with YAML's BaseLoader: all strings.
-_INT_RE = re.compile(r"^[-+]?\d+$")
-_FLOAT_RE = re.compile(r"^[-+]?(?:\d[\d_]*\.?[\d_]*|\.\d[\d_]*)(?:[eE][-+]?\d+)?$")
-
-
-def _numbers(node):
-    """Return ``node`` with number-looking strings read as numbers, "null" as None."""
-    if isinstance(node, dict):
-        return {key: _numbers(value) for key, value in node.items()}
-    if isinstance(node, list):
-        return [_numbers(value) for value in node]
-    if isinstance(node, str):
-        text = node.strip()
-        if _INT_RE.match(text):
-            return int(text)
-        if _FLOAT_RE.match(text):
-            return float(text.replace("_", ""))
-        if text in ("null", "Null", "NULL", "~"):
-            return None
-    return node
-
 
 def tidy(value):
     """Round a parameter to 10 significant digits so that file names carry no float noise."""
@@ -70,8 +48,8 @@ def _quiet_schema_version():
 
 
 def _checked_config(raw):
-    """Validate the merged Snakemake config; raise a one-line error naming the key."""
-    cfg = _numbers(dict(raw))
+    """Validate the merged config (see _study_config); raise a one-line error naming the key."""
+    cfg = dict(raw)
     try:
         full = simcore.validate_config(cfg)
     except simcore.ConfigError as exc:
@@ -100,7 +78,21 @@ def _grid(cfg):
     return axes, frame
 
 
-_full = _checked_config(config)
+def _study_config():
+    """The configuration re-read with simcore's loader and types (as the CLI reads it): a
+    quoted "0.2" stays a string and is refused, aliases and duplicate keys are refused."""
+    from simcore.config import read_study_config
+
+    cli_files = [Path(p).absolute() for p in workflow.config_settings.configfiles]
+    files = [Path(p).absolute() for p in workflow.configfiles]
+    ordered = [p for p in files if p not in cli_files] + cli_files
+    try:
+        return read_study_config(ordered, workflow.config_settings.config)
+    except simcore.ConfigError as exc:
+        raise WorkflowError(f"invalid configuration: {exc}") from None
+
+
+_full = _checked_config(_study_config())
 config.clear()
 config.update(_full)
 
@@ -130,6 +122,22 @@ FIGURES = f"{RES}/figures"
 
 ALL_RUNS = expand(f"{RES}/runs/{{p}}.nc", p=list(paramspace.instance_patterns))
 ALL_IMPACTS = expand(f"{RES}/impacts/{{p}}.nc", p=list(paramspace.instance_patterns))
+
+
+def _repair():
+    """Before Snakemake decides what to run: remove outputs that cannot be opened and the
+    impact tables of missing runs, so that the next run remakes them (simcore.repair). Only in
+    the main process (not inside cluster jobs); a dry run, lint or report only reports."""
+    from simcore.repair import looking_only, repair_outputs
+
+    if not workflow.is_main_process:
+        return
+    dry = looking_only(sys.argv)
+    for line in repair_outputs(ALL_RUNS, ALL_IMPACTS, SUMMARY_NC, remove=not dry):
+        print(("would redo (dry run): " if dry else "repair: ") + line, file=sys.stderr)
+
+
+_repair()
 
 
 wildcard_constraints:
@@ -212,6 +220,28 @@ def _reference_point():
     best = int((scaled**2).sum(axis=1).idxmin())
     return {key: float(GRID.loc[best, key]) for key in SWEPT}
 
+
+def _check_limits():
+    """Step size and memory of every run of the grid (simcore.limits), before any job."""
+    import warnings
+
+    from simcore.limits import check_run
+
+    for point in GRID.to_dict("records"):
+        cfg = run_config({key: float(value) for key, value in point.items()})
+        cfg = simcore.validate_config(dict(cfg, **{"study": config["study"]}))
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                check_run(cfg)
+        except simcore.ConfigError as exc:
+            where = ", ".join(f"{key}={value}" for key, value in point.items())
+            raise WorkflowError(f"invalid configuration: run {where}: {exc}") from None
+        for item in caught:
+            print(f"WARNING: {item.message}", file=sys.stderr)
+
+
+_check_limits()
 
 REFERENCE = _reference_point()
 REFERENCE_NAME = "_".join(f"{key}~{REFERENCE[key]}" for key in SWEPT)

@@ -1,0 +1,142 @@
+"""Random configurations over the whole input range; counts of what the tool refuses and flags.
+
+    PYTHONPATH=. python benchmarks/fuzz_corners.py [N] [T_END] [SEED]     (default 300 0.1 11)
+
+Each configuration draws clearance 1e-6..2e-3 m, mu 0..0.5, omega0 1..400 rad/s, e_N and e_T
+0..1, 3..22 balls, cage stiffness 1e3..1e7 N/m, cage damping 0 (one in four) or 1..1e4 N s/m,
+dt 1e-5..5e-4 s, both drives, rho_inf 0..1 (log-uniform where the range spans decades), and is
+run with the default policies except ``solver.on_nonconvergence = "warn"`` (so that the
+unconverged steps can be counted instead of stopping the run).
+
+Counted per region (drive x mu > 0.3, omega0 > 200, clearance > 1 mm, no cage damping):
+
+- refused: stopped before the run by the step-size limit (``solver.dt``, one line);
+- runs with a defect: at least one step flagged in ``converged`` (did not converge, or
+  created energy), and the largest fraction of flagged steps;
+- silent energy gain: a step marked converged whose energy error, recomputed here from the
+  stored arrays (kinetic energy from v and the masses, gravity and cage springs from q, drive
+  work from the torque), is above the audit's tolerance; must be 0;
+- silent penetration: a step marked converged with a gap below -solver.tol * dt (the position
+  tolerance); must be 0.
+
+The last line reads ``silent: <gains> <penetrations>`` (the slow test checks it).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+import warnings
+
+import numpy as np
+
+
+def draw(rng, t_end):
+    """One random configuration (overrides for simcore.load_config)."""
+    def lu(a, b):
+        return float(np.exp(rng.uniform(np.log(a), np.log(b))))
+
+    model = dict(clearance=lu(1e-6, 2e-3), mu=float(rng.uniform(0, 0.5)),
+                 omega0=float(rng.uniform(1, 400)), e_N=float(rng.uniform(0, 1)),
+                 e_T=float(rng.uniform(0, 1)), n_balls=int(rng.integers(3, 23)),
+                 cage_stiffness=lu(1e3, 1e7),
+                 cage_damping=0.0 if rng.uniform() < 0.25 else lu(1.0, 1e4),
+                 drive=str(rng.choice(["free", "constant"])))
+    solver = dict(dt=lu(1e-5, 5e-4), rho_inf=float(rng.uniform(0, 1)), t_end=t_end,
+                  on_nonconvergence="warn")
+    return ([f"model.{k}={v}" for k, v in model.items()]
+            + [f"solver.{k}={v}" for k, v in solver.items()])
+
+
+def independent_energy(ds, cfg):
+    """Kinetic + gravitational + cage-spring energy from the stored q and v [J] (not the
+    kernel's own sum)."""
+    from simcore.mechanism import crank_slider
+
+    model = crank_slider(cfg["model"])[0]
+    mass = np.asarray(model.mass)
+    inertia = np.asarray(model.inertia)
+    q, v = ds["q"].values, ds["v"].values
+    kinetic = 0.5 * ((mass * (v[:, :, 0] ** 2 + v[:, :, 1] ** 2)).sum(axis=1)
+                     + (inertia * v[:, :, 2] ** 2).sum(axis=1))
+    potential = (mass * model.gravity * q[:, :, 1]).sum(axis=1)
+    springs = np.zeros(q.shape[0])
+    for bi, bj, geom in model.springs:  # ball centres, so the body points are the centres
+        length = np.hypot(q[:, bj, 0] - q[:, bi, 0], q[:, bj, 1] - q[:, bi, 1])
+        springs += 0.5 * geom[4] * (length - geom[6]) ** 2
+    return kinetic + potential + springs
+
+
+def regions(cfg):
+    m = cfg["model"]
+    names = [f"{m['drive']:8s} all"]
+    if m["mu"] > 0.3:
+        names.append(f"{m['drive']:8s} mu > 0.3")
+    if m["omega0"] > 200:
+        names.append(f"{m['drive']:8s} omega0 > 200")
+    if m["clearance"] > 1e-3:
+        names.append(f"{m['drive']:8s} clearance > 1 mm")
+    if m["cage_damping"] == 0:
+        names.append(f"{m['drive']:8s} no cage damping")
+    return names
+
+
+def main(n=300, t_end=0.1, seed=11):
+    import simcore
+    from simcore.audit import ENERGY_FLOOR_J
+
+    rng = np.random.default_rng(seed)
+    table = {}
+    silent_gain = silent_pen = 0
+    start = time.perf_counter()
+    for _ in range(n):
+        cfg = simcore.load_config(overrides=draw(rng, t_end))
+        row = {"n": 0, "refused": 0, "defect": 0, "flagged": 0, "steps": 0, "worst": 0.0,
+               "gain": 0, "pen": 0}
+        outcome = {}
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                ds = simcore.run(cfg)
+        except simcore.ConfigError:
+            outcome["refused"] = 1
+        else:
+            conv = ds["converged"].values[1:] == 1
+            h, tol = cfg["solver"]["dt"], cfg["solver"]["energy_tol"]
+            energy = independent_energy(ds, cfg)
+            rate = cfg["model"]["omega0"] if cfg["model"]["drive"] == "constant" else 0.0
+            error = np.diff(energy) - ds["drive_torque"].values[1:] * rate * h
+            scale = np.maximum.accumulate(np.abs(energy))[:-1]
+            # rounding of the independent sum: a few ulps of the largest term
+            gains = conv & (error > tol * scale + ENERGY_FLOOR_J + 1e-12 * scale)
+            pens = conv & (ds["gap_N"].values[1:].min(axis=1) < -cfg["solver"]["tol"] * h)
+            outcome = {"defect": int((~conv).any()), "flagged": int((~conv).sum()),
+                       "steps": conv.size, "worst": float((~conv).mean()),
+                       "gain": int(gains.any()), "pen": int(pens.any())}
+            silent_gain += int(gains.sum())
+            silent_pen += int(pens.sum())
+        for name in regions(cfg):
+            r = table.setdefault(name, dict(row))
+            r["n"] += 1
+            for key, value in outcome.items():
+                r[key] = max(r[key], value) if key == "worst" else r[key] + value
+    print(f"{n} configurations, t_end = {t_end} s, seed {seed}, "
+          f"{time.perf_counter() - start:.0f} s")
+    print(f"{'region':28s} {'runs':>5s} {'refused':>8s} {'defect':>7s} {'flagged':>9s} "
+          f"{'worst':>6s} {'gain':>5s} {'pen':>4s}")
+    for name in sorted(table):
+        r = table[name]
+        frac = r["flagged"] / r["steps"] if r["steps"] else 0.0
+        print(f"{name:28s} {r['n']:5d} {r['refused']:8d} {r['defect']:7d} {frac:9.3%} "
+              f"{r['worst']:6.1%} {r['gain']:5d} {r['pen']:4d}")
+    print("columns: runs; refused by the dt limit; runs with a flagged step; flagged steps of "
+          "the run steps; worst run's flagged fraction; runs with a silent energy gain; runs "
+          "with a silent penetration")
+    print(f"silent: {silent_gain} {silent_pen}")
+    return silent_gain, silent_pen
+
+
+if __name__ == "__main__":
+    args = sys.argv[1:]
+    main(int(args[0]) if args else 300, float(args[1]) if len(args) > 1 else 0.1,
+         int(args[2]) if len(args) > 2 else 11)

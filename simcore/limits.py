@@ -1,0 +1,256 @@
+"""Limits known before a run: the step size against the model's fastest time scales, and the
+memory the run's arrays will take.
+
+Both checks run when the model is built, before any array of the time loop is allocated, so a
+run that cannot be resolved or would not fit in memory is refused in one line naming the key
+(``solver.dt``, ``solver.t_end``) and the limit.
+
+Step size
+---------
+The smooth forces are integrated by the implicit generalized-alpha scheme: it does not blow up
+on a linear spring whatever the step, but it only *resolves* an oscillation whose period spans a
+few steps. A cage spring that the step cannot resolve, combined with the rotating spring axes
+and the impacts, is what turned the 33.6 J run of the issue into 467 kJ in 22 steps. The
+fastest spring/mass frequency is bounded from the model's springs and masses (Gershgorin's
+bound of ``M^-1/2 K M^-1/2``, translational part)::
+
+    omega_max^2 = max_i  sum_{springs s at body i}  k_s (1/m_i + 1/sqrt(m_i m_j))
+
+which is exact for the ring of n equal balls and n equal cage springs of the bearing
+(omega_max = 2 sqrt(k/m_ball), the neighbouring balls moving against each other). The same
+bound with the damper coefficients gives the damping rate ``gamma_max`` (= 4 c/m_ball) of that
+mode, and its damping ratio ``zeta = gamma_max / (2 omega_max)`` (= c / sqrt(k m_ball)).
+
+- An oscillating mode (zeta < 1) needs ``omega_max * dt <= OMEGA_DT_MAX`` (= 2, the step at
+  which an explicit central-difference scheme would become unstable: the period spans at least
+  pi steps). Its damped frequency ``omega_max sqrt(1 - zeta^2)`` is the one compared.
+- An overdamped mode (zeta >= 1) does not oscillate: its fast root (rate ~ gamma_max) decays
+  in one step under the scheme's numerical damping, its slow root (rate ~ k/c) is slow. No
+  limit, the paper's case (k = 1e5 N/m, c = 1e3 N s/m, zeta = 61) is of this kind.
+
+Rigid contacts have no time scale of their own: an impact is a velocity jump, resolved by the
+impact law at any step size. What the step must still resolve there is the motion between
+impacts, i.e. the spring/mass modes above; the energy audit (:mod:`simcore.audit`) catches any
+step that creates energy anyway.
+
+Memory
+------
+``(steps + 1) x (values stored per step) x 8 bytes``, with the values per step counted from
+the model (positions and velocities of every body, six arrays per contact, energy, energy error
+and its tolerance, drive torque, time, iterations, flag). Refused above ``solver.max_memory_gb``.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import ConfigError
+
+#: largest omega * dt of an oscillating spring/mass mode (see the module docstring)
+OMEGA_DT_MAX = 2.0
+
+
+@dataclass
+class SpringScales:
+    """Fastest spring/mass time scales of a model."""
+
+    omega_max: float   # bound of the highest spring/mass angular frequency [rad/s]
+    gamma_max: float   # bound of the highest damper/mass rate [1/s]
+
+    @property
+    def zeta(self) -> float:
+        """Damping ratio of the fastest mode [-] (inf without springs)."""
+        if self.omega_max == 0.0:
+            return math.inf
+        return self.gamma_max / (2.0 * self.omega_max)
+
+    @property
+    def omega_damped(self) -> float:
+        """Damped angular frequency of the fastest mode [rad/s] (0 when overdamped)."""
+        z = self.zeta
+        return self.omega_max * math.sqrt(1.0 - z * z) if z < 1.0 else 0.0
+
+    @property
+    def dt_limit(self) -> float:
+        """Largest step that resolves the fastest oscillating mode [s] (inf if none)."""
+        wd = self.omega_damped
+        return OMEGA_DT_MAX / wd if wd > 0.0 else math.inf
+
+
+def spring_scales(model) -> SpringScales:
+    """Bound the fastest spring/mass frequency and damping rate of a :class:`simcore.model.Model`.
+
+    Parameters
+    ----------
+    model : simcore.model.Model
+        A built model (bodies and springs added).
+
+    Returns
+    -------
+    SpringScales
+    """
+    mass = np.asarray(model.mass, dtype=float)
+    stiff = np.zeros(mass.size)
+    damp = np.zeros(mass.size)
+    for bi, bj, geom in model.springs:
+        k, c = float(geom[4]), float(geom[5])
+        for a, b in ((bi, bj), (bj, bi)):
+            if a < 0:
+                continue
+            w = 1.0 / mass[a] + (1.0 / math.sqrt(mass[a] * mass[b]) if b >= 0 else 0.0)
+            stiff[a] += k * w
+            damp[a] += c * w
+    if mass.size == 0:
+        return SpringScales(0.0, 0.0)
+    return SpringScales(math.sqrt(float(stiff.max())), float(damp.max()))
+
+
+def check_step_size(model, dt: float, policy: str = "error") -> str | None:
+    """Refuse (or warn about) a step that cannot resolve the model's fastest spring mode.
+
+    Parameters
+    ----------
+    model : simcore.model.Model
+    dt : float
+        Time step [s].
+    policy : {"error", "warn"}
+        ``solver.on_unresolved_dt``.
+
+    Returns
+    -------
+    str or None
+        The message, when the step is too large and the policy is ``"warn"``.
+
+    Raises
+    ------
+    ConfigError
+        One line naming ``solver.dt`` and the limit (policy ``"error"``).
+    """
+    scales = spring_scales(model)
+    if dt <= scales.dt_limit:
+        return None
+    why = (f"<= {scales.dt_limit:.3g} s, to resolve the fastest spring/mass mode (omega = "
+           f"{scales.omega_damped:.4g} rad/s, damping ratio {scales.zeta:.3g}; omega * dt <= "
+           f"{OMEGA_DT_MAX:g})")
+    if policy == "error":
+        raise ConfigError(f"solver.dt: {dt!r} is not allowed; allowed: {why}; lower solver.dt, "
+                          "or set solver.on_unresolved_dt=warn")
+    msg = (f"solver.dt: {dt!r} is above the limit {why}; running anyway "
+           "(solver.on_unresolved_dt=warn), the energy audit watches every step")
+    warnings.warn(msg, RuntimeWarning, stacklevel=2)
+    return msg
+
+
+def values_per_step(model=None, n_bodies=None, n_contacts=None) -> int:
+    """Numbers stored per time step by :meth:`simcore.model.Model.simulate` [-], from a model
+    or from its numbers of bodies and contacts."""
+    if model is not None:
+        n_bodies, n_contacts = len(model.mass), len(model.contacts)
+    ndof = 3 * n_bodies
+    # q, v; Lambda_N, Lambda_T, nu_N, gap_N, vn_pre, vn_post; time, energy, energy_error and
+    # its tolerance, drive torque; 3 iteration counts (int64); the converged flag (int8,
+    # counted as one)
+    return 2 * ndof + 6 * n_contacts + 5 + 3 + 1
+
+
+def memory_estimate(model, dt: float, t_end: float) -> int:
+    """Bytes of the arrays of a run: (steps + 1) x values per step x 8 [B]."""
+    n_steps = int(round(t_end / dt))
+    return (n_steps + 1) * values_per_step(model) * 8
+
+
+def check_memory_of_config(cfg: dict) -> int:
+    """:func:`check_memory` for the crank-slider of a validated configuration, without building
+    the model: 3 + n_balls bodies, 2 n_balls contacts."""
+    n = int(cfg["model"]["n_balls"])
+    return check_memory(_Counts(3 + n, 2 * n), cfg["solver"]["dt"], cfg["solver"]["t_end"],
+                        cfg["solver"]["max_memory_gb"])
+
+
+class _Counts:
+    """Stand-in with the sizes :func:`values_per_step` reads."""
+
+    def __init__(self, n_bodies, n_contacts):
+        self.mass = [0.0] * n_bodies
+        self.contacts = [None] * n_contacts
+
+
+class _CageRing:
+    """Stand-in of the crank-slider for :func:`spring_scales`: its springs are the cage
+    springs between neighbouring balls (bodies 3 .. 3 + n - 1), see
+    :func:`simcore.mechanism.crank_slider`."""
+
+    def __init__(self, model: dict):
+        n = int(model["n_balls"])
+        self.mass = [1.0, 1.0, 1.0] + [float(model["ball_mass"])] * n
+        geom = (0.0, 0.0, 0.0, 0.0, float(model["cage_stiffness"]), float(model["cage_damping"]),
+                0.0)
+        self.springs = [(3 + k, 3 + (k + 1) % n, geom) for k in range(n)]
+
+
+def check_run_of_config(cfg: dict) -> list[str]:
+    """:func:`check_run` for the crank-slider of a validated configuration without building
+    the model, for a command line that answers at once."""
+    check_memory_of_config(cfg)
+    msg = check_step_size(_CageRing(cfg["model"]), cfg["solver"]["dt"],
+                          cfg["solver"]["on_unresolved_dt"])
+    return [msg] if msg else []
+
+
+def check_memory(model, dt: float, t_end: float, max_gb: float) -> int:
+    """Refuse a run whose arrays would take more than ``max_gb`` GB (1e9 bytes).
+
+    Returns
+    -------
+    int
+        The estimate [B].
+
+    Raises
+    ------
+    ConfigError
+        One line naming ``solver.t_end`` / ``solver.dt``, the estimate and the limit.
+    """
+    need = memory_estimate(model, dt, t_end)
+    if need > max_gb * 1e9:
+        n_steps = int(round(t_end / dt))
+        raise ConfigError(
+            f"solver.t_end: {t_end!r} with solver.dt = {dt!r} is not allowed: {n_steps} steps x "
+            f"{values_per_step(model)} values x 8 B = {need / 1e9:.3g} GB of arrays; allowed: "
+            f"at most solver.max_memory_gb = {max_gb:g} GB (shorten solver.t_end, raise "
+            "solver.dt or solver.max_memory_gb)")
+    return need
+
+
+def check_run(cfg: dict, model=None) -> list[str]:
+    """Both checks for a validated configuration of the crank-slider.
+
+    Parameters
+    ----------
+    cfg : dict
+        Validated configuration.
+    model : simcore.model.Model, optional
+        The built model; built here from ``cfg["model"]`` if not given (cheap: no arrays of
+        the time loop).
+
+    Returns
+    -------
+    list of str
+        Warnings given (policy ``"warn"``).
+
+    Raises
+    ------
+    ConfigError
+        One line, before any allocation.
+    """
+    if model is None:
+        from .mechanism import crank_slider
+
+        model = crank_slider(cfg["model"])[0]
+    solver = cfg["solver"]
+    check_memory(model, solver["dt"], solver["t_end"], solver["max_memory_gb"])
+    msg = check_step_size(model, solver["dt"], solver["on_unresolved_dt"])
+    return [msg] if msg else []
