@@ -367,7 +367,7 @@ def test_summary_on_a_local_dask_cluster_equals_the_synchronous_one(tmp_path):
     pytest.importorskip("distributed")
     sys.path.insert(0, str(ROOT / "tests"))
     try:
-        from test_workflow import _fake_impacts, _fake_run
+        from test_summary import _impacts, _point, _run
     finally:
         sys.path.pop(0)
     from analysis.summary import summarize
@@ -375,12 +375,10 @@ def test_summary_on_a_local_dask_cluster_equals_the_synchronous_one(tmp_path):
     runs, impacts = [], []
     for clearance in (1e-4, 4e-4):
         for mu in (0.0, 0.01):
-            point = {"clearance": clearance, "mu": mu, "omega0": 50.0, "e_N": 0.9}
+            point = _point(clearance, mu)
             failed = clearance == 4e-4 and mu == 0.0
-            _fake_run(tmp_path / f"r{clearance}_{mu}.nc", point, failed=failed,
-                      lam_max=clearance * 10)
-            _fake_impacts(tmp_path / f"i{clearance}_{mu}.nc", point, [1.0, 2.0, 3.0 + mu],
-                          failed=failed)
+            _run(tmp_path / f"r{clearance}_{mu}.nc", point, failed=failed)
+            _impacts(tmp_path / f"i{clearance}_{mu}.nc", point, failed=failed)
             runs.append(tmp_path / f"r{clearance}_{mu}.nc")
             impacts.append(tmp_path / f"i{clearance}_{mu}.nc")
     local = summarize(runs, impacts, scheduler="local", num_workers=2)
