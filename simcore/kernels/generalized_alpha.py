@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 from .joints import bilateral, joint_row_count
-from .linalg import block_inverse
+from .linalg import block_inverse, solve_dense
 from .springs import smooth_forces
 
 
@@ -47,7 +47,7 @@ def initial_acceleration(q, v, t, ma, vdot, lam):
             A[i, n + r] = -G[r, i]
             A[n + r, i] = G[r, i]
         rhs[n + r] = -gam[r]
-    x = np.linalg.solve(A, rhs)
+    x = solve_dense(A, rhs)
     vdot[:] = x[:n]
     lam[:] = x[n:]
 
@@ -115,7 +115,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             cG = G * (h * gam * ca)
             JG = Jinv @ G.T
             S = cG @ JG
-            dlam = np.linalg.solve(S, rhs[n:] - cG @ dv)
+            dlam = solve_dense(S, rhs[n:] - cG @ dv)
             dv += JG @ dlam
             for r in range(m):
                 lam[r] += dlam[r]
