@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 from .joints import bilateral, joint_row_count
-from .linalg import block_inverse, solve_dense
+from .linalg import saddle_point_solve, solve_dense
 from .springs import smooth_forces
 
 
@@ -104,21 +104,14 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             break
         iters += 1
         # Newton step on [J, -G^T; c G, 0] by the Schur complement of the joints: J is
-        # diagonal but for the bodies joined by springs, so block_inverse keeps it cheap
+        # diagonal but for the bodies joined by springs, so only that block is factorised
         for i in range(n):
             for j in range(n):
                 J[i, j] = (C_t[i, j] * h * gam + K_t[i, j] * h * h * beta) * ca
             J[i, i] += mdiag[i]
-        Jinv = block_inverse(J)
-        dv = Jinv @ rhs[:n]
-        if m > 0:
-            cG = G * (h * gam * ca)
-            JG = Jinv @ G.T
-            S = cG @ JG
-            dlam = solve_dense(S, rhs[n:] - cG @ dv)
-            dv += JG @ dlam
-            for r in range(m):
-                lam[r] += dlam[r]
+        saddle_point_solve(J, G, h * gam * ca, rhs)
+        for r in range(m):
+            lam[r] += rhs[n + r]
         for i in range(n):
-            vdot1[i] += dv[i]
+            vdot1[i] += rhs[i]
     return iters, converged

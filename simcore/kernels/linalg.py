@@ -189,6 +189,48 @@ def block_solve(fac, n, x):
 
 
 @njit(cache=True)
+def saddle_point_solve(J, G, c, rhs):
+    """Solve [J, -G^T; c G, 0] [x; y] = rhs in place (``rhs[:n]`` becomes x, ``rhs[n:]``
+    becomes y) by the Schur complement S = c G J^-1 G^T of the m constraint rows.
+
+    ``J`` (n x n) is factorised on its coupled block (:func:`block_factor`, LU: J need not be
+    symmetric); ``G`` is m x n, ``c`` a scalar."""
+    n = J.shape[0]
+    m = G.shape[0]
+    fac = block_factor_work(n)
+    block_factor(J, n, fac, False)
+    x = rhs[:n]
+    block_solve(fac, n, x)
+    if m == 0:
+        return
+    y = rhs[n:]
+    JG = np.empty((m, n))
+    for r in range(m):
+        row = JG[r]
+        for i in range(n):
+            row[i] = G[r, i]
+        block_solve(fac, n, row)
+    S = np.zeros((m, m))
+    for a in range(m):
+        s = 0.0
+        for i in range(n):
+            g = G[a, i]
+            if g != 0.0:
+                s += g * x[i]
+                for b in range(m):
+                    S[a, b] += c * g * JG[b, i]
+        y[a] -= c * s
+    piv = np.zeros(m, dtype=np.int64)
+    lu_factor(S, m, piv)
+    lu_solve(S, m, piv, y)
+    for i in range(n):
+        s = x[i]
+        for r in range(m):
+            s += JG[r, i] * y[r]
+        x[i] = s
+
+
+@njit(cache=True)
 def solve_dense(A, b):
     """x = A^-1 b for a small square matrix (LU with partial pivoting; A and b untouched)."""
     n = A.shape[0]

@@ -24,7 +24,7 @@ STAGE_VELOCITY = 2
 
 #: Work arrays of the position correction (:func:`position_work`).
 PositionWork = namedtuple("PositionWork", ["Ap", "facA", "Hm", "facH", "U", "U_new", "U_try",
-    "q_try", "HAU", "tmp", "nu_b", "nub_new", "nub_try", "gb", "Gb", "gb_try", "Gb_try", "gm",
+    "q_try", "HAU", "tmp", "eq", "nu_b", "nub_new", "nub_try", "gb", "Gb", "gb_try", "Gb_try", "gm",
     "dgdt", "r_c", "reg_c", "nuc_new", "nuc_try", "gap_try", "GN", "GN_try", "active",
     "Hloc", "wN", "wT", "Gall", "ball", "AG", "Dall", "rows", "Dbuf", "sol", "piv"])
 
@@ -46,7 +46,7 @@ def position_work(n, nbil, nc):
     return PositionWork(
         Ap=np.zeros((n, n)), facA=block_factor_work(n), Hm=np.zeros((n, n)),
         facH=block_factor_work(n), U=np.zeros(n), U_new=np.zeros(n), U_try=np.zeros(n),
-        q_try=np.zeros(n), HAU=np.zeros(n), tmp=np.zeros(n),
+        q_try=np.zeros(n), HAU=np.zeros(n), tmp=np.zeros(n), eq=np.zeros(n),
         nu_b=np.zeros(nbil), nub_new=np.zeros(nbil), nub_try=np.zeros(nbil),
         gb=np.zeros(nbil), Gb=np.zeros((nbil, n)), gb_try=np.zeros(nbil),
         Gb_try=np.zeros((nbil, n)), gm=np.zeros(nbil), dgdt=np.zeros(nbil),
@@ -72,10 +72,11 @@ def _position_rows(q_t, U, t1, ma, q1, gb, Gb, gm, dgdt, gap, GN, wN, wT):
 
 
 @njit(cache=True)
-def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, gb, Gb, gap, GN):
+def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, facA, gb, Gb, gap, GN, eq):
     """Scaled residual [m] of the position problem at (U, nu) from the rows at q_t + U
     (:func:`_position_rows`): joints, complementarity in the augmented-Lagrangian form
-    (nu - max(0, nu - r g))/r, and equilibrium M^-1 (Ap U - G^T nu)."""
+    (nu - max(0, nu - r g))/r, and equilibrium M^-1 (Ap U - G^T nu). ``facA``: the
+    factorisation of Ap, whose coupled indices are the only ones with off-diagonal entries."""
     n = U.shape[0]
     res = 0.0
     for r in range(gb.shape[0]):
@@ -85,15 +86,25 @@ def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, gb, Gb, gap, GN):
         val = nu_c[k] - max(0.0, nu_c[k] - rk * gap[k])
         res = max(res, abs(val) / rk)
     for i in range(n):
-        eq = 0.0
-        for j in range(n):
-            eq += Ap[i, j] * U[j]
-        for r in range(gb.shape[0]):
-            eq -= Gb[r, i] * nu_b[r]
-        for k in range(gap.shape[0]):
-            if nu_c[k] != 0.0:
-                eq -= GN[k, i] * nu_c[k]
-        res = max(res, abs(eq) / mdiag[i])
+        eq[i] = Ap[i, i] * U[i]
+    idx = facA.idx
+    kc = facA.info[0]
+    for a in range(kc):
+        i = idx[a]
+        s = 0.0
+        for b in range(kc):
+            s += Ap[i, idx[b]] * U[idx[b]]
+        eq[i] = s
+    for r in range(gb.shape[0]):
+        if nu_b[r] != 0.0:
+            for i in range(n):
+                eq[i] -= Gb[r, i] * nu_b[r]
+    for k in range(gap.shape[0]):
+        if nu_c[k] != 0.0:
+            for i in range(n):
+                eq[i] -= GN[k, i] * nu_c[k]
+    for i in range(n):
+        res = max(res, abs(eq[i]) / mdiag[i])
     return res
 
 
@@ -139,7 +150,8 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
         for i in range(n):
             dkk += GN[k, i] * tmp[i]
         r_c[k] = 1.0 / dkk if dkk > 0.0 else 1.0
-    res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, gb, Gb, gap, GN)
+    res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, wk.facA, gb, Gb, gap, GN,
+                                 wk.eq)
     target = tol * h
     iters = 0
     converged = res <= target
@@ -298,8 +310,8 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                 nuc_try[k] = nu_c[k] + theta * (nuc_new[k] - nu_c[k])
             _position_rows(q_t, U_try, t1, ma, q_try, gb_try, Gb_try, wk.gm, wk.dgdt,
                            gap_try, GN_try, wk.wN, wk.wT)
-            res_try = _position_residual(U_try, nub_try, nuc_try, r_c, mdiag, Ap, gb_try,
-                                         Gb_try, gap_try, GN_try)
+            res_try = _position_residual(U_try, nub_try, nuc_try, r_c, mdiag, Ap, wk.facA,
+                                         gb_try, Gb_try, gap_try, GN_try, wk.eq)
             if best < 0.0 or res_try < best:
                 best = res_try
                 best_theta = theta
@@ -334,7 +346,8 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             for k in range(nc):
                 nu_c[k] += theta * (nuc_new[k] - nu_c[k])
             _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT)
-            res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, gb, Gb, gap, GN)
+            res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, wk.facA, gb, Gb, gap, GN,
+                                 wk.eq)
         converged = res <= target
     return iters, converged
 
