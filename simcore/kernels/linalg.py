@@ -189,6 +189,53 @@ def block_solve(fac, n, x):
 
 
 @njit(cache=True)
+def block_gram(fac, n, G, m, Y, D):
+    """D[:m, :m] = G[:m] A^-1 G[:m]^T for a symmetric A factorised by :func:`block_factor`.
+
+    With a Cholesky factor only the forward substitution Y = L^-1 G_c^T is needed (the
+    coupled columns of G), D = Y^T Y; the uncoupled columns add G_u diag(A_u)^-1 G_u^T (sparse
+    rows: only their non-zeros are visited). ``Y``: work array of at least m x n."""
+    k = fac.info[0]
+    idx = fac.idx
+    dinv = fac.dinv
+    B = fac.B
+    for r in range(m):
+        y = Y[r]
+        for a in range(k):
+            y[a] = G[r, idx[a]]
+        if fac.info[1] == 0:
+            for a in range(k):
+                s = y[a]
+                for p in range(a):
+                    s -= B[a, p] * y[p]
+                y[a] = s / B[a, a]
+        elif k > 0:
+            lu_solve(B, k, fac.piv, y)
+    for a in range(m):
+        for b in range(a, m):
+            s = 0.0
+            if fac.info[1] == 0:
+                for p in range(k):
+                    s += Y[a, p] * Y[b, p]
+            else:
+                for p in range(k):
+                    s += G[a, idx[p]] * Y[b, p]
+            D[a, b] = s
+    for i in range(n):
+        di = dinv[i]
+        if di != 0.0:
+            for a in range(m):
+                ga = G[a, i]
+                if ga != 0.0:
+                    ga *= di
+                    for b in range(a, m):
+                        D[a, b] += ga * G[b, i]
+    for a in range(m):
+        for b in range(a + 1, m):
+            D[b, a] = D[a, b]
+
+
+@njit(cache=True)
 def saddle_point_solve(J, G, c, rhs):
     """Solve [J, -G^T; c G, 0] [x; y] = rhs in place (``rhs[:n]`` becomes x, ``rhs[n:]``
     becomes y) by the Schur complement S = c G J^-1 G^T of the m constraint rows.

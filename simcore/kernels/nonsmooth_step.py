@@ -14,7 +14,14 @@ from .bodies import scatter_row
 from .contact import contact_hessian, contact_rows, contact_velocities
 from .generalized_alpha import alpha_coefficients, smooth_step
 from .joints import bilateral, joint_row_count
-from .linalg import block_factor, block_factor_work, block_solve, lu_factor, lu_solve
+from .linalg import (
+    block_factor,
+    block_factor_work,
+    block_gram,
+    block_solve,
+    lu_factor,
+    lu_solve,
+)
 from .springs import smooth_forces, total_energy
 
 # layout of the per-step statistics written by integrate_chunk
@@ -24,14 +31,14 @@ STAGE_VELOCITY = 2
 
 #: Work arrays of the position correction (:func:`position_work`).
 PositionWork = namedtuple("PositionWork", ["Ap", "facA", "Hm", "facH", "U", "U_new", "U_try",
-    "q_try", "HAU", "tmp", "eq", "nu_b", "nub_new", "nub_try", "gb", "Gb", "gb_try", "Gb_try", "gm",
+    "q_try", "HAU", "eq", "nu_b", "nub_new", "nub_try", "gb", "Gb", "gb_try", "Gb_try", "gm",
     "dgdt", "r_c", "reg_c", "nuc_new", "nuc_try", "gap_try", "GN", "GN_try", "active",
-    "Hloc", "wN", "wT", "Gall", "ball", "AG", "Dall", "rows", "Dbuf", "sol", "piv"])
+    "Hloc", "wN", "wT", "Gall", "ball", "Y", "AU", "Dall", "rows", "Dbuf", "sol", "piv"])
 
 #: Work arrays of the velocity jump (:func:`velocity_work`).
 VelocityWork = namedtuple("VelocityWork", ["f1", "K1", "C1", "Ks1", "Av", "fac", "b", "Ab",
     "tmp", "wN", "wT", "gb", "gm", "dgdt", "Gb", "closed", "row_of", "G",
-    "off", "kind", "mu_row", "pair", "lam", "AG", "D", "c", "Dbb", "pivb",
+    "off", "kind", "mu_row", "pair", "lam", "Y", "D", "c", "Dbb", "pivb",
     "colb", "X", "Dc", "cc", "lam_c", "pair_c", "solver"])
 
 #: Work arrays of the velocity problem's Newton solver.
@@ -46,14 +53,15 @@ def position_work(n, nbil, nc):
     return PositionWork(
         Ap=np.zeros((n, n)), facA=block_factor_work(n), Hm=np.zeros((n, n)),
         facH=block_factor_work(n), U=np.zeros(n), U_new=np.zeros(n), U_try=np.zeros(n),
-        q_try=np.zeros(n), HAU=np.zeros(n), tmp=np.zeros(n), eq=np.zeros(n),
+        q_try=np.zeros(n), HAU=np.zeros(n), eq=np.zeros(n),
         nu_b=np.zeros(nbil), nub_new=np.zeros(nbil), nub_try=np.zeros(nbil),
         gb=np.zeros(nbil), Gb=np.zeros((nbil, n)), gb_try=np.zeros(nbil),
         Gb_try=np.zeros((nbil, n)), gm=np.zeros(nbil), dgdt=np.zeros(nbil),
         r_c=np.ones(nc), reg_c=np.zeros(nc), nuc_new=np.zeros(nc), nuc_try=np.zeros(nc),
         gap_try=np.zeros(nc), GN=np.zeros((nc, n)), GN_try=np.zeros((nc, n)),
         active=np.zeros(nc, dtype=np.bool_), Hloc=np.zeros((6, 6)), wN=np.zeros(6),
-        wT=np.zeros(6), Gall=np.zeros((mt, n)), ball=np.zeros(mt), AG=np.zeros((n, mt)),
+        wT=np.zeros(6), Gall=np.zeros((mt, n)), ball=np.zeros(mt), Y=np.zeros((mt, n)),
+        AU=np.zeros(n),
         Dall=np.zeros((mt, mt)), rows=np.zeros(mt, dtype=np.int64), Dbuf=np.zeros(mt * mt),
         sol=np.zeros(mt), piv=np.zeros(mt, dtype=np.int64))
 
@@ -131,7 +139,6 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     Gb = wk.Gb
     GN = wk.GN
     r_c = wk.r_c
-    tmp = wk.tmp
     for i in range(n):
         for j in range(n):
             Ap[i, j] = h * h * Ks_t[i, j]
@@ -142,13 +149,9 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     nu_c[:] = 0.0
     # Delassus scaling from the rows at the predicted configuration
     _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT)
+    block_gram(wk.facA, n, GN, nc, wk.Y, wk.Dall)
     for k in range(nc):
-        for i in range(n):
-            tmp[i] = GN[k, i]
-        block_solve(wk.facA, n, tmp)
-        dkk = 0.0
-        for i in range(n):
-            dkk += GN[k, i] * tmp[i]
+        dkk = wk.Dall[k, k]
         r_c[k] = 1.0 / dkk if dkk > 0.0 else 1.0
     res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, wk.facA, gb, Gb, gap, GN,
                                  wk.eq)
@@ -173,7 +176,6 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     eta_k = eta
     Gall = wk.Gall
     ball = wk.ball
-    AG = wk.AG
     Dall = wk.Dall
     reg_c = wk.reg_c
     rows = wk.rows  # rows[:nbil] are the joints, always present
@@ -211,10 +213,12 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             fac = wk.facH
         # the linearised problem of this iterate, for all rows: joints first, then contacts;
         # row i of the new iterate reads (D nu)_i = b_i (+ proximal term on contacts)
+        AU = wk.AU
         for i in range(n):
             s = 0.0
             for j in range(n):
                 s += Ap[i, j] * U[j]
+            AU[i] = s
             HAU[i] = s
         block_solve(fac, n, HAU)
         for r in range(nbil):
@@ -230,20 +234,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                 s += GN[k, i] * HAU[i]
             ball[nbil + k] = s
             reg_c[k] = eta_k / r_c[k]
-        # AG = H^-1 Gall^T column by column, Dall = Gall AG (the rows are sparse)
-        for r in range(mt):
-            for i in range(n):
-                tmp[i] = Gall[r, i]
-            block_solve(fac, n, tmp)
-            for i in range(n):
-                AG[i, r] = tmp[i]
-        Dall[:, :] = 0.0
-        for a in range(mt):
-            for i in range(n):
-                g = Gall[a, i]
-                if g != 0.0:
-                    for c in range(mt):
-                        Dall[a, c] += g * AG[i, c]
+        block_gram(fac, n, Gall, mt, wk.Y, Dall)
         # exact active set of the linearised problem (primal-dual active set): drop contacts
         # whose multiplier turns negative, add those whose linearised gap turns negative;
         # one geometric Newton step then never cycles on a degenerate contact
@@ -286,11 +277,15 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             if flip < 0:
                 break
             active[flip] = not active[flip]
+        # U_new = U + H^-1 (Gall_active^T sol - Ap U)
         for i in range(n):
-            s = U[i] - HAU[i]
+            s = -AU[i]
             for a in range(m):
-                s += AG[i, rows[a]] * sol[a]
+                s += Gall[rows[a], i] * sol[a]
             U_new[i] = s
+        block_solve(fac, n, U_new)
+        for i in range(n):
+            U_new[i] += U[i]
         for r in range(nbil):
             nub_new[r] = sol[r]
         nuc_new[:] = 0.0
@@ -364,7 +359,7 @@ def velocity_work(n, nbil, nc):
         closed=np.zeros(nc, dtype=np.bool_), row_of=np.zeros(nc, dtype=np.int64),
         G=np.zeros((mv, n)), off=np.zeros(mv), kind=np.zeros(mv, dtype=np.int64),
         mu_row=np.zeros(mv), pair=np.zeros(mv, dtype=np.int64), lam=np.zeros(mv),
-        AG=np.zeros((n, mv)), D=np.zeros((mv, mv)), c=np.zeros(mv),
+        Y=np.zeros((mv, n)), D=np.zeros((mv, mv)), c=np.zeros(mv),
         Dbb=np.zeros(nbil * nbil), pivb=np.zeros(nbil, dtype=np.int64), colb=np.zeros(nbil),
         X=np.zeros(nbil * (mv + 1)), Dc=np.zeros(mv * mv), cc=np.zeros(mv),
         lam_c=np.zeros(mv), pair_c=np.zeros(mv, dtype=np.int64),
@@ -675,27 +670,16 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
             pair[row] = row - 1
             lam[row] = lamT_prev
             row += 1
-    # AG = A^-1 G^T column by column, D = G AG (the rows are sparse), c = G (v_t + A^-1 b) + off
-    AG = wk.AG
+    # Delassus matrix D = G A^-1 G^T and free velocity c = G (v_t + A^-1 b) + off
     D = wk.D
     c = wk.c
-    tmp = wk.tmp
-    for r in range(n_rows):
-        for i in range(n):
-            tmp[i] = G[r, i]
-        block_solve(fac, n, tmp)
-        for i in range(n):
-            AG[i, r] = tmp[i]
+    block_gram(fac, n, G, n_rows, wk.Y, D)
     for a in range(n_rows):
         s = off[a]
-        for c2 in range(n_rows):
-            D[a, c2] = 0.0
         for i in range(n):
             g = G[a, i]
             if g != 0.0:
                 s += g * (v_t[i] + Ab[i])
-                for c2 in range(n_rows):
-                    D[a, c2] += g * AG[i, c2]
         c[a] = s
     sw = wk.solver
     if nbil > 0 and n_rows > nbil:
@@ -756,11 +740,16 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
         iters, ok = _solve_velocity_problem(Dv, c[:n_rows], kind[:n_rows], mu_row[:n_rows],
                                             pair[:n_rows], lam[:n_rows], tol, max_iter, eta,
                                             sw)
+    # W = A^-1 (b + G^T Lambda)
+    W = wk.tmp
     for i in range(n):
-        s = Ab[i]
+        s = b[i]
         for r in range(n_rows):
-            s += AG[i, r] * lam[r]
-        v1[i] = v_t[i] + s
+            s += G[r, i] * lam[r]
+        W[i] = s
+    block_solve(fac, n, W)
+    for i in range(n):
+        v1[i] = v_t[i] + W[i]
     for r in range(nbil):
         lam_b[r] = lam[r]
     for k in range(nc):
