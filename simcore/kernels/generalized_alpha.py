@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 from .joints import bilateral, joint_row_count
-from .linalg import saddle_point_solve, solve_dense
+from .linalg import copy_vector, saddle_point_solve, solve_dense
 from .springs import smooth_forces
 
 
@@ -48,8 +48,8 @@ def initial_acceleration(q, v, t, ma, vdot, lam):
             A[n + r, i] = G[r, i]
         rhs[n + r] = -gam[r]
     x = solve_dense(A, rhs)
-    vdot[:] = x[:n]
-    lam[:] = x[n:]
+    copy_vector(vdot, x, n)
+    copy_vector(lam, x[n:], m)
 
 
 @njit(cache=True)
@@ -71,7 +71,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
     dgdt = np.zeros(m)
     J = np.zeros((n, n))
     rhs = np.zeros(n + m)
-    vdot1[:] = vdot
+    copy_vector(vdot1, vdot, n)
     iters = 0
     converged = False
     for it in range(max_iter + 1):

@@ -34,6 +34,22 @@ BlockFactor = namedtuple("BlockFactor", ["B", "idx", "dinv", "piv", "tmp", "info
 
 
 @njit(cache=True)
+def copy_vector(dst, src, n):
+    """dst[:n] = src[:n] (an explicit loop: an array assignment would compile Numba's
+    shape-mismatch error path, several seconds of compile time for nothing)."""
+    for i in range(n):
+        dst[i] = src[i]
+
+
+@njit(cache=True)
+def copy_matrix(dst, src, m, n):
+    """dst[:m, :n] = src[:m, :n] (see :func:`copy_vector`)."""
+    for i in range(m):
+        for j in range(n):
+            dst[i, j] = src[i, j]
+
+
+@njit(cache=True)
 def cholesky_factor(A, n):
     """Overwrite the lower triangle of ``A[:n, :n]`` with L, A = L L^T.
 
@@ -233,6 +249,37 @@ def block_gram(fac, n, G, m, Y, D):
     for a in range(m):
         for b in range(a + 1, m):
             D[b, a] = D[a, b]
+
+
+@njit(cache=True)
+def block_gram_diagonal(fac, n, G, m, y, d):
+    """d[:m] = the diagonal of G[:m] A^-1 G[:m]^T (see :func:`block_gram`; ``y``: work
+    array of length n)."""
+    k = fac.info[0]
+    idx = fac.idx
+    dinv = fac.dinv
+    B = fac.B
+    for r in range(m):
+        for a in range(k):
+            y[a] = G[r, idx[a]]
+        s = 0.0
+        if fac.info[1] == 0:
+            for a in range(k):
+                t = y[a]
+                for p in range(a):
+                    t -= B[a, p] * y[p]
+                t /= B[a, a]
+                y[a] = t
+                s += t * t
+        elif k > 0:
+            lu_solve(B, k, fac.piv, y)
+            for a in range(k):
+                s += G[r, idx[a]] * y[a]
+        for i in range(n):
+            g = G[r, i]
+            if g != 0.0:
+                s += g * g * dinv[i]
+        d[r] = s
 
 
 @njit(cache=True)

@@ -18,7 +18,10 @@ from .linalg import (
     block_factor,
     block_factor_work,
     block_gram,
+    block_gram_diagonal,
     block_solve,
+    copy_matrix,
+    copy_vector,
     lu_factor,
     lu_solve,
 )
@@ -149,9 +152,9 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     nu_c[:] = 0.0
     # Delassus scaling from the rows at the predicted configuration
     _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT)
-    block_gram(wk.facA, n, GN, nc, wk.Y, wk.Dall)
+    block_gram_diagonal(wk.facA, n, GN, nc, wk.AU, r_c)
     for k in range(nc):
-        dkk = wk.Dall[k, k]
+        dkk = r_c[k]
         r_c[k] = 1.0 / dkk if dkk > 0.0 else 1.0
     res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, wk.facA, gb, Gb, gap, GN,
                                  wk.eq)
@@ -196,7 +199,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             if nu_c[k] > 0.0:
                 loaded = True
         if loaded:
-            Hm[:, :] = Ap
+            copy_matrix(Hm, Ap, n, n)
             for k in range(nc):
                 if nu_c[k] > 0.0:
                     contact_hessian(q1, k, ma, Hloc)
@@ -324,14 +327,14 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             eta_k = max(eta, 0.01 * eta_k)  # back towards plain Newton once steps go through
         if theta == last_theta:
             # the last trial is the new iterate: take its rows and residual as they are
-            U[:] = U_try
-            nu_b[:] = nub_try
-            nu_c[:] = nuc_try
-            q1[:] = q_try
-            gb[:] = gb_try
-            Gb[:, :] = Gb_try
-            gap[:] = gap_try
-            GN[:, :] = GN_try
+            copy_vector(U, U_try, n)
+            copy_vector(nu_b, nub_try, nbil)
+            copy_vector(nu_c, nuc_try, nc)
+            copy_vector(q1, q_try, n)
+            copy_vector(gb, gb_try, nbil)
+            copy_matrix(Gb, Gb_try, nbil, n)
+            copy_vector(gap, gap_try, nc)
+            copy_matrix(GN, GN_try, nc, n)
             res = best_res
         else:
             for i in range(n):
@@ -488,10 +491,10 @@ def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, s
         J[:, :] = 0.0
         for i in range(m):
             if kind[i] == 0:
-                J[i] = D[i]
+                copy_vector(J[i], D[i], m)
             elif kind[i] == 1:
                 if lam[i] - r[i] * xi[i] > 0.0:
-                    J[i] = D[i]
+                    copy_vector(J[i], D[i], m)
                     J[i, i] += eta * D[i, i]
                 else:
                     J[i, i] = 1.0 / r[i]
@@ -499,7 +502,7 @@ def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, s
                 bound = mu_row[i] * max(lam[pair[i]], 0.0)
                 z = lam[i] - r[i] * xi[i]
                 if abs(z) < bound:
-                    J[i] = D[i]
+                    copy_vector(J[i], D[i], m)
                     J[i, i] += eta * D[i, i]
                 else:
                     J[i, i] = 1.0 / r[i]
@@ -535,8 +538,8 @@ def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, s
             lam[i] += best_theta * dl[i]
         if best_theta == theta:
             # the last trial is the new iterate: reuse its velocities and residual
-            xi[:] = xi_try
-            F[:] = F_try
+            copy_vector(xi, xi_try, m)
+            copy_vector(F, F_try, m)
             res = 0.0
             for i in range(m):
                 res = max(res, abs(F[i]))
@@ -611,7 +614,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     fac = wk.fac
     block_factor(Av, n, fac, True)
     Ab = wk.Ab
-    Ab[:] = b
+    copy_vector(Ab, b, n)
     block_solve(fac, n, Ab)
     Gb = wk.Gb
     dgdt = wk.dgdt
@@ -841,8 +844,8 @@ def integrate_chunk(k0, k1, st, ma, state, out):
             acc[i] = acc1[i]
             vdot[i] = vdot1[i]
         contact_velocities(q, v, ma, gap, vn, vt)
-        out.q[k + 1] = q
-        out.v[k + 1] = v
+        copy_vector(out.q[k + 1], q, n)
+        copy_vector(out.v[k + 1], v, n)
         for j in range(nc):
             out.lambda_N[k + 1, j] = lamN_prev[j]
             out.lambda_T[k + 1, j] = lamT_prev[j]
