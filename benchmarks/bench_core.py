@@ -7,9 +7,12 @@ Prints, in one run:
 - a new process with a warm cache: imports, then the first 1-step run (cache load);
 - the warm wall time of the full paper case (0.3 s, h = 1e-4, 3,000 steps): median of N runs
   in one process, one thread, and the steps per second;
-- a profile of a step: the same time loop as ``integrate_chunk`` with a clock read between
-  the stages (the cost of a clock read, measured on an empty loop, is subtracted), as the
-  share of each stage in the step.
+- a profile of a step: the same time loop as ``integrate_chunk`` with a read of the process's
+  CPU clock between the stages (the cost of a clock read, measured on an empty loop, is
+  subtracted), as the share of each stage in the step.
+
+Wall times are printed with the process's CPU time beside them: on a shared machine the wall
+time includes the time the process waited for a core.
 
 Usage: python benchmarks/bench_core.py [--repeats 5]
 """
@@ -38,7 +41,7 @@ STAGES = ("smooth stage", "position correction", "contact velocities before the 
 
 
 def _subprocess_times(env_extra: dict) -> tuple[float, float, float]:
-    env = dict(os.environ, **env_extra)
+    env = dict(os.environ, NUMBA_NUM_THREADS="1", **env_extra)
     start = time.perf_counter()
     out = subprocess.run([sys.executable, "-c", ONE_STEP], capture_output=True, text=True,
                          env=env, check=True).stdout.split()
@@ -63,7 +66,7 @@ def _profile_kernel():
     @njit
     def clock():
         with objmode(t="float64"):
-            t = time.perf_counter()
+            t = time.process_time()  # CPU time: the machine may be shared
         return t
 
     @njit
@@ -177,16 +180,20 @@ def main() -> None:
     model, _ = crank_slider(cfg["model"])
     s = cfg["solver"]
     model.simulate(s["dt"], 10 * s["dt"])  # load the kernels
-    walls = []
+    walls, cpus = [], []
     for _ in range(args.repeats):
+        c0 = time.process_time()
         traj = model.simulate(s["dt"], s["t_end"], rho_inf=s["rho_inf"], tol=s["tol"],
                               max_iter=s["max_iter"], proximal=s["proximal"])
+        cpus.append(time.process_time() - c0)
         walls.append(traj.wall_time_s)
     n_steps = traj.time.size - 1
     med = statistics.median(walls)
+    cpu = statistics.median(cpus)
     print(f"paper case, warm, 1 thread: {n_steps} steps, wall {med:.3f} s median of "
           f"{args.repeats} (min {min(walls):.3f}, max {max(walls):.3f}), "
-          f"{n_steps / med:,.0f} steps/s, {1e6 * med / n_steps:.1f} us a step")
+          f"{n_steps / med:,.0f} steps/s, {1e6 * med / n_steps:.1f} us a step; "
+          f"CPU time {cpu:.3f} s median ({n_steps / cpu:,.0f} steps/s)")
     it = traj.iterations[1:]
     print("iterations per step (max/mean): smooth {}/{:.2f}, position {}/{:.2f}, velocity "
           "{}/{:.2f}".format(it[:, 0].max(), it[:, 0].mean(), it[:, 1].max(), it[:, 1].mean(),
@@ -197,8 +204,8 @@ def main() -> None:
           f"{time.perf_counter() - t0:.3f} s")
     per_step = profile_step(model, s, n_steps)
     total = per_step.sum()
-    print(f"profile of a step ({n_steps} steps, minimum of 3 runs, clock reads subtracted): "
-          f"{1e6 * total:.1f} us in the stages")
+    print(f"profile of a step (CPU time, {n_steps} steps, minimum of 3 runs, clock reads "
+          f"subtracted): {1e6 * total:.1f} us in the stages")
     for name, sec in zip(STAGES, per_step, strict=True):
         print(f"  {name:<36s} {1e6 * sec:6.1f} us  {100 * sec / total:5.1f} %")
 

@@ -154,15 +154,25 @@ def block_factor(A, n, fac, symmetric):
     idx = fac.idx
     dinv = fac.dinv
     B = fac.B
+    degree = fac.piv  # coupling counts first, pivots later
+    for i in range(n):
+        degree[i] = 0
+    for i in range(n):
+        for j in range(n):
+            if i != j and A[i, j] != 0.0:
+                degree[i] += 1
+                degree[j] += 1
     k = 0
     for i in range(n):
-        coupled = False
-        for j in range(n):
-            if i != j and (A[i, j] != 0.0 or A[j, i] != 0.0):
-                coupled = True
-                break
-        if coupled:
-            idx[k] = i
+        if degree[i] != 0:
+            # least coupled first (the balls before the races they all touch): the factor
+            # then keeps the sparsity of the constraint rows at its start, which the forward
+            # substitution of block_gram skips
+            a = k
+            while a > 0 and degree[idx[a - 1]] > degree[i]:
+                idx[a] = idx[a - 1]
+                a -= 1
+            idx[a] = i
             k += 1
             dinv[i] = 0.0
         else:
@@ -205,33 +215,41 @@ def block_solve(fac, n, x):
 
 
 @njit(cache=True)
-def block_gram(fac, n, G, m, Y, D):
+def block_gram(fac, n, G, m, Y, first, D):
     """D[:m, :m] = G[:m] A^-1 G[:m]^T for a symmetric A factorised by :func:`block_factor`.
 
     With a Cholesky factor only the forward substitution Y = L^-1 G_c^T is needed (the
-    coupled columns of G), D = Y^T Y; the uncoupled columns add G_u diag(A_u)^-1 G_u^T (sparse
-    rows: only their non-zeros are visited). ``Y``: work array of at least m x n."""
+    coupled columns of G), D = Y^T Y, and it starts at each row's first non-zero (``first``
+    records it); the uncoupled columns add G_u diag(A_u)^-1 G_u^T (sparse rows: only their
+    non-zeros are visited). ``Y``: work array of at least m x n, ``first``: of length m."""
     k = fac.info[0]
     idx = fac.idx
     dinv = fac.dinv
     B = fac.B
+    chol = fac.info[1] == 0
     for r in range(m):
         y = Y[r]
+        f = k
         for a in range(k):
             y[a] = G[r, idx[a]]
-        if fac.info[1] == 0:
-            for a in range(k):
+            if f == k and y[a] != 0.0:
+                f = a
+        if chol:
+            first[r] = f
+            for a in range(f, k):
                 s = y[a]
-                for p in range(a):
+                for p in range(f, a):
                     s -= B[a, p] * y[p]
                 y[a] = s / B[a, a]
-        elif k > 0:
-            lu_solve(B, k, fac.piv, y)
+        else:
+            first[r] = 0
+            if k > 0:
+                lu_solve(B, k, fac.piv, y)
     for a in range(m):
         for b in range(a, m):
             s = 0.0
-            if fac.info[1] == 0:
-                for p in range(k):
+            if chol:
+                for p in range(max(first[a], first[b]), k):
                     s += Y[a, p] * Y[b, p]
             else:
                 for p in range(k):
@@ -264,9 +282,12 @@ def block_gram_diagonal(fac, n, G, m, y, d):
             y[a] = G[r, idx[a]]
         s = 0.0
         if fac.info[1] == 0:
-            for a in range(k):
+            f = 0
+            while f < k and y[f] == 0.0:
+                f += 1
+            for a in range(f, k):
                 t = y[a]
-                for p in range(a):
+                for p in range(f, a):
                     t -= B[a, p] * y[p]
                 t /= B[a, a]
                 y[a] = t

@@ -36,12 +36,12 @@ STAGE_VELOCITY = 2
 PositionWork = namedtuple("PositionWork", ["Ap", "facA", "Hm", "facH", "U", "U_new", "U_try",
     "q_try", "HAU", "eq", "nu_b", "nub_new", "nub_try", "gb", "Gb", "gb_try", "Gb_try", "gm",
     "dgdt", "r_c", "reg_c", "nuc_new", "nuc_try", "gap_try", "GN", "GN_try", "active",
-    "Hloc", "wN", "wT", "Gall", "ball", "Y", "AU", "Dall", "rows", "Dbuf", "sol", "piv"])
+    "Hloc", "wN", "wT", "Gall", "ball", "Y", "AU", "first", "Dall", "rows", "Dbuf", "sol", "piv"])
 
 #: Work arrays of the velocity jump (:func:`velocity_work`).
 VelocityWork = namedtuple("VelocityWork", ["f1", "K1", "C1", "Ks1", "Av", "fac", "b", "Ab",
     "tmp", "wN", "wT", "gb", "gm", "dgdt", "Gb", "closed", "row_of", "G",
-    "off", "kind", "mu_row", "pair", "lam", "Y", "D", "c", "Dbb", "pivb",
+    "off", "kind", "mu_row", "pair", "lam", "Y", "first", "D", "c", "Dbb", "pivb",
     "colb", "X", "Dc", "cc", "lam_c", "pair_c", "solver"])
 
 #: Work arrays of the velocity problem's Newton solver.
@@ -65,7 +65,8 @@ def position_work(n, nbil, nc):
         active=np.zeros(nc, dtype=np.bool_), Hloc=np.zeros((6, 6)), wN=np.zeros(6),
         wT=np.zeros(6), Gall=np.zeros((mt, n)), ball=np.zeros(mt), Y=np.zeros((mt, n)),
         AU=np.zeros(n),
-        Dall=np.zeros((mt, mt)), rows=np.zeros(mt, dtype=np.int64), Dbuf=np.zeros(mt * mt),
+        first=np.zeros(mt, dtype=np.int64), Dall=np.zeros((mt, mt)),
+        rows=np.zeros(mt, dtype=np.int64), Dbuf=np.zeros(mt * mt),
         sol=np.zeros(mt), piv=np.zeros(mt, dtype=np.int64))
 
 
@@ -237,7 +238,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                 s += GN[k, i] * HAU[i]
             ball[nbil + k] = s
             reg_c[k] = eta_k / r_c[k]
-        block_gram(fac, n, Gall, mt, wk.Y, Dall)
+        block_gram(fac, n, Gall, mt, wk.Y, wk.first, Dall)
         # exact active set of the linearised problem (primal-dual active set): drop contacts
         # whose multiplier turns negative, add those whose linearised gap turns negative;
         # one geometric Newton step then never cycles on a degenerate contact
@@ -362,7 +363,8 @@ def velocity_work(n, nbil, nc):
         closed=np.zeros(nc, dtype=np.bool_), row_of=np.zeros(nc, dtype=np.int64),
         G=np.zeros((mv, n)), off=np.zeros(mv), kind=np.zeros(mv, dtype=np.int64),
         mu_row=np.zeros(mv), pair=np.zeros(mv, dtype=np.int64), lam=np.zeros(mv),
-        Y=np.zeros((mv, n)), D=np.zeros((mv, mv)), c=np.zeros(mv),
+        Y=np.zeros((mv, n)), first=np.zeros(mv, dtype=np.int64), D=np.zeros((mv, mv)),
+        c=np.zeros(mv),
         Dbb=np.zeros(nbil * nbil), pivb=np.zeros(nbil, dtype=np.int64), colb=np.zeros(nbil),
         X=np.zeros(nbil * (mv + 1)), Dc=np.zeros(mv * mv), cc=np.zeros(mv),
         lam_c=np.zeros(mv), pair_c=np.zeros(mv, dtype=np.int64),
@@ -676,7 +678,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     # Delassus matrix D = G A^-1 G^T and free velocity c = G (v_t + A^-1 b) + off
     D = wk.D
     c = wk.c
-    block_gram(fac, n, G, n_rows, wk.Y, D)
+    block_gram(fac, n, G, n_rows, wk.Y, wk.first, D)
     for a in range(n_rows):
         s = off[a]
         for i in range(n):
