@@ -175,3 +175,26 @@ def test_block_gram_diagonal():
     d = np.zeros(m)
     la.block_gram_diagonal(fac, n, G, m, np.zeros(n), d)
     np.testing.assert_allclose(d, np.diag(G @ np.linalg.solve(A, G.T)), rtol=1e-10)
+
+
+@pytest.mark.parametrize("indefinite", [False, True])
+def test_block_gram_rows_grows_a_row_set(indefinite):
+    rng = np.random.default_rng(12)
+    n, mt = 33, 22
+    A = _block_structured(rng, n, list(range(9, 25)) + [0, 1, 2])
+    if indefinite:
+        A[0, 0] = -50.0
+    G = np.zeros((mt, n))
+    for r in range(mt):
+        G[r, rng.choice(n, 6, replace=False)] = rng.standard_normal(6)
+    fac = la.block_factor_work(n)
+    la.block_factor(A, n, fac, True)
+    full = G @ np.linalg.solve(A, G.T)
+    Y, first = np.zeros((mt, n)), np.zeros(mt, dtype=np.int64)
+    have = np.zeros(mt, dtype=np.bool_)
+    for rows in ([0, 1, 5], [0, 1, 5, 9, 17, 21]):
+        r = np.array(rows + [0] * (mt - len(rows)), dtype=np.int64)
+        D = np.zeros((len(rows), len(rows)))
+        la.block_gram_rows(fac, n, G, r, len(rows), Y, first, have, D)
+        np.testing.assert_allclose(D, full[np.ix_(rows, rows)], rtol=1e-9, atol=1e-12)
+    assert have.sum() == 6

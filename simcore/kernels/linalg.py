@@ -270,6 +270,57 @@ def block_gram(fac, n, G, m, Y, first, D):
 
 
 @njit(cache=True)
+def block_gram_rows(fac, n, G, rows, m, Y, first, have, D):
+    """D[:m, :m] = G_R A^-1 G_R^T for the rows R = ``rows[:m]`` of G (see :func:`block_gram`).
+
+    The forward substitution of row r is kept in ``Y[r]``, ``first[r]`` and marked in
+    ``have[r]``, so that a later call with an enlarged row set only adds the new rows."""
+    k = fac.info[0]
+    idx = fac.idx
+    dinv = fac.dinv
+    B = fac.B
+    chol = fac.info[1] == 0
+    for a in range(m):
+        r = rows[a]
+        if have[r]:
+            continue
+        have[r] = True
+        y = Y[r]
+        f = k
+        for c in range(k):
+            y[c] = G[r, idx[c]]
+            if f == k and y[c] != 0.0:
+                f = c
+        if chol:
+            first[r] = f
+            for c in range(f, k):
+                s = y[c]
+                for p in range(f, c):
+                    s -= B[c, p] * y[p]
+                y[c] = s / B[c, c]
+        else:
+            first[r] = 0
+            if k > 0:
+                lu_solve(B, k, fac.piv, y)
+    for a in range(m):
+        ra = rows[a]
+        for b in range(a, m):
+            rb = rows[b]
+            s = 0.0
+            if chol:
+                for p in range(max(first[ra], first[rb]), k):
+                    s += Y[ra, p] * Y[rb, p]
+            else:
+                for p in range(k):
+                    s += G[ra, idx[p]] * Y[rb, p]
+            for i in range(n):
+                if dinv[i] != 0.0 and G[ra, i] != 0.0:
+                    s += G[ra, i] * dinv[i] * G[rb, i]
+            D[a, b] = s
+            D[b, a] = s
+
+
+@njit(cache=True)
 def block_gram_diagonal(fac, n, G, m, y, d):
     """d[:m] = the diagonal of G[:m] A^-1 G[:m]^T (see :func:`block_gram`; ``y``: work
     array of length n)."""

@@ -19,6 +19,7 @@ from .linalg import (
     block_factor_work,
     block_gram,
     block_gram_diagonal,
+    block_gram_rows,
     block_solve,
     copy_matrix,
     copy_vector,
@@ -36,7 +37,8 @@ STAGE_VELOCITY = 2
 PositionWork = namedtuple("PositionWork", ["Ap", "facA", "Hm", "facH", "U", "U_new", "U_try",
     "q_try", "HAU", "eq", "nu_b", "nub_new", "nub_try", "gb", "Gb", "gb_try", "Gb_try", "gm",
     "dgdt", "r_c", "reg_c", "nuc_new", "nuc_try", "gap_try", "GN", "GN_try", "active",
-    "Hloc", "wN", "wT", "Gall", "ball", "Y", "AU", "first", "Dall", "rows", "Dbuf", "sol", "piv"])
+    "Hloc", "wN", "wT", "Gall", "ball", "Y", "AU", "first", "have", "x", "rows", "Dbuf", "sol",
+    "piv"])
 
 #: Work arrays of the velocity jump (:func:`velocity_work`).
 VelocityWork = namedtuple("VelocityWork", ["f1", "K1", "C1", "Ks1", "Av", "fac", "b", "Ab",
@@ -65,7 +67,7 @@ def position_work(n, nbil, nc):
         active=np.zeros(nc, dtype=np.bool_), Hloc=np.zeros((6, 6)), wN=np.zeros(6),
         wT=np.zeros(6), Gall=np.zeros((mt, n)), ball=np.zeros(mt), Y=np.zeros((mt, n)),
         AU=np.zeros(n),
-        first=np.zeros(mt, dtype=np.int64), Dall=np.zeros((mt, mt)),
+        first=np.zeros(mt, dtype=np.int64), have=np.zeros(mt, dtype=np.bool_), x=np.zeros(n),
         rows=np.zeros(mt, dtype=np.int64), Dbuf=np.zeros(mt * mt),
         sol=np.zeros(mt), piv=np.zeros(mt, dtype=np.int64))
 
@@ -180,7 +182,6 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     eta_k = eta
     Gall = wk.Gall
     ball = wk.ball
-    Dall = wk.Dall
     reg_c = wk.reg_c
     rows = wk.rows  # rows[:nbil] are the joints, always present
     for r in range(nbil):
@@ -238,10 +239,16 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                 s += GN[k, i] * HAU[i]
             ball[nbil + k] = s
             reg_c[k] = eta_k / r_c[k]
-        block_gram(fac, n, Gall, mt, wk.Y, wk.first, Dall)
         # exact active set of the linearised problem (primal-dual active set): drop contacts
         # whose multiplier turns negative, add those whose linearised gap turns negative;
-        # one geometric Newton step then never cycles on a degenerate contact
+        # one geometric Newton step then never cycles on a degenerate contact. Only the
+        # Delassus rows of the joints and active contacts are formed (block_gram_rows keeps
+        # the forward substitution of each row for the next pass); an inactive contact's
+        # linearised gap is G_k x with x = H^-1 G_active^T nu.
+        have = wk.have
+        for r in range(mt):
+            have[r] = False
+        x = wk.x
         m = nbil
         for _inner in range(8 * nc * nc + 8):
             m = nbil
@@ -250,16 +257,21 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                     rows[m] = nbil + k
                     m += 1
             D = wk.Dbuf[:m * m].reshape((m, m))
+            block_gram_rows(fac, n, Gall, rows, m, wk.Y, wk.first, have, D)
             for a in range(m):
                 ra = rows[a]
-                for c in range(m):
-                    D[a, c] = Dall[ra, rows[c]]
                 sol[a] = ball[ra]
                 if ra >= nbil:
                     D[a, a] += reg_c[ra - nbil]
                     sol[a] += reg_c[ra - nbil] * nu_c[ra - nbil]
             lu_factor(D, m, wk.piv)
             lu_solve(D, m, wk.piv, sol)
+            for i in range(n):
+                s = 0.0
+                for a in range(m):
+                    s += Gall[rows[a], i] * sol[a]
+                x[i] = s
+            block_solve(fac, n, x)
             # Murty's least-index rule: flip only the first contact that violates the
             # complementarity; finite for the positive definite (P-matrix) contact problem,
             # where flipping every violator at once can cycle among redundant contacts
@@ -273,8 +285,8 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                     break
                 if not active[k]:
                     lin_gap = -ball[nbil + k]
-                    for a in range(m):
-                        lin_gap += Dall[nbil + k, rows[a]] * sol[a]
+                    for i in range(n):
+                        lin_gap += Gall[nbil + k, i] * x[i]
                     if lin_gap < -0.1 * target:
                         flip = k
                         break
@@ -283,13 +295,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             active[flip] = not active[flip]
         # U_new = U + H^-1 (Gall_active^T sol - Ap U)
         for i in range(n):
-            s = -AU[i]
-            for a in range(m):
-                s += Gall[rows[a], i] * sol[a]
-            U_new[i] = s
-        block_solve(fac, n, U_new)
-        for i in range(n):
-            U_new[i] += U[i]
+            U_new[i] = U[i] - HAU[i] + x[i]
         for r in range(nbil):
             nub_new[r] = sol[r]
         nuc_new[:] = 0.0
