@@ -192,9 +192,22 @@ def test_block_gram_rows_grows_a_row_set(indefinite):
     full = G @ np.linalg.solve(A, G.T)
     Y, first = np.zeros((mt, n)), np.zeros(mt, dtype=np.int64)
     have = np.zeros(mt, dtype=np.bool_)
+    D = np.full((mt, mt), np.nan)
     for rows in ([0, 1, 5], [0, 1, 5, 9, 17, 21]):
         r = np.array(rows + [0] * (mt - len(rows)), dtype=np.int64)
-        D = np.zeros((len(rows), len(rows)))
         la.block_gram_rows(fac, n, G, r, len(rows), Y, first, have, D)
-        np.testing.assert_allclose(D, full[np.ix_(rows, rows)], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(D[np.ix_(rows, rows)], full[np.ix_(rows, rows)], rtol=1e-9,
+                                   atol=1e-12)
+    assert np.isnan(D[2, 3])  # never asked for
     assert have.sum() == 6
+
+
+def test_copies():
+    src = np.arange(12.0).reshape(3, 4)
+    dst = np.zeros((3, 4))
+    la.copy_matrix(dst, src, 2, 3)
+    np.testing.assert_array_equal(dst[:2, :3], src[:2, :3])
+    assert not dst[2].any() and not dst[:, 3].any()
+    v = np.zeros(4)
+    la.copy_vector(v, src[1], 3)
+    np.testing.assert_array_equal(v, [4.0, 5.0, 6.0, 0.0])

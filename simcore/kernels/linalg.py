@@ -271,10 +271,11 @@ def block_gram(fac, n, G, m, Y, first, D):
 
 @njit(cache=True)
 def block_gram_rows(fac, n, G, rows, m, Y, first, have, D):
-    """D[:m, :m] = G_R A^-1 G_R^T for the rows R = ``rows[:m]`` of G (see :func:`block_gram`).
-
-    The forward substitution of row r is kept in ``Y[r]``, ``first[r]`` and marked in
-    ``have[r]``, so that a later call with an enlarged row set only adds the new rows."""
+    """Entries of D = G A^-1 G^T (see :func:`block_gram`) among the rows ``rows[:m]`` of G,
+    computed only where missing: a row r not yet marked in ``have`` gets its forward
+    substitution (kept in ``Y[r]``, ``first[r]``) and its entries with every marked row
+    (itself included). A caller that grows its row set one row at a time thus pays for the new
+    row only. Clear ``have`` whenever A or G change. ``D``: the full G.shape[0]-square cache."""
     k = fac.info[0]
     idx = fac.idx
     dinv = fac.dinv
@@ -302,22 +303,21 @@ def block_gram_rows(fac, n, G, rows, m, Y, first, have, D):
             first[r] = 0
             if k > 0:
                 lu_solve(B, k, fac.piv, y)
-    for a in range(m):
-        ra = rows[a]
-        for b in range(a, m):
-            rb = rows[b]
+        for rb in range(G.shape[0]):
+            if not have[rb]:
+                continue
             s = 0.0
             if chol:
-                for p in range(max(first[ra], first[rb]), k):
-                    s += Y[ra, p] * Y[rb, p]
+                for p in range(max(first[r], first[rb]), k):
+                    s += Y[r, p] * Y[rb, p]
             else:
                 for p in range(k):
-                    s += G[ra, idx[p]] * Y[rb, p]
+                    s += G[r, idx[p]] * Y[rb, p]
             for i in range(n):
-                if dinv[i] != 0.0 and G[ra, i] != 0.0:
-                    s += G[ra, i] * dinv[i] * G[rb, i]
-            D[a, b] = s
-            D[b, a] = s
+                if dinv[i] != 0.0 and G[r, i] != 0.0:
+                    s += G[r, i] * dinv[i] * G[rb, i]
+            D[r, rb] = s
+            D[rb, r] = s
 
 
 @njit(cache=True)

@@ -37,8 +37,8 @@ STAGE_VELOCITY = 2
 PositionWork = namedtuple("PositionWork", ["Ap", "facA", "Hm", "facH", "U", "U_new", "U_try",
     "q_try", "HAU", "eq", "nu_b", "nub_new", "nub_try", "gb", "Gb", "gb_try", "Gb_try", "gm",
     "dgdt", "r_c", "reg_c", "nuc_new", "nuc_try", "gap_try", "GN", "GN_try", "active",
-    "Hloc", "wN", "wT", "Gall", "ball", "Y", "AU", "first", "have", "x", "rows", "Dbuf", "sol",
-    "piv"])
+    "Hloc", "wN", "wT", "Gall", "ball", "Y", "AU", "first", "have", "x", "Dall", "rows", "Dbuf",
+    "sol", "piv"])
 
 #: Work arrays of the velocity jump (:func:`velocity_work`).
 VelocityWork = namedtuple("VelocityWork", ["f1", "K1", "C1", "Ks1", "Av", "fac", "b", "Ab",
@@ -68,7 +68,7 @@ def position_work(n, nbil, nc):
         wT=np.zeros(6), Gall=np.zeros((mt, n)), ball=np.zeros(mt), Y=np.zeros((mt, n)),
         AU=np.zeros(n),
         first=np.zeros(mt, dtype=np.int64), have=np.zeros(mt, dtype=np.bool_), x=np.zeros(n),
-        rows=np.zeros(mt, dtype=np.int64), Dbuf=np.zeros(mt * mt),
+        Dall=np.zeros((mt, mt)), rows=np.zeros(mt, dtype=np.int64), Dbuf=np.zeros(mt * mt),
         sol=np.zeros(mt), piv=np.zeros(mt, dtype=np.int64))
 
 
@@ -242,10 +242,11 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
         # exact active set of the linearised problem (primal-dual active set): drop contacts
         # whose multiplier turns negative, add those whose linearised gap turns negative;
         # one geometric Newton step then never cycles on a degenerate contact. Only the
-        # Delassus rows of the joints and active contacts are formed (block_gram_rows keeps
-        # the forward substitution of each row for the next pass); an inactive contact's
+        # Delassus entries among the joints and active contacts are formed, each once per
+        # Newton iteration (block_gram_rows adds a newly active row); an inactive contact's
         # linearised gap is G_k x with x = H^-1 G_active^T nu.
         have = wk.have
+        Dall = wk.Dall
         for r in range(mt):
             have[r] = False
         x = wk.x
@@ -256,10 +257,12 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                 if active[k]:
                     rows[m] = nbil + k
                     m += 1
+            block_gram_rows(fac, n, Gall, rows, m, wk.Y, wk.first, have, Dall)
             D = wk.Dbuf[:m * m].reshape((m, m))
-            block_gram_rows(fac, n, Gall, rows, m, wk.Y, wk.first, have, D)
             for a in range(m):
                 ra = rows[a]
+                for c in range(m):
+                    D[a, c] = Dall[ra, rows[c]]
                 sol[a] = ball[ra]
                 if ra >= nbil:
                     D[a, a] += reg_c[ra - nbil]
