@@ -139,8 +139,9 @@ def lu_solve(LU, n, piv, x):
 @njit(cache=True)
 def block_factor_work(n):
     """Work arrays of :func:`block_factor` for matrices up to ``n x n``."""
-    return BlockFactor(np.zeros((n, n)), np.zeros(n, dtype=np.int64), np.zeros(n),
-                       np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros(2, dtype=np.int64))
+    # every entry is written by block_factor before it is read
+    return BlockFactor(np.empty((n, n)), np.empty(n, dtype=np.int64), np.empty(n),
+                       np.empty(n, dtype=np.int64), np.empty(n), np.zeros(2, dtype=np.int64))
 
 
 @njit(cache=True)
