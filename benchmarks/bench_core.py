@@ -36,7 +36,7 @@ ONE_STEP = (
     "print(f'{t1 - t0:.4f} {t2 - t1:.4f}')"
 )
 
-STAGES = ("smooth stage", "position correction", "contact velocities before the jump",
+STAGES = ("smooth stage", "position correction", "normal velocities before the jump",
           "velocity jump", "accept and outputs")
 
 
@@ -88,7 +88,7 @@ def _profile_kernel():
         K_t, C_t, Ks_t = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
         q1, v1 = np.zeros(n), np.zeros(n)
         nu_c, gap, vn, vt = np.zeros(nc), np.zeros(nc), np.zeros(nc), np.zeros(nc)
-        gf, vnf, vtf = np.zeros(nc), np.zeros(nc), np.zeros(nc)
+        vnf = np.zeros(nc)
         nbil = joint_row_count(ma.jt_type)
         pwk = position_work(n, nbil, nc)
         vwk = velocity_work(n, nbil, nc)
@@ -101,7 +101,11 @@ def _profile_kernel():
             c1 = clock()
             position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, pwk)
             c2 = clock()
-            contact_velocities(q1, v_t, ma, gf, vnf, vtf)
+            for j in range(nc):
+                s = 0.0
+                for i in range(n):
+                    s += pwk.GN[j, i] * v_t[i]
+                vnf[j] = s
             c3 = clock()
             velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, tol * h, ma, f_t, nu_c,
                           gap, state.vn, state.vt, v1, state.lamN, state.lamT, state.lam_b,

@@ -830,9 +830,7 @@ def integrate_chunk(k0, k1, st, ma, state, out):
     gap = np.zeros(nc)
     vn = np.zeros(nc)
     vt = np.zeros(nc)
-    gap_free = np.zeros(nc)
     vn_free = np.zeros(nc)
-    vt_free = np.zeros(nc)
     nbil = joint_row_count(ma.jt_type)
     pwk = position_work(n, nbil, nc)
     vwk = velocity_work(n, nbil, nc)
@@ -844,7 +842,12 @@ def integrate_chunk(k0, k1, st, ma, state, out):
                                  q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t)
         it_p, ok_p = position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap,
                                    pwk)
-        contact_velocities(q1, v_t, ma, gap_free, vn_free, vt_free)
+        # normal velocities before the jump, G_N(q1) v~, from the position stage's rows at q1
+        for j in range(nc):
+            s = 0.0
+            for i in range(n):
+                s += pwk.GN[j, i] * v_t[i]
+            vn_free[j] = s
         it_v, ok_v = velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t,
                                    nu_c, gap, vn_prev, vt_prev, v1, lamN_prev, lamT_prev, lam_b,
                                    vwk)
