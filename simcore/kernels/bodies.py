@@ -18,6 +18,9 @@ def body_point(q, body, px, py):
     """World position (x, y) and lever arm (ax, ay) = R(phi) p of a body-fixed point [m]."""
     if body < 0:
         return px, py, 0.0, 0.0
+    if px == 0.0 and py == 0.0:
+        # the body's reference point (a ball's centre): no rotation to evaluate
+        return q[3 * body], q[3 * body + 1], 0.0, 0.0
     phi = q[3 * body + 2]
     c = np.cos(phi)
     s = np.sin(phi)

@@ -9,7 +9,7 @@ from numba import njit
 
 from .hertz import contact_forces
 from .joints import bilateral, joint_row_count
-from .linalg import block_inverse, gauss_solve, solve_mass_like
+from .linalg import copy_vector, gauss_solve, saddle_point_solve, solve_dense, solve_mass_like
 from .springs import smooth_forces
 
 
@@ -54,9 +54,9 @@ def initial_acceleration(q, v, t, ma, vdot, lam, compliant, v_pre, v_reg):
             A[i, n + r] = -G[r, i]
             A[n + r, i] = G[r, i]
         rhs[n + r] = -gam[r]
-    x = np.linalg.solve(A, rhs)
-    vdot[:] = x[:n]
-    lam[:] = x[n:]
+    x = solve_dense(A, rhs)
+    copy_vector(vdot, x, n)
+    copy_vector(lam, x[n:], m)
 
 
 @njit(cache=True)
@@ -89,7 +89,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
     dgdt = np.zeros(m)
     J = np.zeros((n, n))
     rhs = np.zeros(n + m)
-    vdot1[:] = vdot
+    copy_vector(vdot1, vdot, n)
     iters = 0
     converged = False
     # compliant: backtracking safeguard (see below)
@@ -151,7 +151,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             vdot_prev[:] = vdot1
             lam_prev[:] = lam
         # Newton step on [J, -G^T; c G, 0] by the Schur complement of the joints: J is
-        # diagonal but for the bodies joined by springs, so block_inverse keeps it cheap
+        # diagonal but for the bodies joined by springs, so only that block is factorised
         for i in range(n):
             for j in range(n):
                 J[i, j] = (C_t[i, j] * h * gam + K_t[i, j] * h * h * beta) * ca
@@ -159,31 +159,17 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
         if compliant:
             dv, dlam = _newton_direction_compliant(J, rhs, G, h * gam * ca)
             dv, dlam = _friction_branches(J, rhs, G, h * gam * ca, dv, dlam, ma, v_reg, cwork)
+            for r in range(m):
+                lam[r] += dlam[r]
+            for i in range(n):
+                vdot1[i] += dv[i]
         else:
-            dv, dlam = _newton_direction(J, rhs, G, h * gam * ca)
-        for r in range(m):
-            lam[r] += dlam[r]
-        for i in range(n):
-            vdot1[i] += dv[i]
+            saddle_point_solve(J, G, h * gam * ca, rhs)
+            for r in range(m):
+                lam[r] += rhs[n + r]
+            for i in range(n):
+                vdot1[i] += rhs[i]
     return iters, converged
-
-
-@njit(cache=True)
-def _newton_direction(J, rhs, G, cv):
-    """Solve [J, -G^T; cv G, 0] (dv, dlam) = rhs by the Schur complement of the joints (J is
-    diagonal but for the coupled bodies, so block_inverse keeps it cheap)."""
-    n = J.shape[0]
-    m = G.shape[0]
-    Jinv = block_inverse(J)
-    dv = Jinv @ rhs[:n]
-    dlam = np.zeros(m)
-    if m > 0:
-        cG = G * cv
-        JG = Jinv @ G.T
-        S = cG @ JG
-        dlam = np.linalg.solve(S, rhs[n:] - cG @ dv)
-        dv += JG @ dlam
-    return dv, dlam
 
 
 @njit(cache=True)

@@ -1,38 +1,435 @@
-"""Dense linear algebra on the mass-like matrices of the steps."""
+"""Small dense linear algebra written for the sizes of a step (a few to a few dozen unknowns).
+
+LAPACK through ``np.linalg`` costs 7-20 µs a call on these sizes, mostly call overhead and
+workspace allocation; the loops below do the same arithmetic in a fraction of that and write
+into work arrays made once per chunk. Every routine works on the leading ``n x n`` block of its
+arrays, so one work array serves problems of any size up to its own.
+
+- :func:`cholesky_factor` / :func:`cholesky_solve`: A = L L^T of a symmetric positive definite
+  matrix (the metrics M + h^2 K_s, M + h C and the Delassus blocks);
+- :func:`lu_factor` / :func:`lu_solve`: P A = L U with partial pivoting (the unsymmetric
+  semismooth Newton matrices);
+- :func:`block_factor` / :func:`block_solve`: a matrix that is diagonal outside the rows and
+  columns coupled by off-diagonal entries (the bearing: only the ball centres joined by the
+  cage springs, plus the races of the contacts carrying a geometric stiffness), factorised on
+  its coupled block only (Cholesky, LU if the block is not positive definite);
+- :func:`solve_dense`, :func:`block_inverse`: allocating conveniences for code outside the
+  time loop and for the smooth stage.
+
+A singular matrix raises ``numpy.linalg.LinAlgError`` like ``np.linalg.solve`` does.
+"""
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
+
+#: A matrix factorised on its coupled block (see :func:`block_factor`): ``B`` holds the
+#: factors of the coupled block, ``idx[:k]`` the coupled indices, ``dinv`` the inverse
+#: diagonal of the others, ``piv`` the LU pivots, ``tmp`` a gather buffer and
+#: ``info = (k, mode)`` with mode 0 Cholesky, 1 LU.
+BlockFactor = namedtuple("BlockFactor", ["B", "idx", "dinv", "piv", "tmp", "info"])
+
+
+@njit(cache=True)
+def copy_vector(dst, src, n):
+    """dst[:n] = src[:n] (an explicit loop: an array assignment would compile Numba's
+    shape-mismatch error path, several seconds of compile time for nothing)."""
+    for i in range(n):
+        dst[i] = src[i]
+
+
+@njit(cache=True)
+def copy_matrix(dst, src, m, n):
+    """dst[:m, :n] = src[:m, :n] (see :func:`copy_vector`)."""
+    for i in range(m):
+        for j in range(n):
+            dst[i, j] = src[i, j]
+
+
+@njit(cache=True)
+def cholesky_factor(A, n):
+    """Overwrite the lower triangle of ``A[:n, :n]`` with L, A = L L^T.
+
+    Returns False (``A`` partly overwritten) if the matrix is not numerically positive
+    definite."""
+    for j in range(n):
+        s = A[j, j]
+        for p in range(j):
+            s -= A[j, p] * A[j, p]
+        if not s > 0.0:
+            return False
+        d = np.sqrt(s)
+        A[j, j] = d
+        for i in range(j + 1, n):
+            s = A[i, j]
+            for p in range(j):
+                s -= A[i, p] * A[j, p]
+            A[i, j] = s / d
+    return True
+
+
+@njit(cache=True)
+def cholesky_solve(L, n, x):
+    """Solve L L^T y = x in place (``L`` from :func:`cholesky_factor`)."""
+    for i in range(n):
+        s = x[i]
+        for p in range(i):
+            s -= L[i, p] * x[p]
+        x[i] = s / L[i, i]
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for p in range(i + 1, n):
+            s -= L[p, i] * x[p]
+        x[i] = s / L[i, i]
+
+
+@njit(cache=True)
+def lu_factor(A, n, piv):
+    """Overwrite ``A[:n, :n]`` with its LU factors (unit lower L), row pivots in ``piv``.
+
+    Raises ``numpy.linalg.LinAlgError`` on an exactly singular matrix."""
+    for j in range(n):
+        p = j
+        big = abs(A[j, j])
+        for i in range(j + 1, n):
+            if abs(A[i, j]) > big:
+                big = abs(A[i, j])
+                p = i
+        piv[j] = p
+        if big == 0.0 or not np.isfinite(big):
+            raise np.linalg.LinAlgError("Matrix is singular to machine precision.")
+        if p != j:
+            for c in range(n):
+                tmp = A[j, c]
+                A[j, c] = A[p, c]
+                A[p, c] = tmp
+        inv = 1.0 / A[j, j]
+        for i in range(j + 1, n):
+            lij = A[i, j] * inv
+            A[i, j] = lij
+            if lij != 0.0:
+                for c in range(j + 1, n):
+                    A[i, c] -= lij * A[j, c]
+
+
+@njit(cache=True)
+def lu_solve(LU, n, piv, x):
+    """Solve A y = x in place from the factors of :func:`lu_factor`."""
+    for j in range(n):
+        p = piv[j]
+        if p != j:
+            tmp = x[j]
+            x[j] = x[p]
+            x[p] = tmp
+    for i in range(n):
+        s = x[i]
+        for p in range(i):
+            s -= LU[i, p] * x[p]
+        x[i] = s
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for p in range(i + 1, n):
+            s -= LU[i, p] * x[p]
+        x[i] = s / LU[i, i]
+
+
+@njit(cache=True)
+def block_factor_work(n):
+    """Work arrays of :func:`block_factor` for matrices up to ``n x n``."""
+    # every entry is written by block_factor before it is read
+    return BlockFactor(np.empty((n, n)), np.empty(n, dtype=np.int64), np.empty(n),
+                       np.empty(n, dtype=np.int64), np.empty(n), np.zeros(2, dtype=np.int64))
+
+
+@njit(cache=True)
+def block_factor(A, n, fac, symmetric):
+    """Factorise ``A[:n, :n]`` on its coupled block into ``fac``.
+
+    Indices with an off-diagonal entry in their row or column are coupled; the others only
+    need their diagonal. With ``symmetric`` the coupled block gets a Cholesky factorisation
+    (which reads its lower triangle only), or an LU one if it is not positive definite;
+    otherwise an LU one."""
+    idx = fac.idx
+    dinv = fac.dinv
+    B = fac.B
+    degree = fac.piv  # coupling counts first, pivots later
+    for i in range(n):
+        degree[i] = 0
+    for i in range(n):
+        for j in range(n):
+            if i != j and A[i, j] != 0.0:
+                degree[i] += 1
+                degree[j] += 1
+    k = 0
+    for i in range(n):
+        if degree[i] != 0:
+            # least coupled first (the balls before the races they all touch): the factor
+            # then keeps the sparsity of the constraint rows at its start, which the forward
+            # substitution of block_gram skips
+            a = k
+            while a > 0 and degree[idx[a - 1]] > degree[i]:
+                idx[a] = idx[a - 1]
+                a -= 1
+            idx[a] = i
+            k += 1
+            dinv[i] = 0.0
+        else:
+            if A[i, i] == 0.0:
+                raise np.linalg.LinAlgError("Matrix is singular to machine precision.")
+            dinv[i] = 1.0 / A[i, i]
+    for a in range(k):
+        for c in range(k):
+            B[a, c] = A[idx[a], idx[c]]
+    mode = 0
+    if not symmetric or not cholesky_factor(B, k):
+        for a in range(k):
+            for c in range(k):
+                B[a, c] = A[idx[a], idx[c]]
+        lu_factor(B, k, fac.piv)
+        mode = 1
+    fac.info[0] = k
+    fac.info[1] = mode
+    return k
+
+
+@njit(cache=True)
+def block_solve(fac, n, x):
+    """Solve A y = x in place with the factors of :func:`block_factor` (``x`` of length n)."""
+    k = fac.info[0]
+    idx = fac.idx
+    tmp = fac.tmp
+    dinv = fac.dinv
+    for a in range(k):
+        tmp[a] = x[idx[a]]
+    if k > 0:
+        if fac.info[1] == 0:
+            cholesky_solve(fac.B, k, tmp)
+        else:
+            lu_solve(fac.B, k, fac.piv, tmp)
+    for i in range(n):
+        x[i] *= dinv[i]
+    for a in range(k):
+        x[idx[a]] = tmp[a]
+
+
+@njit(cache=True)
+def block_gram(fac, n, G, m, Y, first, D):
+    """D[:m, :m] = G[:m] A^-1 G[:m]^T for a symmetric A factorised by :func:`block_factor`.
+
+    With a Cholesky factor only the forward substitution Y = L^-1 G_c^T is needed (the
+    coupled columns of G), D = Y^T Y, and it starts at each row's first non-zero (``first``
+    records it); the uncoupled columns add G_u diag(A_u)^-1 G_u^T (sparse rows: only their
+    non-zeros are visited). ``Y``: work array of at least m x n, ``first``: of length m."""
+    k = fac.info[0]
+    idx = fac.idx
+    dinv = fac.dinv
+    B = fac.B
+    chol = fac.info[1] == 0
+    for r in range(m):
+        y = Y[r]
+        f = k
+        for a in range(k):
+            y[a] = G[r, idx[a]]
+            if f == k and y[a] != 0.0:
+                f = a
+        if chol:
+            first[r] = f
+            for a in range(f, k):
+                s = y[a]
+                for p in range(f, a):
+                    s -= B[a, p] * y[p]
+                y[a] = s / B[a, a]
+        else:
+            first[r] = 0
+            if k > 0:
+                lu_solve(B, k, fac.piv, y)
+    for a in range(m):
+        for b in range(a, m):
+            s = 0.0
+            if chol:
+                for p in range(max(first[a], first[b]), k):
+                    s += Y[a, p] * Y[b, p]
+            else:
+                for p in range(k):
+                    s += G[a, idx[p]] * Y[b, p]
+            D[a, b] = s
+    for i in range(n):
+        di = dinv[i]
+        if di != 0.0:
+            for a in range(m):
+                ga = G[a, i]
+                if ga != 0.0:
+                    ga *= di
+                    for b in range(a, m):
+                        D[a, b] += ga * G[b, i]
+    for a in range(m):
+        for b in range(a + 1, m):
+            D[b, a] = D[a, b]
+
+
+@njit(cache=True)
+def block_gram_rows(fac, n, G, rows, m, Y, first, have, D):
+    """Entries of D = G A^-1 G^T (see :func:`block_gram`) among the rows ``rows[:m]`` of G,
+    computed only where missing: a row r not yet marked in ``have`` gets its forward
+    substitution (kept in ``Y[r]``, ``first[r]``) and its entries with every marked row
+    (itself included). A caller that grows its row set one row at a time thus pays for the new
+    row only. Clear ``have`` whenever A or G change. ``D``: the full G.shape[0]-square cache."""
+    k = fac.info[0]
+    idx = fac.idx
+    dinv = fac.dinv
+    B = fac.B
+    chol = fac.info[1] == 0
+    for a in range(m):
+        r = rows[a]
+        if have[r]:
+            continue
+        have[r] = True
+        y = Y[r]
+        f = k
+        for c in range(k):
+            y[c] = G[r, idx[c]]
+            if f == k and y[c] != 0.0:
+                f = c
+        if chol:
+            first[r] = f
+            for c in range(f, k):
+                s = y[c]
+                for p in range(f, c):
+                    s -= B[c, p] * y[p]
+                y[c] = s / B[c, c]
+        else:
+            first[r] = 0
+            if k > 0:
+                lu_solve(B, k, fac.piv, y)
+        for rb in range(G.shape[0]):
+            if not have[rb]:
+                continue
+            s = 0.0
+            if chol:
+                for p in range(max(first[r], first[rb]), k):
+                    s += Y[r, p] * Y[rb, p]
+            else:
+                for p in range(k):
+                    s += G[r, idx[p]] * Y[rb, p]
+            for i in range(n):
+                if dinv[i] != 0.0 and G[r, i] != 0.0:
+                    s += G[r, i] * dinv[i] * G[rb, i]
+            D[r, rb] = s
+            D[rb, r] = s
+
+
+@njit(cache=True)
+def block_gram_diagonal(fac, n, G, m, y, d):
+    """d[:m] = the diagonal of G[:m] A^-1 G[:m]^T (see :func:`block_gram`; ``y``: work
+    array of length n)."""
+    k = fac.info[0]
+    idx = fac.idx
+    dinv = fac.dinv
+    B = fac.B
+    for r in range(m):
+        for a in range(k):
+            y[a] = G[r, idx[a]]
+        s = 0.0
+        if fac.info[1] == 0:
+            f = 0
+            while f < k and y[f] == 0.0:
+                f += 1
+            for a in range(f, k):
+                t = y[a]
+                for p in range(f, a):
+                    t -= B[a, p] * y[p]
+                t /= B[a, a]
+                y[a] = t
+                s += t * t
+        elif k > 0:
+            lu_solve(B, k, fac.piv, y)
+            for a in range(k):
+                s += G[r, idx[a]] * y[a]
+        for i in range(n):
+            g = G[r, i]
+            if g != 0.0:
+                s += g * g * dinv[i]
+        d[r] = s
+
+
+@njit(cache=True)
+def saddle_point_solve(J, G, c, rhs):
+    """Solve [J, -G^T; c G, 0] [x; y] = rhs in place (``rhs[:n]`` becomes x, ``rhs[n:]``
+    becomes y) by the Schur complement S = c G J^-1 G^T of the m constraint rows.
+
+    ``J`` (n x n) is factorised on its coupled block (:func:`block_factor`, LU: J need not be
+    symmetric); ``G`` is m x n, ``c`` a scalar."""
+    n = J.shape[0]
+    m = G.shape[0]
+    fac = block_factor_work(n)
+    block_factor(J, n, fac, False)
+    x = rhs[:n]
+    block_solve(fac, n, x)
+    if m == 0:
+        return
+    y = rhs[n:]
+    JG = np.empty((m, n))
+    for r in range(m):
+        row = JG[r]
+        for i in range(n):
+            row[i] = G[r, i]
+        block_solve(fac, n, row)
+    S = np.zeros((m, m))
+    for a in range(m):
+        s = 0.0
+        for i in range(n):
+            g = G[a, i]
+            if g != 0.0:
+                s += g * x[i]
+                for b in range(m):
+                    S[a, b] += c * g * JG[b, i]
+        y[a] -= c * s
+    piv = np.zeros(m, dtype=np.int64)
+    lu_factor(S, m, piv)
+    lu_solve(S, m, piv, y)
+    for i in range(n):
+        s = x[i]
+        for r in range(m):
+            s += JG[r, i] * y[r]
+        x[i] = s
+
+
+@njit(cache=True)
+def solve_dense(A, b):
+    """x = A^-1 b for a small square matrix (LU with partial pivoting; A and b untouched)."""
+    n = A.shape[0]
+    LU = A.copy()
+    piv = np.zeros(n, dtype=np.int64)
+    lu_factor(LU, n, piv)
+    x = b.copy()
+    lu_solve(LU, n, piv, x)
+    return x
 
 
 @njit(cache=True)
 def block_inverse(A):
     """Inverse of a matrix that is diagonal outside the rows/columns coupled by off-diagonal
-    entries (M + h^2 K: only the bodies joined by springs or contacts are coupled). Only the
-    coupled block goes to LAPACK; for the bearing that is 16 x 16 instead of 33 x 33."""
+    entries (M + h^2 K: only the bodies joined by springs or contacts are coupled): only the
+    coupled block is inverted (for the bearing 16 x 16 instead of 33 x 33)."""
     n = A.shape[0]
-    coupled = np.zeros(n, dtype=np.bool_)
-    for i in range(n):
-        for j in range(n):
-            if i != j and A[i, j] != 0.0:
-                coupled[i] = True
-                coupled[j] = True
-    idx = np.nonzero(coupled)[0]
+    fac = block_factor_work(n)
+    k = block_factor(A, n, fac, False)
     out = np.zeros((n, n))
     for i in range(n):
-        if not coupled[i]:
-            out[i, i] = 1.0 / A[i, i]
-    k = idx.shape[0]
-    if k > 0:
-        sub = np.empty((k, k))
+        out[i, i] = fac.dinv[i]
+    col = np.zeros(n)
+    for c in range(k):
+        col[:] = 0.0
+        col[c] = 1.0
+        if fac.info[1] == 0:
+            cholesky_solve(fac.B, k, col)
+        else:
+            lu_solve(fac.B, k, fac.piv, col)
         for a in range(k):
-            for b in range(k):
-                sub[a, b] = A[idx[a], idx[b]]
-        inv = np.linalg.inv(sub)
-        for a in range(k):
-            for b in range(k):
-                out[idx[a], idx[b]] = inv[a, b]
+            out[fac.idx[a], fac.idx[c]] = col[a]
     return out
 
 

@@ -5,6 +5,8 @@ steps."""
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
@@ -12,7 +14,18 @@ from .bodies import scatter_row
 from .contact import contact_hessian, contact_rows, contact_velocities
 from .generalized_alpha import alpha_coefficients, smooth_step
 from .joints import bilateral, joint_row_count
-from .linalg import block_inverse
+from .linalg import (
+    block_factor,
+    block_factor_work,
+    block_gram,
+    block_gram_diagonal,
+    block_gram_rows,
+    block_solve,
+    copy_matrix,
+    copy_vector,
+    lu_factor,
+    lu_solve,
+)
 from .springs import smooth_forces, total_energy
 
 # layout of the per-step statistics written by integrate_chunk
@@ -20,91 +33,161 @@ STAGE_SMOOTH = 0
 STAGE_POSITION = 1
 STAGE_VELOCITY = 2
 
+#: Work arrays of the position correction (:func:`position_work`).
+PositionWork = namedtuple("PositionWork", ["Ap", "facA", "Hm", "facH", "U", "U_new", "U_try",
+    "q_try", "HAU", "eq", "nu_b", "nub_new", "nub_try", "gb", "Gb", "gb_try", "Gb_try", "gm",
+    "dgdt", "r_c", "reg_c", "nuc_new", "nuc_try", "gap_try", "GN", "GN_try", "active",
+    "Hloc", "wN", "wT", "Gall", "ball", "Y", "AU", "first", "have", "x", "Dall", "rows", "Dbuf",
+    "sol", "piv"])
+
+#: Work arrays of the velocity jump (:func:`velocity_work`).
+VelocityWork = namedtuple("VelocityWork", ["f1", "K1", "C1", "Ks1", "Av", "fac", "b", "Ab",
+    "tmp", "wN", "wT", "gb", "gm", "dgdt", "Gb", "closed", "row_of", "G",
+    "off", "kind", "mu_row", "pair", "lam", "Y", "first", "D", "c", "Dbb", "pivb",
+    "colb", "X", "Dc", "cc", "lam_c", "pair_c", "solver"])
+
+#: Work arrays of the velocity problem's Newton solver.
+VelocitySolverWork = namedtuple("VelocitySolverWork", ["r", "F", "F_try", "xi", "xi_try",
+    "lam_try", "dl", "J", "piv"])
 
 
 @njit(cache=True)
-def _position_residual(q_t, U, nu_b, nu_c, t1, h, ma, Ap, r_c, gb, Gb, gap, GN, q1):
-    """Scaled residual [m] of the position problem at (U, nu): joints, complementarity in the
-    augmented-Lagrangian form (nu - max(0, nu - r g))/r, and equilibrium M^-1 (Ap U - G^T nu).
-    Also refreshes joint and contact rows at q1 = q_t + U."""
-    mdiag = ma.mdiag
-    ct_type = ma.ct_type
+def position_work(n, nbil, nc):
+    """Work arrays of :func:`position_step` (made once per chunk)."""
+    mt = nbil + nc
+    return PositionWork(
+        Ap=np.zeros((n, n)), facA=block_factor_work(n), Hm=np.zeros((n, n)),
+        facH=block_factor_work(n), U=np.zeros(n), U_new=np.zeros(n), U_try=np.zeros(n),
+        q_try=np.zeros(n), HAU=np.zeros(n), eq=np.zeros(n),
+        nu_b=np.zeros(nbil), nub_new=np.zeros(nbil), nub_try=np.zeros(nbil),
+        gb=np.zeros(nbil), Gb=np.zeros((nbil, n)), gb_try=np.zeros(nbil),
+        Gb_try=np.zeros((nbil, n)), gm=np.zeros(nbil), dgdt=np.zeros(nbil),
+        r_c=np.ones(nc), reg_c=np.zeros(nc), nuc_new=np.zeros(nc), nuc_try=np.zeros(nc),
+        gap_try=np.zeros(nc), GN=np.zeros((nc, n)), GN_try=np.zeros((nc, n)),
+        active=np.zeros(nc, dtype=np.bool_), Hloc=np.zeros((6, 6)), wN=np.zeros(6),
+        wT=np.zeros(6), Gall=np.zeros((mt, n)), ball=np.zeros(mt), Y=np.zeros((mt, n)),
+        AU=np.zeros(n),
+        first=np.zeros(mt, dtype=np.int64), have=np.zeros(mt, dtype=np.bool_), x=np.zeros(n),
+        Dall=np.zeros((mt, mt)), rows=np.zeros(mt, dtype=np.int64), Dbuf=np.zeros(mt * mt),
+        sol=np.zeros(mt), piv=np.zeros(mt, dtype=np.int64))
+
+
+@njit(cache=True)
+def _position_rows(q_t, U, t1, ma, q1, gb, Gb, gm, dgdt, gap, GN, wN, wT):
+    """Joint and contact rows at q1 = q_t + U: joint residuals gb, Jacobian Gb, gaps and
+    normal rows GN."""
     ct_body = ma.ct_body
-    n = q_t.shape[0]
-    for i in range(n):
+    for i in range(q_t.shape[0]):
         q1[i] = q_t[i] + U[i]
-    gm = np.zeros(gb.shape[0])
-    dgdt = np.zeros(gb.shape[0])
     bilateral(q1, U, t1, ma, gb, Gb, gm, dgdt)
-    wN = np.zeros(6)
-    wT = np.zeros(6)
+    for k in range(gap.shape[0]):
+        gap[k] = contact_rows(q1, k, ma, wN, wT)
+        scatter_row(GN[k], wN, ct_body[k, 0], ct_body[k, 1])
+
+
+@njit(cache=True)
+def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, facA, gb, Gb, gap, GN, eq):
+    """Scaled residual [m] of the position problem at (U, nu) from the rows at q_t + U
+    (:func:`_position_rows`): joints, complementarity in the augmented-Lagrangian form
+    (nu - max(0, nu - r g))/r, and equilibrium M^-1 (Ap U - G^T nu). ``facA``: the
+    factorisation of Ap, whose coupled indices are the only ones with off-diagonal entries."""
+    n = U.shape[0]
     res = 0.0
     for r in range(gb.shape[0]):
         res = max(res, abs(gb[r]))
-    for k in range(ct_type.shape[0]):
-        gap[k] = contact_rows(q1, k, ma, wN, wT)
-        scatter_row(GN[k], wN, ct_body[k, 0], ct_body[k, 1])
+    for k in range(gap.shape[0]):
         rk = r_c[k]
         val = nu_c[k] - max(0.0, nu_c[k] - rk * gap[k])
         res = max(res, abs(val) / rk)
-    eq = Ap @ U - Gb.T @ nu_b - GN.T @ nu_c
+    for i in range(n):
+        eq[i] = Ap[i, i] * U[i]
+    idx = facA.idx
+    kc = facA.info[0]
+    for a in range(kc):
+        i = idx[a]
+        s = 0.0
+        for b in range(kc):
+            s += Ap[i, idx[b]] * U[idx[b]]
+        eq[i] = s
+    for r in range(gb.shape[0]):
+        if nu_b[r] != 0.0:
+            for i in range(n):
+                eq[i] -= Gb[r, i] * nu_b[r]
+    for k in range(gap.shape[0]):
+        if nu_c[k] != 0.0:
+            for i in range(n):
+                eq[i] -= GN[k, i] * nu_c[k]
     for i in range(n):
         res = max(res, abs(eq[i]) / mdiag[i])
     return res
 
 
 @njit(cache=True)
-def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap):
+def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     """Position correction: M U = G^T nu (with the springs' elastic stiffness h^2 Ks in the
     metric, symmetric positive semi-definite so that the metric stays positive definite),
     joints g(q_t + U) = 0 and 0 <= g_N ⊥ nu_N >= 0 for every contact.
 
     Semismooth Newton with Delassus-scaled augmentation r_j = 1/(G_j A^-1 G_j^T), a proximal
     term (eta/r)(nu - nu_k) on active rows for redundant (pinched) contacts, and a backtracking
-    line search on the scaled residual. Returns (iterations, converged)."""
+    line search on the scaled residual. ``wk``: :func:`position_work`. Returns
+    (iterations, converged)."""
     mdiag = ma.mdiag
     ct_type = ma.ct_type
     ct_body = ma.ct_body
     n = q_t.shape[0]
-    nbil = joint_row_count(ma.jt_type)
+    nbil = wk.nu_b.shape[0]
     nc = ct_type.shape[0]
-    Ap = np.empty((n, n))
+    Ap = wk.Ap
+    U = wk.U
+    nu_b = wk.nu_b
+    gb = wk.gb
+    Gb = wk.Gb
+    GN = wk.GN
+    r_c = wk.r_c
     for i in range(n):
         for j in range(n):
             Ap[i, j] = h * h * Ks_t[i, j]
         Ap[i, i] += mdiag[i]
-    Ainv = block_inverse(Ap)
-    U = np.zeros(n)
-    nu_b = np.zeros(nbil)
+        U[i] = 0.0
+    block_factor(Ap, n, wk.facA, True)
+    nu_b[:] = 0.0
     nu_c[:] = 0.0
-    gb = np.zeros(nbil)
-    Gb = np.zeros((nbil, n))
-    GN = np.zeros((nc, n))
-    r_c = np.ones(nc)
     # Delassus scaling from the rows at the predicted configuration
-    res = _position_residual(q_t, U, nu_b, nu_c, t1, h, ma, Ap, r_c, gb, Gb, gap, GN, q1)
+    _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT)
+    block_gram_diagonal(wk.facA, n, GN, nc, wk.AU, r_c)
     for k in range(nc):
-        dkk = GN[k] @ (Ainv @ GN[k])
+        dkk = r_c[k]
         r_c[k] = 1.0 / dkk if dkk > 0.0 else 1.0
-    res = _position_residual(q_t, U, nu_b, nu_c, t1, h, ma, Ap, r_c, gb, Gb, gap, GN, q1)
+    res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, wk.facA, gb, Gb, gap, GN,
+                                 wk.eq)
     target = tol * h
     iters = 0
     converged = res <= target
-    active = np.zeros(nc, dtype=np.bool_)
-    U_try = np.zeros(n)
-    nub_try = np.zeros(nbil)
-    nuc_try = np.zeros(nc)
-    gb_try = np.zeros(nbil)
-    Gb_try = np.zeros((nbil, n))
-    gap_try = np.zeros(nc)
-    GN_try = np.zeros((nc, n))
-    q_try = np.zeros(n)
-    Hloc = np.zeros((6, 6))
+    active = wk.active
+    U_new = wk.U_new
+    U_try = wk.U_try
+    q_try = wk.q_try
+    HAU = wk.HAU
+    nub_new = wk.nub_new
+    nub_try = wk.nub_try
+    nuc_new = wk.nuc_new
+    nuc_try = wk.nuc_try
+    gb_try = wk.gb_try
+    Gb_try = wk.Gb_try
+    gap_try = wk.gap_try
+    GN_try = wk.GN_try
+    Hloc = wk.Hloc
+    Hm = wk.Hm
     eta_k = eta
-    Gall = np.zeros((nbil + nc, n))
-    ball = np.zeros(nbil + nc)
-    reg_c = np.zeros(nc)
-    rows = np.arange(nbil + nc)  # rows[:nbil] are the joints, always present
+    Gall = wk.Gall
+    ball = wk.ball
+    reg_c = wk.reg_c
+    rows = wk.rows  # rows[:nbil] are the joints, always present
+    for r in range(nbil):
+        rows[r] = r
+    mt = nbil + nc
+    sol = wk.sol
     # at least one Newton step, so that the joints are restored to round-off at every step
     # (a drift below tol*h would otherwise accumulate up to that level)
     while (not converged or iters == 0) and iters < max_iter:
@@ -112,9 +195,13 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap):
         for k in range(nc):
             active[k] = nu_c[k] - r_c[k] * gap[k] > 0.0
         # Newton matrix of the equilibrium: A - sum nu_j d2g_j (contact geometric stiffness)
-        Hinv = Ainv
-        if nu_c.max() > 0.0:
-            Hm = Ap.copy()
+        fac = wk.facA
+        loaded = False
+        for k in range(nc):
+            if nu_c[k] > 0.0:
+                loaded = True
+        if loaded:
+            copy_matrix(Hm, Ap, n, n)
             for k in range(nc):
                 if nu_c[k] > 0.0:
                     contact_hessian(q1, k, ma, Hloc)
@@ -127,39 +214,67 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap):
                             if bc < 0:
                                 continue
                             Hm[3 * ba + a % 3, 3 * bc + c % 3] -= nu_c[k] * Hloc[a, c]
-            Hinv = block_inverse(Hm)
+            block_factor(Hm, n, wk.facH, True)
+            fac = wk.facH
         # the linearised problem of this iterate, for all rows: joints first, then contacts;
         # row i of the new iterate reads (D nu)_i = b_i (+ proximal term on contacts)
-        HAU = Hinv @ (Ap @ U)
+        AU = wk.AU
+        for i in range(n):
+            s = 0.0
+            for j in range(n):
+                s += Ap[i, j] * U[j]
+            AU[i] = s
+            HAU[i] = s
+        block_solve(fac, n, HAU)
         for r in range(nbil):
-            Gall[r] = Gb[r]
-            ball[r] = -gb[r] + Gb[r] @ HAU
+            s = -gb[r]
+            for i in range(n):
+                Gall[r, i] = Gb[r, i]
+                s += Gb[r, i] * HAU[i]
+            ball[r] = s
         for k in range(nc):
-            Gall[nbil + k] = GN[k]
-            ball[nbil + k] = -gap[k] + GN[k] @ HAU
+            s = -gap[k]
+            for i in range(n):
+                Gall[nbil + k, i] = GN[k, i]
+                s += GN[k, i] * HAU[i]
+            ball[nbil + k] = s
             reg_c[k] = eta_k / r_c[k]
-        AGall = Hinv @ Gall.T
-        Dall = Gall @ AGall
         # exact active set of the linearised problem (primal-dual active set): drop contacts
         # whose multiplier turns negative, add those whose linearised gap turns negative;
-        # one geometric Newton step then never cycles on a degenerate contact
+        # one geometric Newton step then never cycles on a degenerate contact. Only the
+        # Delassus entries among the joints and active contacts are formed, each once per
+        # Newton iteration (block_gram_rows adds a newly active row); an inactive contact's
+        # linearised gap is G_k x with x = H^-1 G_active^T nu.
+        have = wk.have
+        Dall = wk.Dall
+        for r in range(mt):
+            have[r] = False
+        x = wk.x
+        m = nbil
         for _inner in range(8 * nc * nc + 8):
             m = nbil
             for k in range(nc):
                 if active[k]:
                     rows[m] = nbil + k
                     m += 1
-            D = np.empty((m, m))
-            rhs = np.empty(m)
+            block_gram_rows(fac, n, Gall, rows, m, wk.Y, wk.first, have, Dall)
+            D = wk.Dbuf[:m * m].reshape((m, m))
             for a in range(m):
                 ra = rows[a]
                 for c in range(m):
                     D[a, c] = Dall[ra, rows[c]]
-                rhs[a] = ball[ra]
+                sol[a] = ball[ra]
                 if ra >= nbil:
                     D[a, a] += reg_c[ra - nbil]
-                    rhs[a] += reg_c[ra - nbil] * nu_c[ra - nbil]
-            sol = np.linalg.solve(D, rhs)
+                    sol[a] += reg_c[ra - nbil] * nu_c[ra - nbil]
+            lu_factor(D, m, wk.piv)
+            lu_solve(D, m, wk.piv, sol)
+            for i in range(n):
+                s = 0.0
+                for a in range(m):
+                    s += Gall[rows[a], i] * sol[a]
+                x[i] = s
+            block_solve(fac, n, x)
             # Murty's least-index rule: flip only the first contact that violates the
             # complementarity; finite for the positive definite (P-matrix) contact problem,
             # where flipping every violator at once can cycle among redundant contacts
@@ -173,25 +288,27 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap):
                     break
                 if not active[k]:
                     lin_gap = -ball[nbil + k]
-                    for a in range(m):
-                        lin_gap += Dall[nbil + k, rows[a]] * sol[a]
+                    for i in range(n):
+                        lin_gap += Gall[nbil + k, i] * x[i]
                     if lin_gap < -0.1 * target:
                         flip = k
                         break
             if flip < 0:
                 break
             active[flip] = not active[flip]
-        U_new = U - HAU
-        for a in range(m):
-            U_new += AGall[:, rows[a]] * sol[a]
-        nub_new = sol[:nbil]
-        nuc_new = np.zeros(nc)
+        # U_new = U + H^-1 (Gall_active^T sol - Ap U)
+        for i in range(n):
+            U_new[i] = U[i] - HAU[i] + x[i]
+        for r in range(nbil):
+            nub_new[r] = sol[r]
+        nuc_new[:] = 0.0
         for a in range(nbil, m):
             nuc_new[rows[a] - nbil] = sol[a]
         # backtracking line search on the scaled residual
         theta = 1.0
         best = -1.0
         best_theta = 1.0
+        best_res = 0.0
         for _ls in range(12):
             for i in range(n):
                 U_try[i] = U[i] + theta * (U_new[i] - U[i])
@@ -199,14 +316,18 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap):
                 nub_try[r] = nu_b[r] + theta * (nub_new[r] - nu_b[r])
             for k in range(nc):
                 nuc_try[k] = nu_c[k] + theta * (nuc_new[k] - nu_c[k])
-            res_try = _position_residual(q_t, U_try, nub_try, nuc_try, t1, h, ma, Ap, r_c,
-                                         gb_try, Gb_try, gap_try, GN_try, q_try)
+            _position_rows(q_t, U_try, t1, ma, q_try, gb_try, Gb_try, wk.gm, wk.dgdt,
+                           gap_try, GN_try, wk.wN, wk.wT)
+            res_try = _position_residual(U_try, nub_try, nuc_try, r_c, mdiag, Ap, wk.facA,
+                                         gb_try, Gb_try, gap_try, GN_try, wk.eq)
             if best < 0.0 or res_try < best:
                 best = res_try
                 best_theta = theta
+                best_res = res_try
             if res_try <= (1.0 - 1e-4 * theta) * res:
                 break
             theta *= 0.5
+        last_theta = theta
         theta = best_theta
         if theta < 0.125:
             # the active set cycles (the full step does not reduce the residual): stiffen the
@@ -214,15 +335,67 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap):
             eta_k = min(100.0 * eta_k, 1e-1)
         elif theta == 1.0:
             eta_k = max(eta, 0.01 * eta_k)  # back towards plain Newton once steps go through
-        for i in range(n):
-            U[i] += theta * (U_new[i] - U[i])
-        for r in range(nbil):
-            nu_b[r] += theta * (nub_new[r] - nu_b[r])
-        for k in range(nc):
-            nu_c[k] += theta * (nuc_new[k] - nu_c[k])
-        res = _position_residual(q_t, U, nu_b, nu_c, t1, h, ma, Ap, r_c, gb, Gb, gap, GN, q1)
+        if theta == last_theta:
+            # the last trial is the new iterate: take its rows and residual as they are
+            copy_vector(U, U_try, n)
+            copy_vector(nu_b, nub_try, nbil)
+            copy_vector(nu_c, nuc_try, nc)
+            copy_vector(q1, q_try, n)
+            copy_vector(gb, gb_try, nbil)
+            copy_matrix(Gb, Gb_try, nbil, n)
+            copy_vector(gap, gap_try, nc)
+            copy_matrix(GN, GN_try, nc, n)
+            res = best_res
+        else:
+            for i in range(n):
+                U[i] += theta * (U_new[i] - U[i])
+            for r in range(nbil):
+                nu_b[r] += theta * (nub_new[r] - nu_b[r])
+            for k in range(nc):
+                nu_c[k] += theta * (nuc_new[k] - nu_c[k])
+            _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT)
+            res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, wk.facA, gb, Gb, gap, GN,
+                                 wk.eq)
         converged = res <= target
     return iters, converged
+
+
+@njit(cache=True)
+def velocity_work(n, nbil, nc):
+    """Work arrays of :func:`velocity_step` (made once per chunk)."""
+    mv = nbil + 2 * nc
+    return VelocityWork(
+        f1=np.zeros(n), K1=np.zeros((n, n)), C1=np.zeros((n, n)), Ks1=np.zeros((n, n)),
+        Av=np.zeros((n, n)), fac=block_factor_work(n), b=np.zeros(n), Ab=np.zeros(n),
+        tmp=np.zeros(n), wN=np.zeros(6), wT=np.zeros(6),
+        gb=np.zeros(nbil), gm=np.zeros(nbil), dgdt=np.zeros(nbil), Gb=np.zeros((nbil, n)),
+        closed=np.zeros(nc, dtype=np.bool_), row_of=np.zeros(nc, dtype=np.int64),
+        G=np.zeros((mv, n)), off=np.zeros(mv), kind=np.zeros(mv, dtype=np.int64),
+        mu_row=np.zeros(mv), pair=np.zeros(mv, dtype=np.int64), lam=np.zeros(mv),
+        Y=np.zeros((mv, n)), first=np.zeros(mv, dtype=np.int64), D=np.zeros((mv, mv)),
+        c=np.zeros(mv),
+        Dbb=np.zeros(nbil * nbil), pivb=np.zeros(nbil, dtype=np.int64), colb=np.zeros(nbil),
+        X=np.zeros(nbil * (mv + 1)), Dc=np.zeros(mv * mv), cc=np.zeros(mv),
+        lam_c=np.zeros(mv), pair_c=np.zeros(mv, dtype=np.int64),
+        solver=velocity_solver_work(mv))
+
+
+@njit(cache=True)
+def velocity_solver_work(m):
+    """Work arrays of the semismooth Newton solver of the velocity problem (m rows at most)."""
+    return VelocitySolverWork(r=np.zeros(m), F=np.zeros(m), F_try=np.zeros(m), xi=np.zeros(m),
+                              xi_try=np.zeros(m), lam_try=np.zeros(m), dl=np.zeros(m),
+                              J=np.zeros(m * m), piv=np.zeros(m, dtype=np.int64))
+
+
+@njit(cache=True)
+def _affine(D, lam, c, m, xi):
+    """xi = D lam + c on the leading m rows."""
+    for i in range(m):
+        s = c[i]
+        for j in range(m):
+            s += D[i, j] * lam[j]
+        xi[i] = s
 
 
 @njit(cache=True)
@@ -249,8 +422,12 @@ def _velocity_residual(lam, xi, kind, r, mu_row, pair, F):
 def _local_frictional_contact(D, c, lam, i, mu):
     """Solve one contact's rows (normal i, tangent i+1) exactly, the others held fixed."""
     j = i + 1
-    bN = D[i] @ lam + c[i] - D[i, i] * lam[i] - D[i, j] * lam[j]
-    bT = D[j] @ lam + c[j] - D[j, i] * lam[i] - D[j, j] * lam[j]
+    bN = c[i]
+    bT = c[j]
+    for p in range(lam.shape[0]):
+        if p != i and p != j:
+            bN += D[i, p] * lam[p]
+            bT += D[j, p] * lam[p]
     wNN = D[i, i]
     wNT = D[i, j]
     wTN = D[j, i]
@@ -290,19 +467,31 @@ def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
 
     Semismooth Newton with Delassus-scaled augmentation, proximal regularisation and a line
     search; projected Gauss-Seidel as fallback. ``lam`` holds the warm start on entry and the
-    solution on exit. Returns (iterations, converged)."""
+    solution on exit. Returns (iterations, converged). (Allocates its work arrays; the time
+    loop calls :func:`_solve_velocity_problem` with arrays made once per chunk.)"""
+    return _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta,
+                                   velocity_solver_work(lam.shape[0]))
+
+
+@njit(cache=True)
+def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, sw):
+    """:func:`solve_velocity_problem` on the work arrays ``sw`` (:func:`velocity_solver_work`)."""
     m = lam.shape[0]
-    r = np.ones(m)
+    r = sw.r[:m]
+    F = sw.F[:m]
+    F_try = sw.F_try[:m]
+    xi = sw.xi[:m]
+    xi_try = sw.xi_try[:m]
+    lam_try = sw.lam_try[:m]
+    dl = sw.dl[:m]
+    J = sw.J[:m * m].reshape((m, m))
     for i in range(m):
+        r[i] = 1.0
         if D[i, i] > 0.0:
             r[i] = 1.0 / D[i, i]
-    F = np.zeros(m)
-    F_try = np.zeros(m)
-    xi = D @ lam + c
+    _affine(D, lam, c, m, xi)
     res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
     iters = 0
-    J = np.zeros((m, m))
-    lam_try = np.zeros(m)
     # at least one Newton step: the problem is piecewise linear, so one step on the right
     # active set is exact, while a warm start that merely meets the tolerance leaves velocity
     # errors of order tol that show up as force chatter in persistent contact (tol m / h)
@@ -313,10 +502,10 @@ def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
         J[:, :] = 0.0
         for i in range(m):
             if kind[i] == 0:
-                J[i] = D[i]
+                copy_vector(J[i], D[i], m)
             elif kind[i] == 1:
                 if lam[i] - r[i] * xi[i] > 0.0:
-                    J[i] = D[i]
+                    copy_vector(J[i], D[i], m)
                     J[i, i] += eta * D[i, i]
                 else:
                     J[i, i] = 1.0 / r[i]
@@ -324,33 +513,50 @@ def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
                 bound = mu_row[i] * max(lam[pair[i]], 0.0)
                 z = lam[i] - r[i] * xi[i]
                 if abs(z) < bound:
-                    J[i] = D[i]
+                    copy_vector(J[i], D[i], m)
                     J[i, i] += eta * D[i, i]
                 else:
                     J[i, i] = 1.0 / r[i]
                     if lam[pair[i]] > 0.0:
                         s = 1.0 if z > 0.0 else -1.0
                         J[i, pair[i]] = -mu_row[i] * s / r[i]
-        dl = np.linalg.solve(J, -F)
+        for i in range(m):
+            dl[i] = -F[i]
+        lu_factor(J, m, sw.piv)
+        lu_solve(J, m, sw.piv, dl)
         # backtracking on the squared 2-norm of the residual (the max-norm stalls)
-        merit = F @ F
+        merit = 0.0
+        for i in range(m):
+            merit += F[i] * F[i]
         theta = 1.0
         best = -1.0
         best_theta = 1.0
         for _ls in range(12):
-            lam_try[:] = lam + theta * dl
-            xi_try = D @ lam_try + c
+            for i in range(m):
+                lam_try[i] = lam[i] + theta * dl[i]
+            _affine(D, lam_try, c, m, xi_try)
             _velocity_residual(lam_try, xi_try, kind, r, mu_row, pair, F_try)
-            merit_try = F_try @ F_try
+            merit_try = 0.0
+            for i in range(m):
+                merit_try += F_try[i] * F_try[i]
             if best < 0.0 or merit_try < best:
                 best = merit_try
                 best_theta = theta
             if merit_try <= (1.0 - 1e-4 * theta) * merit:
                 break
             theta *= 0.5
-        lam += best_theta * dl
-        xi = D @ lam + c
-        res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
+        for i in range(m):
+            lam[i] += best_theta * dl[i]
+        if best_theta == theta:
+            # the last trial is the new iterate: reuse its velocities and residual
+            copy_vector(xi, xi_try, m)
+            copy_vector(F, F_try, m)
+            res = 0.0
+            for i in range(m):
+                res = max(res, abs(F[i]))
+        else:
+            _affine(D, lam, c, m, xi)
+            res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
     if res > 0.5 * tol:
         # fallback: nonsmooth block Gauss-Seidel (each contact's normal/tangent pair solved
         # exactly by enumerating open, stick and the two slip directions), slow but robust
@@ -363,7 +569,9 @@ def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
                     _local_frictional_contact(D, c, lam, i, mu_row[i + 1])
                     i += 2
                     continue
-                xi_i = D[i] @ lam + c[i]
+                xi_i = c[i]
+                for j in range(m):
+                    xi_i += D[i, j] * lam[j]
                 if kind[i] == 0:
                     lam[i] = lam[i] - r[i] * xi_i
                 elif kind[i] == 1:
@@ -372,7 +580,7 @@ def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
                     bound = mu_row[i] * max(lam[pair[i]], 0.0)
                     lam[i] = min(max(lam[i] - r[i] * xi_i, -bound), bound)
                 i += 1
-            xi = D @ lam + c
+            _affine(D, lam, c, m, xi)
             res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
             if res <= 0.5 * tol:
                 break
@@ -385,60 +593,67 @@ def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
         if kind[i] == 2:
             bound = mu_row[i] * lam[pair[i]]
             lam[i] = min(max(lam[i], -bound), bound)
-    xi = D @ lam + c
+    _affine(D, lam, c, m, xi)
     res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
     return iters, res <= tol
 
 
 @njit(cache=True)
 def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, nu_c, gap,
-                  vn_minus, vt_minus, v1, lamN, lamT, lam_b):
+                  vn_minus, vt_minus, v1, lamN, lamT, lam_b, wk):
     """Velocity jump W = v1 - v_t with impulses Lambda on the joints and on the contacts closed
     after the position correction (nu_N > 0 or g_N <= gap_close). ``lamN``/``lamT`` hold the
-    previous step's impulses (warm start) on entry. Returns (iterations, converged)."""
+    previous step's impulses (warm start) on entry. ``wk``: :func:`velocity_work`. Returns
+    (iterations, converged)."""
     mdiag = ma.mdiag
     ct_type = ma.ct_type
     ct_body = ma.ct_body
     ct_law = ma.ct_law
     n = q1.shape[0]
-    nbil = joint_row_count(ma.jt_type)
+    nbil = wk.gb.shape[0]
     nc = ct_type.shape[0]
-    f1 = np.zeros(n)
-    K1 = np.zeros((n, n))
-    C1 = np.zeros((n, n))
-    smooth_forces(q1, v_t, ma, f1, K1, C1, np.zeros((n, n)), True)
-    Av = np.empty((n, n))
-    b = np.empty(n)
+    f1 = wk.f1
+    C1 = wk.C1
+    smooth_forces(q1, v_t, ma, f1, wk.K1, C1, wk.Ks1, True)
+    Av = wk.Av
+    b = wk.b
     for i in range(n):
         for j in range(n):
             Av[i, j] = h * C1[i, j]
         Av[i, i] += mdiag[i]
         b[i] = h * (f1[i] - f_t[i])
-    Ainv = block_inverse(Av)
-    gb = np.zeros(nbil)
-    Gb = np.zeros((nbil, n))
-    gm = np.zeros(nbil)
-    dgdt = np.zeros(nbil)
-    bilateral(q1, v_t, t1, ma, gb, Gb, gm, dgdt)
-    closed = np.zeros(nc, dtype=np.bool_)
+    fac = wk.fac
+    block_factor(Av, n, fac, True)
+    Ab = wk.Ab
+    copy_vector(Ab, b, n)
+    block_solve(fac, n, Ab)
+    Gb = wk.Gb
+    dgdt = wk.dgdt
+    bilateral(q1, v_t, t1, ma, wk.gb, Gb, wk.gm, dgdt)
+    closed = wk.closed
     n_rows = nbil
     for k in range(nc):
         closed[k] = nu_c[k] > 0.0 or gap[k] <= gap_close
         if closed[k]:
             n_rows += 2 if ct_law[k, 0] > 0.0 else 1
-    G = np.zeros((n_rows, n))
-    off = np.zeros(n_rows)
-    kind = np.zeros(n_rows, dtype=np.int64)
-    mu_row = np.zeros(n_rows)
-    pair = np.zeros(n_rows, dtype=np.int64)
-    lam = np.zeros(n_rows)
-    row_of = np.full(nc, -1, dtype=np.int64)
+    G = wk.G
+    off = wk.off
+    kind = wk.kind
+    mu_row = wk.mu_row
+    pair = wk.pair
+    lam = wk.lam
+    row_of = wk.row_of
+    row_of[:] = -1
     for r in range(nbil):
-        G[r] = Gb[r]
+        for i in range(n):
+            G[r, i] = Gb[r, i]
         off[r] = dgdt[r]
+        kind[r] = 0
+        mu_row[r] = 0.0
+        pair[r] = 0
         lam[r] = lam_b[r] if lam_b.shape[0] == nbil else 0.0
-    wN = np.zeros(6)
-    wT = np.zeros(6)
+    wN = wk.wN
+    wT = wk.wT
     row = nbil
     for k in range(nc):
         lamN_prev = lamN[k]
@@ -456,6 +671,8 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
         # pinched ball it fed energy into the paper's case (a blow-up within 20 ms).
         off[row] = ct_law[k, 1] * vn_minus[k]
         kind[row] = 1
+        mu_row[row] = 0.0
+        pair[row] = 0
         lam[row] = lamN_prev
         row_of[k] = row
         row += 1
@@ -467,34 +684,84 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
             pair[row] = row - 1
             lam[row] = lamT_prev
             row += 1
-    AG = Ainv @ G.T
-    D = G @ AG
-    c = G @ (v_t + Ainv @ b) + off
+    # Delassus matrix D = G A^-1 G^T and free velocity c = G (v_t + A^-1 b) + off
+    D = wk.D
+    c = wk.c
+    block_gram(fac, n, G, n_rows, wk.Y, wk.first, D)
+    for a in range(n_rows):
+        s = off[a]
+        for i in range(n):
+            g = G[a, i]
+            if g != 0.0:
+                s += g * (v_t[i] + Ab[i])
+        c[a] = s
+    sw = wk.solver
     if nbil > 0 and n_rows > nbil:
         # eliminate the joints (equalities) first: the contact problem then sees the
         # mechanism's effective masses, and its Gauss-Seidel fallback converges
         nct = n_rows - nbil
-        Dbb = D[:nbil, :nbil].copy()
-        Dbc = D[:nbil, nbil:].copy()
-        X = np.linalg.solve(Dbb, np.hstack((Dbc, c[:nbil].reshape(nbil, 1))))
-        Xl = np.ascontiguousarray(X[:, :nct])
-        xc = np.ascontiguousarray(X[:, nct])
-        Dcb = np.ascontiguousarray(D[nbil:, :nbil])
-        Dc = np.ascontiguousarray(D[nbil:, nbil:]) - Dcb @ Xl
-        cc = c[nbil:] - Dcb @ xc
-        lam_c = lam[nbil:].copy()
-        iters, ok = solve_velocity_problem(Dc, cc, kind[nbil:], mu_row[nbil:],
-                                           pair[nbil:] - nbil, lam_c, tol, max_iter, eta)
-        lam[nbil:] = lam_c
-        lam[:nbil] = -(Xl @ lam_c + xc)
+        Dbb = wk.Dbb.reshape((nbil, nbil))
+        for a in range(nbil):
+            for c2 in range(nbil):
+                Dbb[a, c2] = D[a, c2]
+        lu_factor(Dbb, nbil, wk.pivb)
+        # X = Dbb^-1 [Dbc, c_b], one column at a time
+        X = wk.X[:nbil * (nct + 1)].reshape((nbil, nct + 1))
+        col = wk.colb
+        for j in range(nct + 1):
+            for a in range(nbil):
+                col[a] = D[a, nbil + j] if j < nct else c[a]
+            lu_solve(Dbb, nbil, wk.pivb, col)
+            for a in range(nbil):
+                X[a, j] = col[a]
+        Dc = wk.Dc[:nct * nct].reshape((nct, nct))
+        cc = wk.cc[:nct]
+        lam_c = wk.lam_c[:nct]
+        pair_c = wk.pair_c[:nct]
+        for a in range(nct):
+            for j in range(nct):
+                s = D[nbil + a, nbil + j]
+                for p in range(nbil):
+                    s -= D[nbil + a, p] * X[p, j]
+                Dc[a, j] = s
+            s = c[nbil + a]
+            for p in range(nbil):
+                s -= D[nbil + a, p] * X[p, nct]
+            cc[a] = s
+            lam_c[a] = lam[nbil + a]
+            pair_c[a] = pair[nbil + a] - nbil
+        iters, ok = _solve_velocity_problem(Dc, cc, kind[nbil:n_rows], mu_row[nbil:n_rows],
+                                            pair_c, lam_c, tol, max_iter, eta, sw)
+        for a in range(nct):
+            lam[nbil + a] = lam_c[a]
+        for p in range(nbil):
+            s = X[p, nct]
+            for j in range(nct):
+                s += X[p, j] * lam_c[j]
+            lam[p] = -s
         # check the joints too (round-off only)
-        xi_b = np.ascontiguousarray(D[:nbil]) @ lam + c[:nbil]
         for r in range(nbil):
-            if abs(xi_b[r]) > tol:
+            xi_b = c[r]
+            for j in range(n_rows):
+                xi_b += D[r, j] * lam[j]
+            if abs(xi_b) > tol:
                 ok = False
     else:
-        iters, ok = solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta)
-    W = Ainv @ b + AG @ lam
+        Dv = wk.Dc[:n_rows * n_rows].reshape((n_rows, n_rows))
+        for a in range(n_rows):
+            for j in range(n_rows):
+                Dv[a, j] = D[a, j]
+        iters, ok = _solve_velocity_problem(Dv, c[:n_rows], kind[:n_rows], mu_row[:n_rows],
+                                            pair[:n_rows], lam[:n_rows], tol, max_iter, eta,
+                                            sw)
+    # W = A^-1 (b + G^T Lambda)
+    W = wk.tmp
+    for i in range(n):
+        s = b[i]
+        for r in range(n_rows):
+            s += G[r, i] * lam[r]
+        W[i] = s
+    block_solve(fac, n, W)
     for i in range(n):
         v1[i] = v_t[i] + W[i]
     for r in range(nbil):
@@ -563,9 +830,10 @@ def integrate_chunk(k0, k1, st, ma, state, out):
     gap = np.zeros(nc)
     vn = np.zeros(nc)
     vt = np.zeros(nc)
-    gap_free = np.zeros(nc)
     vn_free = np.zeros(nc)
-    vt_free = np.zeros(nc)
+    nbil = joint_row_count(ma.jt_type)
+    pwk = position_work(n, nbil, nc)
+    vwk = velocity_work(n, nbil, nc)
     gap_close = tol * h
     no_vpre = np.zeros(0)
     no_work = np.zeros((11, 0))
@@ -575,10 +843,17 @@ def integrate_chunk(k0, k1, st, ma, state, out):
         it_s, ok_s = smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, tol, max_iter, ma,
                                  q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, False, no_vpre,
                                  1.0, no_work)
-        it_p, ok_p = position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap)
-        contact_velocities(q1, v_t, ma, gap_free, vn_free, vt_free)
+        it_p, ok_p = position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap,
+                                   pwk)
+        # normal velocities before the jump, G_N(q1) v~, from the position stage's rows at q1
+        for j in range(nc):
+            s = 0.0
+            for i in range(n):
+                s += pwk.GN[j, i] * v_t[i]
+            vn_free[j] = s
         it_v, ok_v = velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t,
-                                   nu_c, gap, vn_prev, vt_prev, v1, lamN_prev, lamT_prev, lam_b)
+                                   nu_c, gap, vn_prev, vt_prev, v1, lamN_prev, lamT_prev, lam_b,
+                                   vwk)
         # accept the step
         for i in range(n):
             q[i] = q1[i]
@@ -586,8 +861,8 @@ def integrate_chunk(k0, k1, st, ma, state, out):
             acc[i] = acc1[i]
             vdot[i] = vdot1[i]
         contact_velocities(q, v, ma, gap, vn, vt)
-        out.q[k + 1] = q
-        out.v[k + 1] = v
+        copy_vector(out.q[k + 1], q, n)
+        copy_vector(out.v[k + 1], v, n)
         for j in range(nc):
             out.lambda_N[k + 1, j] = lamN_prev[j]
             out.lambda_T[k + 1, j] = lamT_prev[j]
