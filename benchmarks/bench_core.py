@@ -1,4 +1,4 @@
-"""Speed of the simulation core on the paper's case (SPEC section 2).
+"""Speed of the simulation core on the paper's case (docs/model.md).
 
 Prints:
 - cold compile: a new process with an empty Numba cache, time of the first (compiling) run
