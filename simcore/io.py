@@ -57,7 +57,7 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4) -> Path:
     """Write ``ds`` to ``path`` atomically, with zlib compression of the data variables.
 
     Coordinates are written without ``_FillValue`` and text variables as character arrays (both
-    as CF asks), unless the dataset's own encoding says otherwise.
+    as CF asks; a text variable keeps a ``dtype`` its own encoding names).
 
     Parameters
     ----------
@@ -81,8 +81,8 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4) -> Path:
         text = _is_text(var)
         if text and "dtype" not in var.encoding:
             enc["dtype"] = "S1"
-        if name in ds.coords and "_FillValue" not in var.encoding and not text:
-            enc["_FillValue"] = None
+        if name in ds.coords and not text:
+            enc["_FillValue"] = None  # CF: coordinates have no missing values
         if name in ds.data_vars and var.ndim > 0 and (var.dtype.kind in "fiub" or text):
             enc.update(zlib=True, complevel=complevel, shuffle=True)
         if enc:
