@@ -18,6 +18,18 @@ from .model import SolverError  # noqa: F401  (re-exported)
 _warm = False
 
 
+def _simulate(model, cfg: dict, t_end: float | None = None, on_nonconvergence=None,
+              progress: bool = False):
+    """``model.simulate`` with the solver settings of ``cfg`` (the one place that lists them,
+    shared by :func:`run` and :func:`warm_up`, so that both compile the same kernels)."""
+    solver = cfg["solver"]
+    return model.simulate(solver["dt"], solver["t_end"] if t_end is None else t_end,
+                          rho_inf=solver["rho_inf"], tol=solver["tol"],
+                          max_iter=solver["max_iter"], proximal=solver["proximal"],
+                          on_nonconvergence=on_nonconvergence or solver["on_nonconvergence"],
+                          progress=progress)
+
+
 def warm_up(config: dict | None = None) -> float:
     """Compile (or load from Numba's cache) every kernel of a run, once per process.
 
@@ -40,14 +52,11 @@ def warm_up(config: dict | None = None) -> float:
         return 0.0
     start = time.perf_counter()
     cfg = validate_config(config) if config is not None else load_config()
-    dt = float(cfg["solver"]["dt"])
     model, _ = crank_slider(cfg["model"])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            model.simulate(dt, 2 * dt, rho_inf=cfg["solver"]["rho_inf"], tol=cfg["solver"]["tol"],
-                           max_iter=cfg["solver"]["max_iter"], proximal=cfg["solver"]["proximal"],
-                           on_nonconvergence="warn")
+            _simulate(model, cfg, t_end=2 * float(cfg["solver"]["dt"]), on_nonconvergence="warn")
         except SolverError:
             pass  # the kernels are compiled all the same; the real run reports the failure
     _warm = True
@@ -82,10 +91,6 @@ def run(config: dict, progress: bool = False):
 
     cfg = validate_config(config)
     compile_time_s = warm_up(cfg)
-    solver = cfg["solver"]
     model, layout = crank_slider(cfg["model"])
-    traj = model.simulate(solver["dt"], solver["t_end"], rho_inf=solver["rho_inf"],
-                          tol=solver["tol"], max_iter=solver["max_iter"],
-                          proximal=solver["proximal"],
-                          on_nonconvergence=solver["on_nonconvergence"], progress=progress)
+    traj = _simulate(model, cfg, progress=progress)
     return trajectory_dataset(traj, model, layout, cfg, compile_time_s=compile_time_s)
