@@ -1,4 +1,4 @@
-# Parameter study of the SKF-6012 ball bearing in a crank-slider (SPEC sections 8-9).
+# Parameter study of the SKF-6012 ball bearing in a crank-slider.
 #
 #   snakemake -j2                                   default study (config/config.yaml)
 #   snakemake -j2 --configfile config/smoke.yaml    2 x 2 grid of short runs (CI)
@@ -17,6 +17,7 @@ configfile: "config/config.yaml"
 
 
 include: "workflow/rules/common.smk"
+include: "workflow/rules/terminal.smk"
 
 
 report: "workflow/report/workflow.rst"
@@ -32,6 +33,11 @@ rule all:
 include: "workflow/rules/simulate.smk"
 include: "workflow/rules/analysis.smk"
 include: "workflow/rules/figures.smk"
+
+
+# Compile the Numba kernels once before the parallel jobs (workflow/rules/terminal.smk).
+onstart:
+    warm_numba_cache()
 
 
 onsuccess:

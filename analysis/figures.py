@@ -35,8 +35,8 @@ _PARAM = {
 
 
 def _param_value(ds, name):
-    if name in ds.coords and ds[name].ndim == 0:
-        return float(ds[name].values)
+    if name in ds.coords and ds[name].size == 1:  # scalar or length-1 coordinate
+        return float(ds[name].values.item())
     key = f"model.{name}"
     if key in ds.attrs:
         return float(ds.attrs[key])
@@ -398,6 +398,10 @@ def _plot_force_angle(run_ds, cols, path, settle, zero_tol, zero_floor):
 
 def _ball_angles(run_ds, cols):
     """Angle of each impact's ball around its race, in the race's own body frame [rad]."""
+    if "q" not in run_ds:  # a run file keeps position and angle apart
+        from simcore.io import generalized
+
+        run_ds = generalized(run_ds)
     q = np.asarray(run_ds["q"].transpose("time", "body", "dof").values, dtype=float)
     t = np.asarray(run_ds["time"].values, dtype=float)
     L1 = float(run_ds.attrs["model.crank_length"])

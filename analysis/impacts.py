@@ -84,8 +84,8 @@ _VARS = {
 
 def _model_value(run_ds: xr.Dataset, key: str) -> float:
     """A model setting: the scalar coordinate if present, else attrs['model.<key>']."""
-    if key in run_ds.coords and run_ds[key].ndim == 0:
-        return float(run_ds[key].values)
+    if key in run_ds.coords and run_ds[key].size == 1:  # scalar or length-1 coordinate
+        return float(run_ds[key].values.item())
     name = f"model.{key}"
     if name in run_ds.attrs:
         return float(run_ds.attrs[name])

@@ -263,7 +263,7 @@ def _failed(ds: xr.Dataset) -> bool:
 
 def _point(ds: xr.Dataset, path: str) -> dict:
     try:
-        return {key: float(ds[key].values) for key in SWEPT}
+        return {key: float(ds[key].values.item()) for key in SWEPT}  # 0-d or length 1
     except KeyError as exc:
         raise ValueError(f"{path}: scalar coordinate {exc.args[0]} is missing") from None
 

@@ -1,4 +1,4 @@
-"""Speed of the simulation core on the paper's case (SPEC section 2).
+"""Speed of the simulation core on the paper's case (docs/model.md).
 
 Prints, in one run:
 

@@ -56,6 +56,10 @@ def independent_energy(ds, cfg):
     model = crank_slider(cfg["model"])[0]
     mass = np.asarray(model.mass)
     inertia = np.asarray(model.inertia)
+    if "q" not in ds:  # run files keep position and angle apart
+        from simcore.io import generalized
+
+        ds = generalized(ds)
     q, v = ds["q"].values, ds["v"].values
     kinetic = 0.5 * ((mass * (v[:, :, 0] ** 2 + v[:, :, 1] ** 2)).sum(axis=1)
                      + (inertia * v[:, :, 2] ** 2).sum(axis=1))

@@ -3,7 +3,7 @@
 Public API
 ----------
 load_config(path=None, overrides=())  -> validated configuration dict
-run(config)                           -> xarray.Dataset of one run (SPEC section 5)
+run(config)                           -> xarray.Dataset of one run (README, "The run file")
 write_netcdf(ds, path)                -> atomic netCDF writing
 zoom(run_ds, time, window, dt=...)    -> compliant re-simulation from a run's state
 """

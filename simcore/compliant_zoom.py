@@ -89,8 +89,10 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
     simcore.ConfigError
         Bad settings or a time outside the run (one line naming the key), before any work.
     """
-    from .io import trajectory_dataset
+    from .io import generalized, trajectory_dataset
 
+    if "q" not in run_ds and "position" in run_ds:  # a run file: q and v from their parts
+        run_ds = generalized(run_ds)
     for name in ("q", "v"):
         if name not in run_ds:
             raise ConfigError(f"run: the run file has no variable {name!r} (needed to restart "

@@ -1,12 +1,27 @@
 """I/O layer: the only part of simcore that imports xarray.
 
-Turns the kernels' plain arrays into a CF-style ``xarray.Dataset`` (SPEC section 5) and writes
-netCDF atomically (temporary file in the target folder, then ``os.replace``), so that no reader
-ever sees a half-written file.
+Turns the kernels' plain arrays into the run dataset and writes netCDF atomically (temporary file
+in the target folder, then ``os.replace``), so that no reader ever sees a half-written file.
+
+The files follow the CF conventions (version 1.10), as ``.ci/cf-check`` verifies on every file of
+the smoke study:
+
+- every variable has UDUNITS ``units`` and a ``long_name``; a quantity that mixes units is split
+  (the generalized coordinates ``q`` = (x, y, phi) become ``position`` [m] and ``angle`` [rad],
+  the velocities ``velocity`` [m s-1] and ``angular_velocity`` [rad s-1]; :func:`generalized`
+  rebuilds ``q`` and ``v`` for code that wants them);
+- no ``_FillValue`` on coordinates;
+- labels (``race``, ``body``, ``axis``, ``stage``) are stored as character arrays, which CF reads
+  as string labels and xarray gives back as strings (``ds.race == "outer"`` keeps working);
+- the swept parameters (``clearance``, ``mu``, ``omega0``, ``e_N``) are coordinates of length-1
+  dimensions, so that ``xr.open_mfdataset("results/runs/*.nc", combine="by_coords")`` assembles a
+  study's runs into one grid. Read one value with ``ds.clearance.item()``: ``float()`` refuses a
+  length-1 array.
 """
 
 from __future__ import annotations
 
+import datetime
 import os
 import tempfile
 from pathlib import Path
@@ -14,9 +29,35 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+#: CF version the files declare.
+CONVENTIONS = "CF-1.10"
+
+#: The swept model parameters: units and long names, shared by every file that carries them.
+PARAMETERS = {
+    "clearance": ("m", "radial clearance of the bearing"),
+    "mu": ("1", "friction coefficient"),
+    "omega0": ("rad s-1", "crank speed (start speed for the free drive, the speed held by the "
+                          "constant drive)"),
+    "e_N": ("1", "normal restitution coefficient"),
+}
+
+__all__ = ["write_netcdf", "trajectory_dataset", "failed_run_dataset", "generalized",
+           "open_run", "parameter_coords", "history_line", "CONVENTIONS", "PARAMETERS"]
+
+
+def _is_text(var: xr.Variable) -> bool:
+    if var.dtype.kind in "US":
+        return True
+    if var.dtype.kind == "O" and var.size:
+        return all(isinstance(x, str) for x in np.asarray(var.values).ravel())
+    return False
+
 
 def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4) -> Path:
-    """Write ``ds`` to ``path`` atomically, with zlib compression of the float variables.
+    """Write ``ds`` to ``path`` atomically, with zlib compression of the data variables.
+
+    Coordinates are written without ``_FillValue`` and text variables as character arrays (both
+    as CF asks; a text variable keeps a ``dtype`` its own encoding names).
 
     Parameters
     ----------
@@ -35,9 +76,17 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     encoding = {}
-    for name, var in ds.data_vars.items():
-        if var.ndim > 0 and var.dtype.kind in "fiub":
-            encoding[name] = {"zlib": True, "complevel": complevel, "shuffle": True}
+    for name, var in ds.variables.items():
+        enc = {}
+        text = _is_text(var)
+        if text and "dtype" not in var.encoding:
+            enc["dtype"] = "S1"
+        if name in ds.coords and not text:
+            enc["_FillValue"] = None  # CF: coordinates have no missing values
+        if name in ds.data_vars and var.ndim > 0 and (var.dtype.kind in "fiub" or text):
+            enc.update(zlib=True, complevel=complevel, shuffle=True)
+        if enc:
+            encoding[name] = enc
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     try:
@@ -86,7 +135,37 @@ def _attrs(units: str, long_name: str, **extra) -> dict:
     return out
 
 
-__all__ = ["write_netcdf", "np"]
+def history_line(what: str) -> str:
+    """One CF ``history`` line: UTC time stamp, package and version, what made the file."""
+    from . import __version__
+
+    stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    return f"{stamp} bearingsim {__version__}: {what}"
+
+
+def parameter_coords(values: dict, length_one: bool = True) -> dict:
+    """Coordinates of the swept parameters, with their units and long names.
+
+    Parameters
+    ----------
+    values : dict
+        ``{"clearance": 4e-4, "mu": 0.01, ...}`` (keys of :data:`PARAMETERS`; others ignored).
+    length_one : bool
+        True: each as the coordinate of a length-1 dimension of the same name (run files, so
+        that ``open_mfdataset(..., combine="by_coords")`` works); False: scalar coordinates.
+
+    Returns
+    -------
+    dict
+        ``{name: (dims, values, attrs)}`` for ``xarray.Dataset(coords=...)``.
+    """
+    out = {}
+    for name, (units, long_name) in PARAMETERS.items():
+        if name in values:
+            value = float(values[name])
+            out[name] = ((name,), [value]) if length_one else ((), value)
+            out[name] += (_attrs(units, long_name),)
+    return out
 
 
 def _flatten(cfg: dict) -> dict:
@@ -99,13 +178,40 @@ def _flatten(cfg: dict) -> dict:
     return out
 
 
-def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
+def _global_attrs(cfg: dict, title: str, what: str) -> dict:
+    from . import __version__
+
+    attrs = {
+        "Conventions": CONVENTIONS,
+        "title": title,
+        "source": f"bearingsim {__version__} (simcore)",
+        "history": history_line(what),
+        "references": "Sanchez, Cardona and Cavalieri, Simulacion de un rodamiento de bolas en "
+                      "un mecanismo considerando efectos de impacto y friccion; Flores et al. "
+                      "(2011) for the peak contact forces",
+        "comment": "Global attributes named section.key hold every setting of the run.",
+    }
+    attrs.update(_flatten(cfg))
+    return attrs
+
+
+def trajectory_dataset(traj, model, layout, cfg: dict, compile_time_s: float = 0.0) -> xr.Dataset:
     """Turn a :class:`simcore.model.Trajectory` of the crank-slider into the run dataset.
 
     Every variable declares its dimensions, ``units`` and ``long_name`` here, where it is made.
-    """
-    from . import __version__
 
+    Parameters
+    ----------
+    traj : simcore.model.Trajectory
+        Plain arrays of the run.
+    model, layout
+        The model and its layout (:func:`simcore.mechanism.crank_slider`).
+    cfg : dict
+        The validated configuration.
+    compile_time_s : float
+        Seconds spent compiling or loading the Numba kernels before the run (attribute
+        ``compile_time_s``; ``wall_time_s`` is the integration alone).
+    """
     m = cfg["model"]
     n_balls = int(m["n_balls"])
     nbody = len(model.body_names)
@@ -124,13 +230,15 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
     crank_angle = q[:, layout.crank, 2]
     TC = ("time", "contact")
     compliant = getattr(traj, "contact_model", "nonsmooth") == "compliant"
+    TBA = ("time", "body", "axis")
+    TB = ("time", "body")
     data = {
         "Lambda_N": (TC, traj.lambda_N, _attrs(
             "N s", "normal contact impulse of the velocity jump of the step ending at time")),
         "Lambda_T": (TC, traj.lambda_T, _attrs(
             "N s", "tangential contact impulse along t = e_z x n")),
         "nu_N": (TC, traj.nu_N, _attrs(
-            "N s^2", "position-correction multiplier of the contact")),
+            "N s2", "position-correction multiplier of the contact")),
         "gap_N": (TC, traj.gap_N, _attrs("m", "normal gap after the step (negative: penetration)")),
         "vn_pre": (TC, traj.vn_pre, _attrs(
             "m s-1", "normal relative velocity at the start of the step (negative: approaching)")),
@@ -139,10 +247,10 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
         "vn_free": (TC, traj.vn_free, _attrs(
             "m s-1", "normal relative velocity before the velocity jump: smooth-step velocity "
             "at the corrected position (negative: approaching; t = 0: initial velocity)")),
-        "q": (("time", "body", "dof"), q, _attrs(
-            "m or rad", "body positions (x [m], y [m], phi [rad]) of the centre of mass")),
-        "v": (("time", "body", "dof"), v, _attrs(
-            "m s-1 or rad s-1", "body velocities (vx, vy [m/s], omega [rad/s])")),
+        "position": (TBA, q[:, :, :2], _attrs("m", "position of the body's centre of mass")),
+        "angle": (TB, q[:, :, 2], _attrs("rad", "rotation angle of the body, unwrapped")),
+        "velocity": (TBA, v[:, :, :2], _attrs("m s-1", "velocity of the body's centre of mass")),
+        "angular_velocity": (TB, v[:, :, 2], _attrs("rad s-1", "angular velocity of the body")),
         "crank_angle": (("time",), crank_angle, _attrs("rad", "crank angle, unwrapped")),
         "slider_x": (("time",), q[:, layout.slider, 0], _attrs("m", "slider position")),
         "slider_v": (("time",), v[:, layout.slider, 0], _attrs("m s-1", "slider velocity")),
@@ -158,7 +266,8 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
             "1", "Newton iterations of each sub-problem of the step")),
         "converged": (("time",), traj.converged.astype(np.int8), _attrs(
             "1", "1 where every sub-problem of the step converged and the step created no "
-            "energy (energy audit)")),
+            "energy (energy audit)",
+            flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="no yes")),
     }
     if compliant:
         data.update({
@@ -197,32 +306,31 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
             "(<= 0 when the step only dissipates)"))
     contact = np.arange(2 * n_balls)
     coords = {
-        "time": ("time", traj.time, _attrs("s", "time")),
-        "contact": ("contact", contact, {"long_name": "ball-race contact index"}),
+        "time": ("time", traj.time, _attrs("s", "time since the start of the run")),
+        "contact": ("contact", contact, _attrs(
+            "1", "ball-race contact index (balls 0..n-1 on the inner race, then on the outer "
+                 "race)")),
         "ball": ("contact", np.concatenate([np.arange(n_balls)] * 2),
-                 {"long_name": "ball index"}),
-        "race": ("contact", np.array(["inner"] * n_balls + ["outer"] * n_balls, dtype=object),
-                 {"long_name": "race of the contact"}),
-        "body": ("body", np.array(model.body_names, dtype=object), {"long_name": "body name"}),
-        "dof": ("dof", np.array(["x", "y", "phi"], dtype=object),
-                {"long_name": "planar degree of freedom"}),
-        "stage": ("stage", np.array(["smooth", "position", "velocity"], dtype=object),
+                 _attrs("1", "ball index of the contact")),
+        "race": ("contact", np.array(["inner"] * n_balls + ["outer"] * n_balls),
+                 {"long_name": "race of the contact (inner or outer)"}),
+        "body": ("body", np.array(model.body_names), {"long_name": "body name"}),
+        "axis": ("axis", np.array(["x", "y"]),
+                 {"long_name": "axis of the plane (x along the slider, y across)"}),
+        "stage": ("stage", np.array(["smooth", "position", "velocity"]),
                   {"long_name": "sub-problem of the nonsmooth generalized-alpha step"}),
-        "clearance": ((), float(m["clearance"]), _attrs("m", "radial clearance")),
-        "mu": ((), float(m["mu"]), _attrs("1", "friction coefficient")),
-        "omega0": ((), float(m["omega0"]), _attrs("rad s-1", "crank speed")),
-        "e_N": ((), float(m["e_N"]), _attrs("1", "normal restitution coefficient")),
     }
     out_every = int(round(cfg["solver"].get("output_dt") / cfg["solver"]["dt"])) if cfg[
         "solver"].get("output_dt") is not None else 1
-    attrs = {
-        "Conventions": "CF-1.10",
-        "title": ("Ball bearing (SKF 6012) in a crank-slider: "
-                  + ("compliant (Hertz) contact run" if compliant
-                     else "nonsmooth generalized-alpha run")),
+    coords.update(parameter_coords(m))
+    kind = "compliant (Hertz) contact run" if compliant else "nonsmooth generalized-alpha run"
+    attrs = _global_attrs(
+        cfg, f"Ball bearing (SKF 6012) in a crank-slider: {kind}",
+        f"simcore.run, {m['contact_model']} contacts, {m['drive']} drive, "
+        f"t_end = {cfg['solver']['t_end']} s, dt = {cfg['solver']['dt']} s")
+    attrs.update({
         "contact_model": "compliant" if compliant else "nonsmooth",
         "output_interval_s": float(cfg["solver"]["dt"]) * out_every,
-        "source": f"bearingsim {__version__} (simcore)",
         "outer_radius": layout.outer_radius,
         "pitch_radius": layout.pitch_radius,
         "initial_cage_speed": layout.cage_speed,
@@ -231,10 +339,53 @@ def trajectory_dataset(traj, model, layout, cfg: dict) -> xr.Dataset:
         "contact_set_velocity_problem": "contacts with nu_N > 0 or gap_N <= tol*dt after the "
                                         "position correction",
         "wall_time_s": float(traj.wall_time_s),
+        "compile_time_s": float(compile_time_s),
         "n_unconverged_steps": int(np.sum(traj.converged == 0)),
-    }
+    })
     if audit is not None:
         attrs.update(audit.summary(traj.energy))
-    attrs.update(_flatten(cfg))
     attrs["solver.output_dt"] = float(cfg["solver"]["dt"]) * out_every
     return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def failed_run_dataset(cfg: dict, message: str) -> xr.Dataset:
+    """The small file that stands for a run whose solver failed (attribute ``failed = 1``).
+
+    It has the run's parameter coordinates (length-1 dimensions, as a run file), every setting
+    and the error message, so that the study's summary shows the point as missing.
+    """
+    attrs = _global_attrs(cfg, "failed run of the bearing study",
+                          f"simcore.run failed: {message}")
+    attrs.update({"failed": 1, "error": message})
+    return xr.Dataset(coords=parameter_coords(cfg["model"]), attrs=attrs)
+
+
+def generalized(ds: xr.Dataset) -> xr.Dataset:
+    """Add the generalized coordinates ``q`` and velocities ``v`` (time, body, dof) to a run.
+
+    ``dof`` is (x, y, phi): ``q`` stacks ``position`` [m] and ``angle`` [rad], ``v`` stacks
+    ``velocity`` [m s-1] and ``angular_velocity`` [rad s-1], as the kernels order them. The two
+    variables mix units, so they live in memory only (the files keep the split variables).
+    """
+    def stack(lin, rot, long_name):
+        lin = lin.transpose("time", "body", "axis")
+        rot = rot.transpose("time", "body")
+        values = np.concatenate([lin.values, rot.values[..., None]], axis=-1)
+        return xr.DataArray(values, dims=("time", "body", "dof"),
+                            coords={"time": ds["time"], "body": ds["body"],
+                                    "dof": ["x", "y", "phi"]},
+                            attrs={"long_name": long_name})
+
+    q = stack(ds["position"], ds["angle"], "positions x [m], y [m] and angle phi [rad]")
+    v = stack(ds["velocity"], ds["angular_velocity"],
+              "velocities vx, vy [m s-1] and angular velocity omega [rad s-1]")
+    return ds.assign(q=q, v=v)
+
+
+def open_run(path: str | Path) -> xr.Dataset:
+    """Open a run file (in memory) with ``q`` and ``v`` added (:func:`generalized`)."""
+    with xr.open_dataset(path) as ds:
+        ds = ds.load()
+    if int(ds.attrs.get("failed", 0)):
+        return ds
+    return generalized(ds)

@@ -44,7 +44,7 @@ def crank_slider(model: dict) -> tuple[Model, BearingLayout]:
     Parameters
     ----------
     model : dict
-        The ``model`` section of a validated configuration (SPEC sections 2 and 9; SI units).
+        The ``model`` section of a validated configuration (SI units; docs/model.md).
 
     Returns
     -------
@@ -55,7 +55,7 @@ def crank_slider(model: dict) -> tuple[Model, BearingLayout]:
     Inner race A is rigidly joined to the crank at the pin and outer race C to the rod's big
     end: their masses and inertias are merged into those bodies (parallel-axis theorem), so
     each body's reference point is the combined centre of mass. The bearing is the only link
-    between crank and rod. Initial state (SPEC section 2): crank and rod along +x, bearing
+    between crank and rod. Initial state (docs/model.md): crank and rod along +x, bearing
     centred, balls evenly spaced on the pitch circle from angle 0, crank speed omega0, the rod
     and slider from the ideal slider-crank, and each ball given the cage rotation and spin with
     zero slip at both races as the contact element measures it (at r_A and r_C).
@@ -87,7 +87,7 @@ def crank_slider(model: dict) -> tuple[Model, BearingLayout]:
     if model["drive"] == "constant":
         m.add_prescribed_rotation(crank, 0.0, w0)
 
-    # balls: zero slip at both races, measured at r_A and r_C (SPEC section 2)
+    # balls: zero slip at both races, measured at r_A and r_C (docs/model.md)
     pitch = rA + rB + 0.5 * g
     vA, vC = w0 * rA, w_rod * rC                  # race surface speeds about the pin
     cage = 0.5 * (vA + vC) / pitch

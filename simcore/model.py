@@ -335,8 +335,8 @@ class Model:
         rho_inf : float
             Spectral radius at infinity, in [0, 1].
         tol : float
-            Newton tolerance (m/s for velocities, |g|/h for gaps, relative for the smooth
-            residual).
+            Newton tolerance (docs/method.md: m/s for velocities, |g|/h for gaps, relative for
+            the smooth residual).
         max_iter : int
             Iteration cap per sub-problem.
         proximal : float

@@ -1,4 +1,4 @@
-"""Validation scenes against closed-form solutions (SPEC section 3, issue 2)."""
+"""Validation scenes against closed-form solutions (docs/model.md, contact elements and laws)."""
 
 import numpy as np
 import pytest

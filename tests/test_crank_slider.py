@@ -5,12 +5,14 @@ import pytest
 
 import simcore
 from simcore import kernels as nb
+from simcore.io import generalized
 from simcore.mechanism import crank_slider
 
 
 def _run(**overrides):
+    """A run with the generalized coordinates q and v (time, body, dof) added."""
     items = [f"{k.replace('__', '.')}={v}" for k, v in overrides.items()]
-    return simcore.run(simcore.load_config(overrides=items))
+    return generalized(simcore.run(simcore.load_config(overrides=items)))
 
 
 @pytest.fixture(scope="module")
@@ -108,13 +110,14 @@ def test_dataset_contract(paper_short):
     assert ds.sizes["contact"] == 2 * n and ds.sizes["stage"] == 3 and ds.sizes["dof"] == 3
     assert list(ds["race"].values[:n]) == ["inner"] * n
     assert list(ds["race"].values[n:]) == ["outer"] * n
-    for name in ("clearance", "mu", "omega0", "e_N"):
-        assert ds[name].ndim == 0 and name in ds.coords
-    for name in ("Lambda_N", "Lambda_T", "nu_N", "gap_N", "vn_pre", "vn_post", "vn_free", "q",
-                 "v", "crank_angle", "slider_x", "slider_v", "energy", "iterations", "converged"):
+    for name in ("clearance", "mu", "omega0", "e_N"):  # length-1 dimensions: runs combine
+        assert ds[name].dims == (name,) and ds[name].size == 1 and name in ds.coords
+    for name in ("Lambda_N", "Lambda_T", "nu_N", "gap_N", "vn_pre", "vn_post", "vn_free",
+                 "position", "angle", "velocity", "angular_velocity", "crank_angle", "slider_x",
+                 "slider_v", "energy", "iterations", "converged"):
         assert "units" in ds[name].attrs and "long_name" in ds[name].attrs, name
-    for key in ("Conventions", "title", "source", "wall_time_s", "model.clearance",
-                "solver.dt"):
+    for key in ("Conventions", "title", "source", "history", "wall_time_s", "compile_time_s",
+                "model.clearance", "solver.dt"):
         assert key in ds.attrs
 
 

@@ -128,7 +128,7 @@ def _check_study(results: Path) -> xr.Dataset:
     assert s["failed"].size == len(runs)
     for path in runs:
         with xr.open_dataset(path) as run:
-            point = {key: float(run[key]) for key in ("clearance", "mu", "omega0", "e_N")}
+            point = {key: run[key].item() for key in ("clearance", "mu", "omega0", "e_N")}
             failed = int(run.attrs.get("failed", 0))
         assert float(s["failed"].sel(point)) == failed
         assert bool(s["wall_time_s"].sel(point).isnull()) == bool(failed)

@@ -1,4 +1,4 @@
-# Simulations (SPEC section 5): one file per grid point, results/runs/<params>.nc. One job runs
+# Simulations, one file per grid point: results/runs/<params>.nc. One job runs
 # the points of one batch (study.batch_axes). A run whose solver does not converge is recorded
 # as a "failed" marker file, so that the rest of the study goes on (see the README).
 
@@ -21,3 +21,4 @@ rule simulate:
         "../envs/sim.yaml"
     script:
         "../scripts/simulate.py"
+

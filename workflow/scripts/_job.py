@@ -74,3 +74,9 @@ def set_threads(threads):
 def label(point):
     """``clearance=0.0004, mu=0.01, ...`` for messages."""
     return ", ".join(f"{key}={point[key]}" for key in SWEPT if key in point)
+
+
+def batch_label(wildcards):
+    """``clearance=0.0004, mu=0.01`` for the batch of a job (``all runs`` without wildcards)."""
+    items = [(key, value) for key, value in wildcards.items() if key in SWEPT]
+    return ", ".join(f"{key}={value}" for key, value in items) or "all runs"

@@ -17,17 +17,22 @@ with job_log(sm.log[0]):
 
     import analysis
     import simcore
+    import simcore.io
 
     settings = sm.params.analysis
     for source, path in zip(sm.input.runs, sm.output, strict=True):
         start = time.perf_counter()
         with xr.open_dataset(source) as run:
             run = run.load()
-        coords = {key: float(run[key]) for key in SWEPT}
+        point = {key: run[key].values.item() for key in SWEPT}  # length-1 coordinates
+        coords = simcore.io.parameter_coords(point, length_one=False)  # with units
         if int(run.attrs.get("failed", 0)):
-            print(f"{label(coords)}: failed run, empty impact table", flush=True)
-            impacts = xr.Dataset(coords=coords,
-                                 attrs={"failed": 1, "error": run.attrs.get("error", "")})
+            print(f"{label(point)}: failed run, empty impact table", flush=True)
+            impacts = xr.Dataset(coords=coords, attrs={
+                "Conventions": simcore.io.CONVENTIONS,
+                "title": "impacts of a failed run (empty)",
+                "history": simcore.io.history_line(f"impact table of the failed run {source}"),
+                "failed": 1, "error": run.attrs.get("error", "")})
         else:
             impacts = analysis.extract_impacts(
                 run,
@@ -42,6 +47,6 @@ with job_log(sm.log[0]):
                 impacts = add_zoom_forces(run, impacts, zoom_top=settings["zoom_top"])
             impacts = impacts.assign_coords(coords)
             impacts.attrs.setdefault("failed", 0)
-            print(f"{label(coords)}: {impacts.sizes.get('impact', 0)} impacts, "
+            print(f"{label(point)}: {impacts.sizes.get('impact', 0)} impacts, "
                   f"{time.perf_counter() - start:.2f} s -> {path}", flush=True)
         simcore.write_netcdf(impacts, path)

@@ -1,0 +1,70 @@
+# The terminal during a study (functions only; included by the Snakefile): the Numba kernels
+# are compiled once before the jobs start, and Snakemake's per-job chatter is left out of the
+# terminal (the log under .snakemake/log/ keeps everything, each job's output is in logs/).
+
+
+def warm_numba_cache():
+    """Compile (or load) the Numba kernels once, in one process, and say so on the terminal.
+
+    Called by the Snakefile's onstart: not in dry runs, and only when there is a job to run.
+    """
+    import subprocess
+    import time
+
+    log = Path(LOGS, "warm_cache.log")
+    log.parent.mkdir(parents=True, exist_ok=True)
+    print("Numba: compiling the kernels once before the jobs start (1-3 min after an install "
+          "or an update of simcore, a few seconds when cached) ...", file=sys.stderr, flush=True)
+    start = time.perf_counter()
+    with open(log, "w") as out:
+        done = subprocess.run([sys.executable, str(Path(workflow.basedir, "workflow", "scripts",
+                                                        "warm_cache.py"))],
+                              stdout=out, stderr=subprocess.STDOUT)
+    took = time.perf_counter() - start
+    if done.returncode == 0:
+        print(f"Numba: kernels ready ({took:.0f} s; details in {log})", file=sys.stderr,
+              flush=True)
+    else:
+        print(f"WARNING: the Numba warm-up failed after {took:.0f} s (see {log}); each job "
+              "will compile for itself", file=sys.stderr, flush=True)
+
+
+
+class _TerseTerminal(logging.Filter):
+    """Drop Snakemake's scheduling chatter from the terminal (the full log keeps it).
+
+    Left: the job counts at the start, a progress line per finished job ("3 of 20 steps (15%)
+    done"), the lines the jobs print (one per simulation batch, failed runs), warnings, errors
+    and the end; the per-job blocks (inputs and outputs, kB of paths) only in a dry run.
+    With `quiet: [host]` in profiles/default/ this makes a study's terminal output a screenful.
+    """
+
+    _DROP = ("Select jobs to execute", "Execute ", "Finished jobid", "Using shell:",
+             "Assuming unrestricted shared filesystem", "Building DAG of jobs",
+             "Conda environments: ignored", "Provided cores", "Rules claiming more threads")
+    _STAMP = re.compile(r"^\[\w{3} \w{3} +\d+ [\d:]+ \d{4}\]$")
+
+    def __init__(self, workflow):
+        super().__init__()
+        self.workflow = workflow
+
+    def filter(self, record):
+        from snakemake.logging import LogEvent, get_event
+
+        if record.levelno > logging.INFO:
+            return True
+        job_info = get_event(record) in (LogEvent.JOB_INFO, LogEvent.GROUP_INFO)
+        if job_info and not self.workflow.dryrun:
+            return False  # the job's inputs and outputs (kB of paths); a dry run lists them
+        text = str(record.getMessage()).strip()
+        return not (text.startswith(self._DROP) or self._STAMP.match(text))
+
+
+def _terse_terminal():
+    from snakemake.logging import logger
+
+    if not any(isinstance(f, _TerseTerminal) for f in logger.filters):
+        logger.addFilter(_TerseTerminal(workflow))
+
+
+_terse_terminal()
