@@ -1,6 +1,6 @@
 """analysis: the impulse filter, Flores peak forces, impact tables and figures.
 
-SPEC sections 6, 7 and 9.
+docs/forces.md.
 
 Public API
 ----------

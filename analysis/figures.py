@@ -276,7 +276,7 @@ def plot_run(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, outdir, zero_tol
     Parameters
     ----------
     run_ds : xarray.Dataset
-        One run (SPEC section 5).
+        One run file's dataset.
     impacts_ds : xarray.Dataset or None
         Its impact table (:func:`analysis.extract_impacts`), used to print F_max in the zooms.
     outdir : str or Path

@@ -1,4 +1,4 @@
-"""The impulse filter of the paper (section 3; SPEC section 6).
+"""The impulse filter of the paper (section 3; docs/forces.md).
 
 Each ball-race contact yields, at every time step, a discrete normal impulse Λ_n [N s]. The filter
 splits that series into three parts that add up to Λ exactly:
@@ -154,7 +154,7 @@ def split_impulses(lam, zero_tol=1e-4, floor=1e-12, scale=None):
     lam : array_like
         Discrete normal impulses Λ [N s], time along the last axis. Must be finite.
     zero_tol : float
-        Relative zero threshold [-] (SPEC section 6, default 1e-4).
+        Relative zero threshold [-] (docs/forces.md, default 1e-4).
     floor : float
         Absolute floor of the threshold [N s] (default 1e-12).
     scale : float, optional
@@ -225,7 +225,7 @@ def split_dataset(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12) -> xr.Dat
     Parameters
     ----------
     run_ds : xarray.Dataset
-        One run (SPEC section 5), with ``Lambda_N`` (time, contact) [N s].
+        One run file's dataset, with ``Lambda_N`` (time, contact) [N s].
     zero_tol : float
         Relative zero threshold [-]; the scale is the run's largest Λ_N.
     zero_floor : float

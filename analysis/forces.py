@@ -1,6 +1,6 @@
 """From an impulse to a peak contact force: Hertz stiffness and the Flores et al. (2011) law.
 
-SPEC section 7. The contact force during an impact is
+docs/forces.md. The contact force during an impact is
 
     F = K δ^{3/2} (1 + D δ̇),   D = 8 (1 - e_N) / (5 e_N v_pre),
 
@@ -14,7 +14,7 @@ with F_s = 0 for a simple impact and F_s = Λ_S / h for an impact on persistent 
 Scaling. With δ* = (5 m v²/(4K))^{2/5}, F* = K δ*^{3/2}, t* = δ*/v and x = δ/δ*, u = δ̇/v the
 problem becomes  x' = u,  u' = (5/4) (f_s - x^{3/2} (1 + c u)),  c = 8 (1 - e_N)/(5 e_N),
 f_s = F_s/F*, x(0) = f_s^{2/3}, u(0) = 1: it depends on e_N and f_s only. For e_N = 1 and f_s = 0,
-x_max = 1 and F_max = F* exactly (the closed form of SPEC section 7). The scaled problem is
+x_max = 1 and F_max = F* exactly (the closed form in docs/forces.md). The scaled problem is
 integrated with an adaptive Dormand-Prince 5(4) scheme compiled with Numba (rtol 1e-11), with
 events located by bisection for the force peak (dF/dt = 0), the largest indentation (δ̇ = 0) and
 the end of the impact (F back to F_s, i.e. separation when F_s = 0); a stiff case (more than

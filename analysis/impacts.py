@@ -1,6 +1,6 @@
 """Impact extraction for one run: filter, classify by kind, peak force, stresses and flags.
 
-SPEC sections 6, 7, 9 and 11; the formulas per kind and what they rest on are in
+docs/forces.md; the formulas per kind and what they rest on are in
 ``docs/forces.md``. One row per impact (dimension ``impact``): where Λ_FI (a simple impact) or
 Λ_FIsuv (an impact on persistent contact) exceeds the zero threshold. Each row then gets a
 *kind* from the data:
@@ -122,7 +122,7 @@ def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave", groove_conformity=N
     Parameters
     ----------
     run_ds : xarray.Dataset
-        One run (SPEC section 5), with attrs ``model.ball_radius``, ``model.inner_radius``,
+        One run file's dataset, with attrs ``model.ball_radius``, ``model.inner_radius``,
         ``model.youngs_modulus``, ``model.poisson_ratio`` and the clearance (scalar coordinate or
         ``model.clearance``).
     r_eff : {"concave", "paper"}
@@ -219,7 +219,7 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
     Parameters
     ----------
     run_ds : xarray.Dataset
-        One run (SPEC section 5): ``Lambda_N`` and ``vn_free`` (else ``vn_pre``) (time,
+        One run file's dataset: ``Lambda_N`` and ``vn_free`` (else ``vn_pre``) (time,
         contact), coordinates ``ball`` and ``race`` on ``contact``, model settings in attrs (see
         :func:`run_geometry`), ``solver.dt`` (else the median time step) and e_N (scalar
         coordinate or ``model.e_N``); ``converged`` (time) if present.

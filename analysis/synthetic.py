@@ -1,4 +1,4 @@
-"""Synthetic run datasets with the layout of SPEC section 5, for tests, benchmarks and demos.
+"""Synthetic run datasets with the layout of a run file, for tests, benchmarks and demos.
 
 They are not simulations: the impulse histories are hand-built (isolated impacts, a persistent
 contact train with impacts on top of it, noise), the kinematics is the ideal slider-crank plus a
@@ -32,7 +32,7 @@ PAPER_MODEL = {
 
 def make_run_dataset(n_steps=600, n_balls=8, seed=0, clearance=4.0e-4, mu=0.01, omega0=50.0,
                      e_N=0.9, dt=1.0e-4, journal=True, lam_scale=1e-3, vn_free=True):
-    """A synthetic run dataset (SPEC section 5 layout).
+    """A synthetic run dataset with the layout of a run file (README, 'The run file').
 
     Parameters
     ----------

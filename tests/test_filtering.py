@@ -1,4 +1,4 @@
-"""The impulse filter (SPEC section 6): invariants, the paper's Fig. 3 case, thresholds."""
+"""The impulse filter (docs/forces.md): invariants, the paper's Fig. 3 case, thresholds."""
 
 import numpy as np
 import pytest
@@ -146,7 +146,7 @@ def test_threshold_relative_and_floor():
 
 def test_ripples_only_count_above_threshold():
     """A persistent-contact train with tiny ripples: every ripple is a peak of Λ_AUX, but only
-    the real impact exceeds the relative threshold (SPEC 6: counts need the threshold)."""
+    the real impact exceeds the relative threshold (counts need the threshold)."""
     rng = np.random.default_rng(1)
     lam = np.zeros(400)
     lam[50:350] = 1e-2 + 1e-9 * rng.standard_normal(300)

@@ -1,4 +1,4 @@
-"""Hertz stiffness and Flores peak forces (SPEC section 7) against closed forms and invariants."""
+"""Hertz stiffness and Flores peak forces (docs/forces.md) against closed forms and invariants."""
 
 import math
 
@@ -49,7 +49,7 @@ def test_concave_equal_radii_raises():
 @pytest.mark.parametrize("m,v,K", [(1.0, 1.0, K_IN), (2.7e-3, 0.3, K_IN), (4.0, 0.01, 1e10),
                                    (1e-3, 5.0, 1e6)])
 def test_elastic_matches_closed_form(m, v, K):
-    # closed form of SPEC 7, written here independently of the package
+    # closed form of the Flores impact, written here independently of the package
     dmax = (5 * m * v**2 / (4 * K)) ** 0.4
     fmax = K * dmax**1.5
     r = peak_force(2 * m * v, v, 1.0, K, details=True)
@@ -65,7 +65,7 @@ def test_elastic_matches_closed_form(m, v, K):
 
 
 def test_contact_time_of_order_2ms_with_paper_modulus():
-    """SPEC 7: about 2 ms for m_eff = 1 kg, v_pre = 1 m/s with E = 2.1e9 Pa."""
+    """About 2 ms for m_eff = 1 kg, v_pre = 1 m/s with E = 2.1e9 Pa."""
     r = peak_force(2.0, 1.0, 1.0, K_IN, details=True, h=1e-4)
     assert 1.5e-3 < r.contact_time < 2.5e-3
     assert r.contact_steps == pytest.approx(r.contact_time / 1e-4)

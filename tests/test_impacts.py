@@ -1,4 +1,4 @@
-"""Impact tables of a run (SPEC sections 7, 9, 11), kinds, flags and the command line."""
+"""Impact tables of a run (docs/forces.md), kinds, flags and the command line."""
 
 import math
 

@@ -25,7 +25,7 @@ def contact_rows(q, k, ma, wN, wT):
     """Gap ``g_N`` [m] of contact ``k`` and its normal / tangential Jacobian entries.
 
     ``wN[0:3]``, ``wT[0:3]`` belong to body a (surface), ``wN[3:6]``, ``wT[3:6]`` to body b
-    (sphere). Elements (SPEC section 3):
+    (sphere). Elements (docs/model.md):
 
     - plane: n is the plane normal, g = n.(c_b - c_a) - r_b;
     - outside (sphere on sphere): n = (c_b - c_a)/|.|, g = |c_b - c_a| - r_a - r_b;

@@ -664,7 +664,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
             continue
         contact_rows(q1, k, ma, wN, wT)
         scatter_row(G[row], wN, ct_body[k, 0], ct_body[k, 1])
-        # Newton's law as SPEC section 3 states it, with the start-of-step velocity also where
+        # Newton's law as docs/model.md states it, with the start-of-step velocity also where
         # the contact was separating then (closed by the position correction, e.g. the partner
         # of a pinched ball): xi_N = dg_N+ + e_N dg_N- may then leave it slightly approaching.
         # Clipping dg_N- at 0 there was tried: with several simultaneous Newton laws around a

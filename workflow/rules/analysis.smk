@@ -1,4 +1,4 @@
-# Filter and forces per run (SPEC sections 6-7; one job per batch of runs, as simulate), then one summary over the grid (SPEC section 8).
+# Filter and forces per run (docs/forces.md; one job per batch of runs, as simulate), then one summary over the grid (docs/study.md).
 
 
 rule impacts:
