@@ -56,8 +56,8 @@ _BALL_FACTOR = 2.0  # a pinch impulse exceeds twice what the ball alone can carr
 
 # name: (units or None, long_name)
 _VARS = {
-    "contact": (None, "contact index (balls 0..n-1 on the inner race, then on the outer race)"),
-    "ball": (None, "ball index"),
+    "contact": ("1", "contact index (balls 0..n-1 on the inner race, then on the outer race)"),
+    "ball": ("1", "ball index"),
     "race": (None, "race of the contact"),
     "time": ("s", "time of the impact step (end of the step)"),
     "kind": (None, "impact kind"),
@@ -402,7 +402,7 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
         "trusted": trusted.astype(np.int8),
     }
     ds = xr.Dataset(coords={"impact": ("impact", np.arange(n, dtype=np.int64),
-                                       {"long_name": "impact number"})})
+                                       {"units": "1", "long_name": "impact number"})})
     for name, values in data.items():
         ds[name] = ("impact", values, _set_attrs(name, _VARS[name]))
     ds["race"].attrs.update(flag_values=np.array(list(RACE.values()), dtype=np.int8),

@@ -312,7 +312,7 @@ def test_netcdf_round_trip(impacts, tmp_path):
     with xr.open_dataset(path) as back:
         np.testing.assert_array_equal(back["kind"].values, impacts["kind"].values)
         np.testing.assert_array_equal(back["F_max"].values, impacts["F_max"].values)
-        assert float(back["clearance"]) == float(impacts["clearance"])
+        assert back["clearance"].item() == impacts["clearance"].item()
         assert back["clearance"].attrs["units"] == "m"
         assert back.attrs["r_eff"] == "concave"
         assert back["flags"].attrs["flag_meanings"] == impacts["flags"].attrs["flag_meanings"]
