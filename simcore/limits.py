@@ -196,9 +196,10 @@ def check_run_of_config(cfg: dict) -> list[str]:
     """:func:`check_run` for the crank-slider of a validated configuration without building
     the model, for a command line that answers at once."""
     check_memory_of_config(cfg)
-    msg = check_step_size(_CageRing(cfg["model"]), cfg["solver"]["dt"],
-                          cfg["solver"]["on_unresolved_dt"])
-    return [msg] if msg else []
+    msgs = [check_step_size(_CageRing(cfg["model"]), cfg["solver"]["dt"],
+                            cfg["solver"]["on_unresolved_dt"]),
+            check_contact_step(cfg)]
+    return [m for m in msgs if m]
 
 
 def check_memory(model, dt: float, t_end: float, max_gb: float) -> int:
@@ -252,5 +253,66 @@ def check_run(cfg: dict, model=None) -> list[str]:
         model = crank_slider(cfg["model"])[0]
     solver = cfg["solver"]
     check_memory(model, solver["dt"], solver["t_end"], solver["max_memory_gb"])
-    msg = check_step_size(model, solver["dt"], solver["on_unresolved_dt"])
-    return [msg] if msg else []
+    msgs = [check_step_size(model, solver["dt"], solver["on_unresolved_dt"]),
+            check_contact_step(cfg)]
+    return [m for m in msgs if m]
+
+
+#: fewest steps a compliant contact must last (its Hertz contact time over dt)
+MIN_CONTACT_STEPS = 5.0
+
+
+def hertz_contact_time(model: dict) -> float:
+    """Shortest Hertz contact time of a ball on a race in the crank-slider of ``model`` [s].
+
+    An undamped Hertz impact of mass m at speed v on a contact of stiffness K lasts
+    2.94 δ_max / v with δ_max = (5 m v² / (4 K))^(2/5). Here m is the ball mass, K the stiffer
+    of the two races (the concave outer race: R = r_B r_C/(r_C − r_B); the inner race:
+    R = r_A r_B/(r_A + r_B); K = (4/3) E* sqrt(R), both bodies of the same material) and v the
+    speed of the crank pin, |omega0| L_crank, at least 1 m/s: a ball hits a race at about the
+    speed the pin carries it, and a faster impact is a shorter one (t ∝ v^(-1/5)).
+    """
+    E, nu = float(model["youngs_modulus"]), float(model["poisson_ratio"])
+    e_star = E / (2.0 * (1.0 - nu * nu))
+    r_a, r_b = float(model["inner_radius"]), float(model["ball_radius"])
+    r_c = r_a + 2.0 * r_b + float(model["clearance"])
+    radius = max(r_a * r_b / (r_a + r_b), r_b * r_c / (r_c - r_b))
+    stiffness = 4.0 / 3.0 * e_star * math.sqrt(radius)
+    speed = max(abs(float(model["omega0"])) * float(model["crank_length"]), 1.0)
+    delta_max = (5.0 * float(model["ball_mass"]) * speed ** 2 / (4.0 * stiffness)) ** 0.4
+    return 2.94 * delta_max / speed
+
+
+def check_contact_step(cfg: dict) -> str | None:
+    """Refuse (or warn about) a compliant run whose step cannot resolve a contact.
+
+    Only for ``model.contact_model = compliant`` (a nonsmooth contact has no duration). The
+    step must be at most 1/:data:`MIN_CONTACT_STEPS` of :func:`hertz_contact_time`.
+
+    Returns
+    -------
+    str or None
+        The message, when the step is too large and ``solver.on_unresolved_dt`` is ``"warn"``.
+
+    Raises
+    ------
+    ConfigError
+        One line naming ``solver.dt`` and the limit (policy ``"error"``).
+    """
+    if cfg["model"].get("contact_model", "nonsmooth") != "compliant":
+        return None
+    dt = float(cfg["solver"]["dt"])
+    t_contact = hertz_contact_time(cfg["model"])
+    limit = t_contact / MIN_CONTACT_STEPS
+    if dt <= limit:
+        return None
+    why = (f"<= {limit:.3g} s, to resolve a compliant contact in {MIN_CONTACT_STEPS:g} steps or "
+           f"more (Hertz contact time of a ball hitting a race at the crank pin's speed: "
+           f"{t_contact:.3g} s with model.youngs_modulus = {cfg['model']['youngs_modulus']:g})")
+    if cfg["solver"]["on_unresolved_dt"] == "error":
+        raise ConfigError(f"solver.dt: {dt!r} is not allowed; allowed: {why}; lower solver.dt, "
+                          "or set solver.on_unresolved_dt=warn")
+    msg = (f"solver.dt: {dt!r} is above the limit {why}; running anyway "
+           "(solver.on_unresolved_dt=warn), the energy audit watches every step")
+    warnings.warn(msg, RuntimeWarning, stacklevel=2)
+    return msg

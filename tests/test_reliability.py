@@ -412,3 +412,47 @@ def test_repair_finds_unreadable_and_orphaned_files_and_a_dry_run_touches_nothin
     assert looking_only(["snakemake", "-j2", "-n"]) and looking_only(["snakemake", "-np"])
     assert looking_only(["snakemake", "--lint"]) and looking_only(["snakemake", "--report=r.html"])
     assert not looking_only(["snakemake", "-j2", "--nolock", "--configfile", "config/smoke.yaml"])
+
+
+# --- compliant contacts: the step must resolve a Hertz contact --------------------------------
+
+def test_hertz_contact_time_matches_an_integrated_impact():
+    """The limit's contact time against a direct integration of m x'' = -K x^1.5."""
+    from scipy.integrate import solve_ivp
+
+    from simcore.config import load_config
+    from simcore.limits import hertz_contact_time
+
+    model = load_config(overrides=["model.youngs_modulus=2.1e11"])["model"]
+    E, nu = model["youngs_modulus"], model["poisson_ratio"]
+    r_b, r_a = model["ball_radius"], model["inner_radius"]
+    r_c = r_a + 2 * r_b + model["clearance"]
+    R = r_b * r_c / (r_c - r_b)  # the outer race, the stiffer contact
+    K = 4.0 / 3.0 * E / (2 * (1 - nu * nu)) * np.sqrt(R)
+    m, v = model["ball_mass"], model["omega0"] * model["crank_length"]
+
+    def rhs(_t, y):
+        return [y[1], -K * max(y[0], 0.0) ** 1.5 / m]
+
+    def released(_t, y):
+        return y[0]
+    released.terminal, released.direction = True, -1
+    sol = solve_ivp(rhs, (0.0, 1e-3), [1e-15, v], events=released, rtol=1e-10, atol=1e-16)
+    assert hertz_contact_time(model) == pytest.approx(sol.t_events[0][0], rel=0.01)
+
+
+def test_compliant_step_must_resolve_the_contact():
+    from simcore.config import load_config
+    from simcore.limits import check_run_of_config, hertz_contact_time
+
+    steel = ["model.contact_model=compliant", "model.youngs_modulus=2.1e11"]
+    cfg = load_config(overrides=steel + ["solver.dt=1e-4"])
+    with pytest.raises(ConfigError, match=r"^solver\.dt: .*compliant contact"):
+        check_run_of_config(cfg)
+    ok = load_config(overrides=steel + ["solver.dt=1e-6"])
+    assert check_run_of_config(ok) == []
+    assert 1e-6 <= hertz_contact_time(ok["model"]) / 5
+    with pytest.warns(RuntimeWarning, match="solver.dt"):
+        load_warn = load_config(overrides=steel + ["solver.dt=1e-4",
+                                                   "solver.on_unresolved_dt=warn"])
+        assert len(check_run_of_config(load_warn)) == 1
