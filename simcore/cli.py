@@ -1,6 +1,7 @@
 """Command line:
 
-- ``python -m simcore run [--config FILE] [--set KEY=VALUE ...] --out FILE.nc``
+- ``python -m simcore run [--config FILE] [--set KEY=VALUE ...] --out FILE.nc`` (the file holds
+  the variables of ``study.keep``; the printed summary is made before they are dropped)
 - ``python -m simcore zoom RUN.nc --time T [--window W] [--dt H] [--set KEY=VALUE] --out Z.nc``
 """
 
@@ -219,7 +220,7 @@ def main(argv=None) -> int:
               "machine's free memory, or shorten solver.t_end", file=sys.stderr)
         return 3
     try:
-        write_netcdf(ds, args.out)
+        write_netcdf(ds, args.out, keep=cfg["study"]["keep"])  # study.keep
     except OSError as exc:
         print(f"error: --out: cannot write {args.out}: {exc}", file=sys.stderr)
         return 4

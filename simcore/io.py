@@ -41,8 +41,37 @@ PARAMETERS = {
     "e_N": ("1", "normal restitution coefficient"),
 }
 
+#: Data variables of a run file and the type each is stored as (attribute ``storage`` of the
+#: variable says it too). float64 where digits matter: the restart state of the compliant zoom
+#: (``position``, ``angle``, ``velocity``, ``angular_velocity``), the impulses ``Lambda_N`` that
+#: the impulse filter thresholds at ``analysis.zero_tol`` of the largest, the crank angle that
+#: counts the revolutions of long runs and the energy. float32 (about 7 significant digits)
+#: where the analysis needs fewer or the figures only plot. Compliant runs add ``F_N``, ``F_T``;
+#: ``energy_error`` comes with the energy audit.
+STORAGE = {
+    "Lambda_N": "float64", "Lambda_T": "float32", "nu_N": "float32", "gap_N": "float32",
+    "vn_pre": "float32", "vn_post": "float32", "vn_free": "float32",
+    "position": "float64", "angle": "float64", "velocity": "float64",
+    "angular_velocity": "float64", "crank_angle": "float64", "slider_x": "float32",
+    "slider_v": "float32", "journal_x": "float32", "journal_y": "float32", "energy": "float64",
+    "drive_torque": "float32", "iterations": "int16", "converged": "int8",
+    "energy_error": "float32", "F_N": "float32", "F_T": "float32",
+}
+
+#: Every data variable a run file can hold (the allowed names of ``study.keep``).
+RUN_VARIABLES = tuple(STORAGE)
+
+#: Default of ``study.keep``: what the impact analysis (``Lambda_N``, ``vn_free``,
+#: ``converged``), the compliant zoom (the restart state), the summary (``iterations``,
+#: ``crank_angle``), the figures (``slider_x``, ``journal_x``, ``journal_y``) and the README's
+#: examples read; ``F_N`` for compliant runs.
+DEFAULT_KEEP = ("Lambda_N", "vn_free", "position", "angle", "velocity", "angular_velocity",
+                "crank_angle", "slider_x", "journal_x", "journal_y", "iterations", "converged",
+                "F_N")
+
 __all__ = ["write_netcdf", "trajectory_dataset", "failed_run_dataset", "generalized",
-           "open_run", "parameter_coords", "history_line", "CONVENTIONS", "PARAMETERS"]
+           "open_run", "parameter_coords", "history_line", "keep_variables", "CONVENTIONS",
+           "PARAMETERS", "STORAGE", "RUN_VARIABLES", "DEFAULT_KEEP"]
 
 
 def _is_text(var: xr.Variable) -> bool:
@@ -53,11 +82,35 @@ def _is_text(var: xr.Variable) -> bool:
     return False
 
 
-def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4) -> Path:
+def keep_variables(ds: xr.Dataset, keep=None) -> xr.Dataset:
+    """The run dataset with only the data variables named in ``keep`` (``study.keep``).
+
+    Names of :data:`RUN_VARIABLES` that ``ds`` lacks (``F_N`` of a nonsmooth run) are skipped;
+    variables that are not run variables (those of other datasets) are kept.
+
+    Raises
+    ------
+    ValueError
+        For a name that is not a run variable, naming the key and the allowed names.
+    """
+    if keep is None:
+        return ds
+    unknown = [name for name in keep if name not in STORAGE]
+    if unknown:
+        raise ValueError(f"study.keep: {unknown[0]!r} is not allowed; allowed: "
+                         + ", ".join(RUN_VARIABLES))
+    drop = [name for name in ds.data_vars if name in STORAGE and name not in keep]
+    return ds.drop_vars(drop)
+
+
+def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4, keep=None) -> Path:
     """Write ``ds`` to ``path`` atomically, with zlib compression of the data variables.
 
     Coordinates are written without ``_FillValue`` and text variables as character arrays (both
-    as CF asks; a text variable keeps a ``dtype`` its own encoding names).
+    as CF asks; a text variable keeps a ``dtype`` its own encoding names). A data variable whose
+    ``encoding`` names a ``dtype`` (the run variables, :data:`STORAGE`) is stored as that type.
+    A data variable along ``time`` is chunked per time series (one chunk per contact, body and
+    axis), which compresses the smooth series better than whole rows.
 
     Parameters
     ----------
@@ -67,6 +120,9 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4) -> Path:
         Target file; its folder is created if missing.
     complevel : int
         zlib compression level (0-9).
+    keep : sequence of str, optional
+        Data variables of a run to write (``study.keep``, see :func:`keep_variables`); None:
+        all.
 
     Returns
     -------
@@ -74,6 +130,7 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4) -> Path:
         The written path.
     """
     path = Path(path)
+    ds = keep_variables(ds, keep)
     path.parent.mkdir(parents=True, exist_ok=True)
     encoding = {}
     for name, var in ds.variables.items():
@@ -85,6 +142,10 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4) -> Path:
             enc["_FillValue"] = None  # CF: coordinates have no missing values
         if name in ds.data_vars and var.ndim > 0 and (var.dtype.kind in "fiub" or text):
             enc.update(zlib=True, complevel=complevel, shuffle=True)
+            if var.encoding.get("dtype") is not None and not text:
+                enc["dtype"] = var.encoding["dtype"]
+            if var.dims[0] == "time" and not text:
+                enc["chunksizes"] = (max(1, var.shape[0]),) + (1,) * (var.ndim - 1)
         if enc:
             encoding[name] = enc
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -304,6 +365,12 @@ def trajectory_dataset(traj, model, layout, cfg: dict, compile_time_s: float = 0
         data["energy_error"] = (("time",), audit.error, _attrs(
             "J", "energy created by the step ending at time: energy change minus drive work "
             "(<= 0 when the step only dissipates)"))
+    if int(np.max(traj.iterations, initial=0)) > np.iinfo(np.int16).max:
+        storage = dict(STORAGE, iterations="int32")
+    else:
+        storage = STORAGE
+    for name, (*_, attrs) in data.items():
+        attrs["storage"] = storage[name]
     contact = np.arange(2 * n_balls)
     coords = {
         "time": ("time", traj.time, _attrs("s", "time since the start of the run")),
@@ -345,7 +412,10 @@ def trajectory_dataset(traj, model, layout, cfg: dict, compile_time_s: float = 0
     if audit is not None:
         attrs.update(audit.summary(traj.energy))
     attrs["solver.output_dt"] = float(cfg["solver"]["dt"]) * out_every
-    return xr.Dataset(data, coords=coords, attrs=attrs)
+    ds = xr.Dataset(data, coords=coords, attrs=attrs)
+    for name in data:
+        ds[name].encoding["dtype"] = np.dtype(storage[name])
+    return ds
 
 
 def failed_run_dataset(cfg: dict, message: str) -> xr.Dataset:

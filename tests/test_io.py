@@ -114,3 +114,92 @@ def test_run_and_failed_files_pass_the_cf_checker(two_runs, tmp_path):
                           str(marker)], capture_output=True, text=True)
     assert out.returncode == 0, out.stdout + out.stderr
     assert "2 of 2 files pass" in out.stdout
+
+
+# --- study.keep and the stored types --------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def short_paper_case():
+    """The paper's case over its first 50 ms (the first impacts at 1.5 ms) and its config."""
+    cfg = simcore.load_config(overrides=["solver.t_end=0.05"])
+    return simcore.run(cfg), cfg
+
+
+def test_keep_setting_drops_and_keeps_variables(short_paper_case, tmp_path):
+    from simcore.io import DEFAULT_KEEP, RUN_VARIABLES
+
+    ds, cfg = short_paper_case
+    assert tuple(cfg["study"]["keep"]) == DEFAULT_KEEP
+    assert set(ds.data_vars) <= set(RUN_VARIABLES)
+    for keep, expected in ((["Lambda_N", "converged"], {"Lambda_N", "converged"}),
+                           (cfg["study"]["keep"], set(DEFAULT_KEEP) - {"F_N"}),  # nonsmooth
+                           (None, set(ds.data_vars))):
+        path = write_netcdf(ds, tmp_path / "k.nc", keep=keep)
+        with xr.open_dataset(path) as back:
+            assert set(back.data_vars) == expected
+            assert set(back.coords) == set(ds.coords)
+    assert set(ds.data_vars) > set(DEFAULT_KEEP) - {"F_N"}  # the dataset in memory keeps all
+
+
+def test_stored_types_are_those_of_the_storage_table(short_paper_case, tmp_path):
+    from simcore.io import STORAGE
+
+    ds, _ = short_paper_case
+    path = write_netcdf(ds, tmp_path / "all.nc")
+    with netCDF4.Dataset(path) as nc:
+        for name in ds.data_vars:
+            var = nc.variables[name]
+            assert var.dtype == np.dtype(STORAGE[name]), name
+            assert var.storage == STORAGE[name], name
+            assert var.chunking()[0] == ds.sizes["time"], name  # one chunk per time series
+        assert nc.variables["time"].dtype == np.float64
+    with xr.open_dataset(path) as back:  # float64 restart state and impulses: exact
+        for name in ("position", "angle", "velocity", "angular_velocity", "Lambda_N",
+                     "crank_angle", "iterations", "converged"):
+            np.testing.assert_array_equal(back[name].values, ds[name].values, err_msg=name)
+        for name in ("vn_free", "slider_x", "journal_x"):  # float32: 7 significant digits
+            np.testing.assert_allclose(back[name].values, ds[name].values, rtol=1e-7,
+                                       atol=1e-7 * float(np.abs(ds[name]).max()), err_msg=name)
+
+
+def test_unknown_keep_names_are_refused_before_any_work(tmp_path):
+    from simcore.config import load_schema
+    from simcore.io import DEFAULT_KEEP, RUN_VARIABLES, keep_variables
+
+    keep = load_schema()["properties"]["study"]["properties"]["keep"]
+    assert tuple(keep["items"]["enum"]) == RUN_VARIABLES
+    assert tuple(keep["default"]) == DEFAULT_KEEP
+    with pytest.raises(simcore.ConfigError) as err:
+        simcore.load_config(overrides=["study.keep=[Lambda_N, lambda_n]"])
+    msg = str(err.value)
+    assert "\n" not in msg and msg.startswith("study.keep.1: 'lambda_n' is not allowed")
+    assert all(f"'{name}'" in msg for name in RUN_VARIABLES)
+    with pytest.raises(ValueError, match="study.keep: 'q' is not allowed; allowed: Lambda_N"):
+        keep_variables(xr.Dataset(), ["q"])
+    out = tmp_path / "x.nc"
+    res = subprocess.run([sys.executable, "-m", "simcore", "run", "--quiet", "--set",
+                          "study.keep=[gap]", "--out", str(out)], capture_output=True, text=True,
+                         cwd=ROOT)
+    assert res.returncode == 2 and res.stderr.startswith("error: study.keep.0: 'gap'")
+    assert not out.exists()
+
+
+def test_default_keep_file_gives_the_impact_table_of_the_run(short_paper_case, tmp_path):
+    """extract_impacts on the written-and-read default file equals that on the dataset in
+    memory: impulses, times, contacts, kinds and flags exactly (float64 Lambda_N); v_pre and
+    F_max to 1e-6 (vn_free is stored as float32)."""
+    import analysis
+
+    ds, cfg = short_paper_case
+    path = write_netcdf(ds, tmp_path / "p.nc", keep=cfg["study"]["keep"])
+    with xr.open_dataset(path) as f:
+        back = f.load()
+    ref, got = analysis.extract_impacts(ds), analysis.extract_impacts(back)
+    assert ref.sizes["impact"] == got.sizes["impact"] > 10
+    for name in ("time", "contact", "ball", "race", "kind", "flags", "impulse", "trusted"):
+        np.testing.assert_array_equal(got[name].values, ref[name].values, err_msg=name)
+    for name in ("v_pre", "F_max"):
+        np.testing.assert_allclose(got[name].values, ref[name].values, rtol=1e-6, err_msg=name)
+    q_ref, q_got = generalized(ds), generalized(back)  # the zoom's restart state, exact
+    np.testing.assert_array_equal(q_got.q.values, q_ref.q.values)
+    np.testing.assert_array_equal(q_got.v.values, q_ref.v.values)

@@ -13,6 +13,7 @@ rule simulate:
     params:
         points=batch_points,
         configs=batch_configs,
+        keep=config["study"]["keep"],
     threads: 1
     resources:
         runtime=30,

@@ -39,7 +39,7 @@ with job_log(sm.log[0]) as terminal:
             print(f"WARNING: {message} -> recorded as missing in {path}", file=terminal)
             ds = failed_run_dataset(cfg, message)
             n_failed += 1
-        simcore.write_netcdf(ds, path)
+        simcore.write_netcdf(ds, path, keep=sm.params.keep)  # study.keep
         print(f"{label(point)}: {time.perf_counter() - start:.2f} s "
               f"(numba threads: {n_threads}) -> {path}", flush=True)
     total = time.perf_counter() - batch_start
