@@ -26,11 +26,12 @@ def run(config, progress=False):
     return _run(config, progress=progress)
 
 
-def write_netcdf(ds, path, complevel=4):
-    """Write a dataset atomically; see :func:`simcore.io.write_netcdf`."""
+def write_netcdf(ds, path, complevel=4, keep=None):
+    """Write a dataset atomically (``keep``: the variables a run file stores, ``study.keep``);
+    see :func:`simcore.io.write_netcdf`."""
     from .io import write_netcdf as _write
 
-    return _write(ds, path, complevel=complevel)
+    return _write(ds, path, complevel=complevel, keep=keep)
 
 
 def zoom(run_ds, time, window=2e-3, dt=1e-6, overrides=(), output_dt=None,
