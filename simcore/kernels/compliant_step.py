@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .generalized_alpha import alpha_coefficients, smooth_step
+from .generalized_alpha import alpha_coefficients, smooth_step, step_work
 from .hertz import elastic_energy
 from .joints import bilateral, joint_row_count
 from .linalg import gauss_solve
@@ -124,16 +124,7 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out):
     n = q.shape[0]
     nc = ma.ct_type.shape[0]
     coef = alpha_coefficients(st.rho_inf)
-    q_t = np.zeros(n)
-    v_t = np.zeros(n)
-    acc1 = np.zeros(n)
-    vdot1 = np.zeros(n)
-    f_t = np.zeros(n)
-    K_t = np.zeros((n, n))
-    C_t = np.zeros((n, n))
-    Ks_t = np.zeros((n, n))
-    q1 = np.zeros(n)
-    v1 = np.zeros(n)
+    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = step_work(n)
     cwork = np.zeros((11, nc))
     first_bad = -1
     for k in range(k0, k1):

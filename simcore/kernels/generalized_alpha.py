@@ -14,6 +14,15 @@ from .springs import smooth_forces
 
 
 @njit(cache=True)
+def step_work(n):
+    """Work arrays of a step shared by both time loops, made once per chunk: the smooth
+    stage's predicted q~, v~, accelerations a, v', force f and its Jacobians K, C, K_s (n x n),
+    and the end-of-step q, v."""
+    return (np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n),
+            np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n)), np.zeros(n), np.zeros(n))
+
+
+@njit(cache=True)
 def alpha_coefficients(rho_inf):
     """(alpha_m, alpha_f, gamma, beta) of generalized-alpha for a spectral radius rho_inf."""
     am = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0)

@@ -12,7 +12,7 @@ from numba import njit
 
 from .bodies import scatter_row
 from .contact import contact_hessian, contact_rows, contact_velocities
-from .generalized_alpha import alpha_coefficients, smooth_step
+from .generalized_alpha import alpha_coefficients, smooth_step, step_work
 from .joints import bilateral, joint_row_count
 from .linalg import (
     block_factor,
@@ -816,16 +816,7 @@ def integrate_chunk(k0, k1, st, ma, state, out):
     n = q.shape[0]
     nc = ma.ct_type.shape[0]
     coef = alpha_coefficients(st.rho_inf)
-    q_t = np.zeros(n)
-    v_t = np.zeros(n)
-    acc1 = np.zeros(n)
-    vdot1 = np.zeros(n)
-    f_t = np.zeros(n)
-    K_t = np.zeros((n, n))
-    C_t = np.zeros((n, n))
-    Ks_t = np.zeros((n, n))
-    q1 = np.zeros(n)
-    v1 = np.zeros(n)
+    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = step_work(n)
     nu_c = np.zeros(nc)
     gap = np.zeros(nc)
     vn = np.zeros(nc)
