@@ -54,7 +54,11 @@ def _profile_kernel():
     from numba import njit, objmode
 
     from simcore.kernels import contact_velocities, smooth_step, total_energy
-    from simcore.kernels.generalized_alpha import alpha_coefficients
+    from simcore.kernels.generalized_alpha import (
+        alpha_coefficients,
+        smooth_work,
+        step_work,
+    )
     from simcore.kernels.joints import joint_row_count
     from simcore.kernels.nonsmooth_step import (
         position_step,
@@ -83,10 +87,8 @@ def _profile_kernel():
         n = q.shape[0]
         nc = ma.ct_type.shape[0]
         coef = alpha_coefficients(st.rho_inf)
-        q_t, v_t, acc1, vdot1, f_t = (np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n),
-                                      np.zeros(n))
-        K_t, C_t, Ks_t = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
-        q1, v1 = np.zeros(n), np.zeros(n)
+        q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = step_work(n)
+        sw = smooth_work(n, joint_row_count(ma.jt_type))
         nu_c, gap, vn, vt = np.zeros(nc), np.zeros(nc), np.zeros(nc), np.zeros(nc)
         vnf = np.zeros(nc)
         nbil = joint_row_count(ma.jt_type)
@@ -97,7 +99,7 @@ def _profile_kernel():
             t1 = (k + 1) * h
             c0 = clock()
             smooth_step(q, v, acc, vdot, state.lam_s, t1, h, coef, tol, max_iter, ma, q_t,
-                        v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t)
+                        v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, sw, None, 1.0, None)
             c1 = clock()
             position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, pwk)
             c2 = clock()
@@ -143,12 +145,13 @@ def profile_step(model, s, n_steps: int, repeats: int = 3) -> np.ndarray:
         n, nc = q.size, arr.ct_type.size
         nbil = int(nb.joint_row_count(arr.jt_type))
         acc, vdot, lam_s = np.zeros(n), np.zeros(n), np.zeros(nbil)
-        nb.initial_acceleration(q, v, 0.0, arr, vdot, lam_s)
+        nb.initial_acceleration(q, v, 0.0, arr, vdot, lam_s, None, 1.0)
         acc[:] = vdot
         gap0, vn0, vt0 = np.zeros(nc), np.zeros(nc), np.zeros(nc)
         nb.contact_velocities(q, v, arr, gap0, vn0, vt0)
         st = nb.StepSettings(float(s["dt"]), float(s["rho_inf"]), float(s["tol"]),
-                             int(s["max_iter"]), float(s["proximal"]), int(model.drive_row()))
+                             int(s["max_iter"]), float(s["proximal"]), int(model.drive_row()),
+                             0.0, 1.0, 1e-3)
         state = nb.StepState(q, v, acc, vdot, lam_s, np.zeros(nbil), np.zeros(nc),
                              np.zeros(nc), vn0, vt0)
         spent = np.zeros(len(STAGES))

@@ -406,7 +406,8 @@ class Model:
         nb.contact_velocities(q, v, arr, gap0, vn0, vt0)
         v_pre = np.maximum(-vn0, v_pre_min)
         try:
-            nb.initial_acceleration(q, v, float(t0), arr, vdot, lam_s, compliant, v_pre, v_reg)
+            nb.initial_acceleration(q, v, float(t0), arr, vdot, lam_s,
+                                    v_pre if compliant else None, v_reg)
         except np.linalg.LinAlgError as exc:
             raise SolverError(f"the joints at t = 0 are redundant or singular: {exc}") from None
         acc[:] = vdot

@@ -111,7 +111,7 @@ def test_initial_acceleration_of_free_fall():
     arr = model.arrays()
     q, v = model.initial_state()
     vdot, lam = np.zeros(3), np.zeros(0)
-    nb.initial_acceleration(q, v, 0.0, arr, vdot, lam, False, np.zeros(1), 1.0)
+    nb.initial_acceleration(q, v, 0.0, arr, vdot, lam, None, 1.0)
     np.testing.assert_allclose(vdot, [0.0, -9.81, 0.0])
 
 

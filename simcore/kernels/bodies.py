@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def body_point(q, body, px, py):
     """World position (x, y) and lever arm (ax, ay) = R(phi) p of a body-fixed point [m]."""
     if body < 0:
@@ -29,7 +29,7 @@ def body_point(q, body, px, py):
     return q[3 * body] + ax, q[3 * body + 1] + ay, ax, ay
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def body_omega(v, body):
     """Angular velocity of a body [rad/s] (0 for the ground)."""
     if body < 0:
@@ -37,7 +37,7 @@ def body_omega(v, body):
     return v[3 * body + 2]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def unit_direction(dx, dy):
     """Length of (dx, dy) and its unit vector ((1, 0) for a zero vector)."""
     length = np.sqrt(dx * dx + dy * dy)
@@ -46,7 +46,7 @@ def unit_direction(dx, dy):
     return length, 1.0, 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def pair_point_jacobians(P, aix, aiy, ajx, ajy):
     """P (2 x 6) = d(c_j - c_i)/d(q_i, q_j) for body points with lever arms a_i, a_j."""
     P[:, :] = 0.0
@@ -60,14 +60,14 @@ def pair_point_jacobians(P, aix, aiy, ajx, ajy):
     P[1, 5] = ajx
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def transverse_form(P, nx, ny, a, c):
     """Entry (a, c) of P^T (I - n n^T) P: the change of direction of a two-point distance."""
     return (P[0, a] * ((1.0 - nx * nx) * P[0, c] - nx * ny * P[1, c])
             + P[1, a] * (-nx * ny * P[0, c] + (1.0 - ny * ny) * P[1, c]))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def scatter_row(row, w, ia, ib):
     """Write the 6 element entries of ``w`` into a dense generalized row."""
     row[:] = 0.0
@@ -79,7 +79,7 @@ def scatter_row(row, w, ia, ib):
             row[3 * ib + a] += w[3 + a]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def row_dot(w, ia, ib, x):
     s = 0.0
     if ia >= 0:

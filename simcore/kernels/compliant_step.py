@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .generalized_alpha import alpha_coefficients, smooth_step, step_work
+from .generalized_alpha import alpha_coefficients, smooth_step, smooth_work, step_work
 from .hertz import elastic_energy
 from .joints import bilateral, joint_row_count
 from .linalg import gauss_solve
@@ -26,7 +26,7 @@ COMPLIANT_STAGE_POSITION = 1
 COMPLIANT_STAGE_VELOCITY = 2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
     """Remove the joints' drift: q1 = q_t + M^-1 G^T nu with g(q1) = 0 (Newton, |g|/h <= tol;
     no iteration when the drift is already within it), then v1 = v_t + M^-1 G^T mu with
@@ -87,7 +87,7 @@ def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
     return iters, ok
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out):
     """Advance steps k0 .. k1-1 of the compliant model (state at t0 + k0 h on entry).
 
@@ -126,6 +126,7 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out):
     coef = alpha_coefficients(st.rho_inf)
     q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = step_work(n)
     cwork = np.zeros((11, nc))
+    sw = smooth_work(n, lam_s.shape[0])
     first_bad = -1
     for k in range(k0, k1):
         t1 = st.t0 + (k + 1) * h
@@ -134,7 +135,7 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out):
             if cs.closed[j] == 0:
                 cs.v_pre[j] = max(-cs.vn[j], st.v_pre_min)
         it_s, ok_s = smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, tol, max_iter, ma,
-                                 q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, True, cs.v_pre,
+                                 q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, sw, cs.v_pre,
                                  st.v_reg, cwork)
         it_p, ok_p = project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1)
         for i in range(n):

@@ -20,7 +20,7 @@ CONTACT_INSIDE = 2
 
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def contact_rows(q, k, ma, wN, wT):
     """Gap ``g_N`` [m] of contact ``k`` and its normal / tangential Jacobian entries.
 
@@ -98,7 +98,7 @@ def contact_rows(q, k, ma, wN, wT):
     return g
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def contact_hessian(q, k, ma, H):
     """Second derivative of the gap of contact ``k`` with respect to (q_a, q_b), 6 x 6.
 
@@ -139,7 +139,7 @@ def contact_hessian(q, k, ma, H):
         H[5, 5] -= sign * (nx * abx + ny * aby)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def contact_velocities(q, v, ma, gap, vn, vt):
     """Gaps [m], normal and tangential relative velocities [m/s] of every contact."""
     ct_type = ma.ct_type

@@ -4,16 +4,32 @@ forces and bilateral joints at velocity level)."""
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
 from .hertz import contact_forces
 from .joints import bilateral, joint_row_count
-from .linalg import copy_vector, gauss_solve, saddle_point_solve, solve_dense, solve_mass_like
+from .linalg import (
+    block_factor_work,
+    copy_vector,
+    gauss_solve,
+    saddle_point_solve_into,
+    solve_dense,
+    solve_mass_like,
+)
 from .springs import smooth_forces
 
+#: Work arrays of :func:`smooth_step` (made once per chunk by :func:`smooth_work`): the joint
+#: rows g, G, their velocity terms gm, dgdt, the Newton matrix J and right-hand side rhs, the
+#: factor of J and the Schur-complement arrays JG, S, piv, and the compliant stage's previous
+#: iterate (vdot_prev, lam_prev) for its backtracking.
+SmoothWork = namedtuple("SmoothWork", ["g", "G", "gm", "dgdt", "J", "rhs", "fac", "JG", "S",
+                                       "piv", "vdot_prev", "lam_prev"])
 
-@njit(cache=True)
+
+@njit(cache=True, error_model="numpy")
 def step_work(n):
     """Work arrays of a step shared by both time loops, made once per chunk: the smooth
     stage's predicted q~, v~, accelerations a, v', force f and its Jacobians K, C, K_s (n x n),
@@ -22,7 +38,16 @@ def step_work(n):
             np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n)), np.zeros(n), np.zeros(n))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
+def smooth_work(n, m):
+    """Work arrays of :func:`smooth_step` for n coordinates and m joint rows."""
+    return SmoothWork(g=np.zeros(m), G=np.zeros((m, n)), gm=np.zeros(m), dgdt=np.zeros(m),
+                      J=np.zeros((n, n)), rhs=np.zeros(n + m), fac=block_factor_work(n),
+                      JG=np.zeros((m, n)), S=np.zeros((m, m)), piv=np.zeros(m, dtype=np.int64),
+                      vdot_prev=np.zeros(n), lam_prev=np.zeros(m))
+
+
+@njit(cache=True, error_model="numpy")
 def alpha_coefficients(rho_inf):
     """(alpha_m, alpha_f, gamma, beta) of generalized-alpha for a spectral radius rho_inf."""
     am = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0)
@@ -32,10 +57,11 @@ def alpha_coefficients(rho_inf):
     return am, af, gam, beta
 
 
-@njit(cache=True)
-def initial_acceleration(q, v, t, ma, vdot, lam, compliant, v_pre, v_reg):
-    """Smooth acceleration at t = 0 from M vdot = f + G^T lam, G vdot + gamma = 0 (with
-    ``compliant`` the Hertz contact forces are part of f)."""
+@njit(cache=True, error_model="numpy")
+def initial_acceleration(q, v, t, ma, vdot, lam, v_pre, v_reg):
+    """Smooth acceleration at t = 0 from M vdot = f + G^T lam, G vdot + gamma = 0. With onset
+    speeds ``v_pre`` (compliant contacts; ``None`` for the nonsmooth model, whose contact
+    code is then not compiled) the Hertz contact forces are part of f."""
     mdiag = ma.mdiag
     jt_type = ma.jt_type
     n = q.shape[0]
@@ -43,7 +69,7 @@ def initial_acceleration(q, v, t, ma, vdot, lam, compliant, v_pre, v_reg):
     f = np.zeros(n)
     K = np.zeros((n, n))
     smooth_forces(q, v, ma, f, K, K, K, False)
-    if compliant:
+    if v_pre is not None:
         nc = ma.ct_type.shape[0]
         w = np.zeros((5, nc))
         contact_forces(q, v, ma, v_pre, v_reg, f, K, K, False, w[0], w[1], w[2], w[3], w[4],
@@ -68,16 +94,17 @@ def initial_acceleration(q, v, t, ma, vdot, lam, compliant, v_pre, v_reg):
     copy_vector(lam, x[n:], m)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, acc1, vdot1,
-                f_t, K_t, C_t, Ks_t, compliant, v_pre, v_reg, cwork):
+                f_t, K_t, C_t, Ks_t, sw, v_pre, v_reg, cwork):
     """Generalized-alpha prediction with smooth forces and bilateral joints (velocity level).
 
     Newton on ``vdot1``; fills q_t, v_t, acc1, vdot1, lam and the forces/tangents at (q_t, v_t).
-    With ``compliant`` the Hertz contact forces (onset speeds ``v_pre``, friction
-    regularisation ``v_reg``) are smooth forces too, with their tangents in the Newton matrix;
-    ``cwork`` (11, nc) then receives FN, FT, gap, vn, vt and the 6 tangential Jacobian
-    entries of the contacts at (q_t, v_t).
+    ``sw``: :func:`smooth_work`. With ``cwork`` an (11, nc) array (compliant model) the Hertz
+    contact forces (onset speeds ``v_pre``, friction regularisation ``v_reg``) are smooth
+    forces too, with their tangents in the Newton matrix, and ``cwork`` receives FN, FT, gap,
+    vn, vt and the 6 tangential Jacobian entries of the contacts at (q_t, v_t). The nonsmooth
+    model passes ``cwork = None``: Numba then prunes the compliant branches at compile time.
 
     Regularised friction is piecewise linear in the slip (slope mu F / v_reg inside the band
     |v_T| < v_reg, flat outside), and one step changes a slip by far more than v_reg at the
@@ -92,19 +119,21 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
     n = q.shape[0]
     m = lam.shape[0]
     ca = (1.0 - af) / (1.0 - am)
-    g = np.zeros(m)
-    G = np.zeros((m, n))
-    gm = np.zeros(m)
-    dgdt = np.zeros(m)
-    J = np.zeros((n, n))
-    rhs = np.zeros(n + m)
+    g = sw.g
+    G = sw.G
+    gm = sw.gm
+    dgdt = sw.dgdt
+    J = sw.J
+    rhs = sw.rhs
     copy_vector(vdot1, vdot, n)
     iters = 0
     converged = False
     # compliant: backtracking safeguard (see below)
     merit_prev = np.inf
-    vdot_prev = vdot1.copy()
-    lam_prev = lam.copy()
+    vdot_prev = sw.vdot_prev
+    lam_prev = sw.lam_prev
+    copy_vector(vdot_prev, vdot1, n)
+    copy_vector(lam_prev, lam, m)
     halvings = 0
     for it in range(max_iter + 1):
         for i in range(n):
@@ -112,12 +141,12 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             q_t[i] = q[i] + h * v[i] + h * h * (0.5 - beta) * acc[i] + h * h * beta * acc1[i]
             v_t[i] = v[i] + h * (1.0 - gam) * acc[i] + h * gam * acc1[i]
         smooth_forces(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, True)
-        if compliant:
+        if cwork is not None:
             contact_forces(q_t, v_t, ma, v_pre, v_reg, f_t, K_t, C_t, True, cwork[0], cwork[1],
                            cwork[2], cwork[3], cwork[4], cwork[5:11])
         bilateral(q_t, v_t, t1, ma, g, G, gm, dgdt)
         scale = 1e-300
-        if compliant:
+        if cwork is not None:
             # contact forces and the loads they balance cancel in f_t: the force scale of the
             # residual is that of the largest contact force
             for k in range(cwork.shape[1]):
@@ -143,7 +172,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
         if it == max_iter:
             break
         iters += 1
-        if compliant:
+        if cwork is not None:
             # the normal force is clipped at zero where the damping term would pull: across
             # that kink Newton can alternate between two iterates; a step that does not
             # reduce the scaled residual is halved back towards the previous iterate
@@ -165,7 +194,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             for j in range(n):
                 J[i, j] = (C_t[i, j] * h * gam + K_t[i, j] * h * h * beta) * ca
             J[i, i] += mdiag[i]
-        if compliant:
+        if cwork is not None:
             dv, dlam = _newton_direction_compliant(J, rhs, G, h * gam * ca)
             dv, dlam = _friction_branches(J, rhs, G, h * gam * ca, dv, dlam, ma, v_reg, cwork)
             for r in range(m):
@@ -173,7 +202,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             for i in range(n):
                 vdot1[i] += dv[i]
         else:
-            saddle_point_solve(J, G, h * gam * ca, rhs)
+            saddle_point_solve_into(J, G, h * gam * ca, rhs, sw.fac, sw.JG, sw.S, sw.piv)
             for r in range(m):
                 lam[r] += rhs[n + r]
             for i in range(n):
@@ -181,7 +210,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
     return iters, converged
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _newton_direction_compliant(J, rhs, G, cv):
     """As :func:`_newton_direction`, with the hand-written solves of :mod:`.linalg`: one
     elimination of the coupled block for the residual and the joint columns together."""
@@ -215,7 +244,7 @@ def _newton_direction_compliant(J, rhs, G, cv):
     return dv, dlam
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _branch(x):
     """Friction branch of a scaled slip x = v_T / v_reg: 0 inside the band, else its sign."""
     if abs(x) < 1.0:
@@ -223,7 +252,7 @@ def _branch(x):
     return 1 if x > 0.0 else -1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _friction_branches(J, rhs, G, cv, dv, dlam, ma, v_reg, cwork):
     """Re-solve the Newton step with each contact's friction on the branch its predicted slip
     falls on (slope mu F / v_reg in the band, 0 outside, with the model's value shifted to that

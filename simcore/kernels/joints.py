@@ -14,7 +14,7 @@ JOINT_ANGLE = 2
 
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def joint_row_count(jt_type):
     """Number of constraint rows of each joint and in total."""
     n = 0
@@ -23,7 +23,7 @@ def joint_row_count(jt_type):
     return n
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def bilateral(q, v, t, ma, g, G, gamma, dgdt):
     """Evaluate all bilateral constraints.
 

@@ -33,7 +33,7 @@ from numba import njit
 BlockFactor = namedtuple("BlockFactor", ["B", "idx", "dinv", "piv", "tmp", "info"])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def copy_vector(dst, src, n):
     """dst[:n] = src[:n] (an explicit loop: an array assignment would compile Numba's
     shape-mismatch error path, several seconds of compile time for nothing)."""
@@ -41,7 +41,7 @@ def copy_vector(dst, src, n):
         dst[i] = src[i]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def copy_matrix(dst, src, m, n):
     """dst[:m, :n] = src[:m, :n] (see :func:`copy_vector`)."""
     for i in range(m):
@@ -49,7 +49,7 @@ def copy_matrix(dst, src, m, n):
             dst[i, j] = src[i, j]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def cholesky_factor(A, n):
     """Overwrite the lower triangle of ``A[:n, :n]`` with L, A = L L^T.
 
@@ -71,7 +71,7 @@ def cholesky_factor(A, n):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def cholesky_solve(L, n, x):
     """Solve L L^T y = x in place (``L`` from :func:`cholesky_factor`)."""
     for i in range(n):
@@ -86,7 +86,7 @@ def cholesky_solve(L, n, x):
         x[i] = s / L[i, i]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def lu_factor(A, n, piv):
     """Overwrite ``A[:n, :n]`` with its LU factors (unit lower L), row pivots in ``piv``.
 
@@ -115,7 +115,7 @@ def lu_factor(A, n, piv):
                     A[i, c] -= lij * A[j, c]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def lu_solve(LU, n, piv, x):
     """Solve A y = x in place from the factors of :func:`lu_factor`."""
     for j in range(n):
@@ -136,7 +136,7 @@ def lu_solve(LU, n, piv, x):
         x[i] = s / LU[i, i]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def block_factor_work(n):
     """Work arrays of :func:`block_factor` for matrices up to ``n x n``."""
     # every entry is written by block_factor before it is read
@@ -144,7 +144,7 @@ def block_factor_work(n):
                        np.empty(n, dtype=np.int64), np.empty(n), np.zeros(2, dtype=np.int64))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def block_factor(A, n, fac, symmetric):
     """Factorise ``A[:n, :n]`` on its coupled block into ``fac``.
 
@@ -195,7 +195,7 @@ def block_factor(A, n, fac, symmetric):
     return k
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def block_solve(fac, n, x):
     """Solve A y = x in place with the factors of :func:`block_factor` (``x`` of length n)."""
     k = fac.info[0]
@@ -215,7 +215,7 @@ def block_solve(fac, n, x):
         x[idx[a]] = tmp[a]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def block_gram(fac, n, G, m, Y, first, D):
     """D[:m, :m] = G[:m] A^-1 G[:m]^T for a symmetric A factorised by :func:`block_factor`.
 
@@ -270,7 +270,7 @@ def block_gram(fac, n, G, m, Y, first, D):
             D[b, a] = D[a, b]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def block_gram_rows(fac, n, G, rows, m, Y, first, have, D):
     """Entries of D = G A^-1 G^T (see :func:`block_gram`) among the rows ``rows[:m]`` of G,
     computed only where missing: a row r not yet marked in ``have`` gets its forward
@@ -321,7 +321,7 @@ def block_gram_rows(fac, n, G, rows, m, Y, first, have, D):
             D[rb, r] = s
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def block_gram_diagonal(fac, n, G, m, y, d):
     """d[:m] = the diagonal of G[:m] A^-1 G[:m]^T (see :func:`block_gram`; ``y``: work
     array of length n)."""
@@ -355,29 +355,40 @@ def block_gram_diagonal(fac, n, G, m, y, d):
         d[r] = s
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def saddle_point_solve(J, G, c, rhs):
     """Solve [J, -G^T; c G, 0] [x; y] = rhs in place (``rhs[:n]`` becomes x, ``rhs[n:]``
     becomes y) by the Schur complement S = c G J^-1 G^T of the m constraint rows.
 
     ``J`` (n x n) is factorised on its coupled block (:func:`block_factor`, LU: J need not be
-    symmetric); ``G`` is m x n, ``c`` a scalar."""
+    symmetric); ``G`` is m x n, ``c`` a scalar. (Allocates its work arrays; the time loops call
+    :func:`saddle_point_solve_into` with arrays made once per chunk.)"""
     n = J.shape[0]
     m = G.shape[0]
-    fac = block_factor_work(n)
+    saddle_point_solve_into(J, G, c, rhs, block_factor_work(n), np.empty((m, n)),
+                            np.empty((m, m)), np.empty(m, dtype=np.int64))
+
+
+@njit(cache=True, error_model="numpy")
+def saddle_point_solve_into(J, G, c, rhs, fac, JG, S, piv):
+    """:func:`saddle_point_solve` on work arrays: ``fac`` (:func:`block_factor_work` of n),
+    ``JG`` (m x n), ``S`` (m x m), ``piv`` (m integers)."""
+    n = J.shape[0]
+    m = G.shape[0]
     block_factor(J, n, fac, False)
     x = rhs[:n]
     block_solve(fac, n, x)
     if m == 0:
         return
     y = rhs[n:]
-    JG = np.empty((m, n))
     for r in range(m):
         row = JG[r]
         for i in range(n):
             row[i] = G[r, i]
         block_solve(fac, n, row)
-    S = np.zeros((m, m))
+    for a in range(m):
+        for b in range(m):
+            S[a, b] = 0.0
     for a in range(m):
         s = 0.0
         for i in range(n):
@@ -387,7 +398,6 @@ def saddle_point_solve(J, G, c, rhs):
                 for b in range(m):
                     S[a, b] += c * g * JG[b, i]
         y[a] -= c * s
-    piv = np.zeros(m, dtype=np.int64)
     lu_factor(S, m, piv)
     lu_solve(S, m, piv, y)
     for i in range(n):
@@ -397,7 +407,7 @@ def saddle_point_solve(J, G, c, rhs):
         x[i] = s
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def solve_dense(A, b):
     """x = A^-1 b for a small square matrix (LU with partial pivoting; A and b untouched)."""
     n = A.shape[0]
@@ -409,7 +419,7 @@ def solve_dense(A, b):
     return x
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def block_inverse(A):
     """Inverse of a matrix that is diagonal outside the rows/columns coupled by off-diagonal
     entries (M + h^2 K: only the bodies joined by springs or contacts are coupled): only the
@@ -433,7 +443,7 @@ def block_inverse(A):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def gauss_solve(A, B):
     """Solve A X = B for a small dense A (k x k) and several right-hand sides B (k x r) by
     Gaussian elimination with partial pivoting, written out (no LAPACK call overhead, which
@@ -476,7 +486,7 @@ def gauss_solve(A, B):
     return X
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def solve_mass_like(A, B):
     """Solve A X = B where A is diagonal outside the rows/columns coupled by off-diagonal
     entries (M plus the tangents of springs and contacts): the uncoupled rows by division, the

@@ -12,7 +12,7 @@ from numba import njit
 
 from .bodies import scatter_row
 from .contact import contact_hessian, contact_rows, contact_velocities
-from .generalized_alpha import alpha_coefficients, smooth_step, step_work
+from .generalized_alpha import alpha_coefficients, smooth_step, smooth_work, step_work
 from .joints import bilateral, joint_row_count
 from .linalg import (
     block_factor,
@@ -51,7 +51,7 @@ VelocitySolverWork = namedtuple("VelocitySolverWork", ["r", "F", "F_try", "xi", 
     "lam_try", "dl", "J", "piv"])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def position_work(n, nbil, nc):
     """Work arrays of :func:`position_step` (made once per chunk)."""
     mt = nbil + nc
@@ -72,7 +72,7 @@ def position_work(n, nbil, nc):
         sol=np.zeros(mt), piv=np.zeros(mt, dtype=np.int64))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _position_rows(q_t, U, t1, ma, q1, gb, Gb, gm, dgdt, gap, GN, wN, wT):
     """Joint and contact rows at q1 = q_t + U: joint residuals gb, Jacobian Gb, gaps and
     normal rows GN."""
@@ -85,7 +85,7 @@ def _position_rows(q_t, U, t1, ma, q1, gb, Gb, gm, dgdt, gap, GN, wN, wT):
         scatter_row(GN[k], wN, ct_body[k, 0], ct_body[k, 1])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, facA, gb, Gb, gap, GN, eq):
     """Scaled residual [m] of the position problem at (U, nu) from the rows at q_t + U
     (:func:`_position_rows`): joints, complementarity in the augmented-Lagrangian form
@@ -122,7 +122,7 @@ def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, facA, gb, Gb, gap, GN, eq)
     return res
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     """Position correction: M U = G^T nu (with the springs' elastic stiffness h^2 Ks in the
     metric, symmetric positive semi-definite so that the metric stays positive definite),
@@ -360,7 +360,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     return iters, converged
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def velocity_work(n, nbil, nc):
     """Work arrays of :func:`velocity_step` (made once per chunk)."""
     mv = nbil + 2 * nc
@@ -380,7 +380,7 @@ def velocity_work(n, nbil, nc):
         solver=velocity_solver_work(mv))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def velocity_solver_work(m):
     """Work arrays of the semismooth Newton solver of the velocity problem (m rows at most)."""
     return VelocitySolverWork(r=np.zeros(m), F=np.zeros(m), F_try=np.zeros(m), xi=np.zeros(m),
@@ -388,7 +388,7 @@ def velocity_solver_work(m):
                               J=np.zeros(m * m), piv=np.zeros(m, dtype=np.int64))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _affine(D, lam, c, m, xi):
     """xi = D lam + c on the leading m rows."""
     for i in range(m):
@@ -398,7 +398,7 @@ def _affine(D, lam, c, m, xi):
         xi[i] = s
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _velocity_residual(lam, xi, kind, r, mu_row, pair, F):
     """Scaled residual [m/s] of the velocity problem, row by row.
 
@@ -418,7 +418,7 @@ def _velocity_residual(lam, xi, kind, r, mu_row, pair, F):
     return res
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _local_frictional_contact(D, c, lam, i, mu):
     """Solve one contact's rows (normal i, tangent i+1) exactly, the others held fixed."""
     j = i + 1
@@ -460,7 +460,7 @@ def _local_frictional_contact(D, c, lam, i, mu):
     lam[j] = min(max(-(bT + wTN * lam[i]) / wTT if wTT > 0.0 else 0.0, -bound), bound)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
     """Solve xi = D lam + c with xi_b = 0 (joints), Newton's law 0 <= xi_N ⊥ lam_N >= 0 and
     Coulomb's law |lam_T| <= mu lam_N (stick xi_T = 0, else lam_T opposes xi_T).
@@ -473,7 +473,7 @@ def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
                                    velocity_solver_work(lam.shape[0]))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, sw):
     """:func:`solve_velocity_problem` on the work arrays ``sw`` (:func:`velocity_solver_work`)."""
     m = lam.shape[0]
@@ -598,7 +598,7 @@ def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, s
     return iters, res <= tol
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, nu_c, gap,
                   vn_minus, vt_minus, v1, lamN, lamT, lam_b, wk):
     """Velocity jump W = v1 - v_t with impulses Lambda on the joints and on the contacts closed
@@ -775,7 +775,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     return iters, ok
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def integrate_chunk(k0, k1, st, ma, state, out):
     """Advance steps k0 .. k1-1 (state at time k0*h on entry, at k1*h on exit), writing the
     outputs of each step at index k+1.
@@ -826,14 +826,13 @@ def integrate_chunk(k0, k1, st, ma, state, out):
     pwk = position_work(n, nbil, nc)
     vwk = velocity_work(n, nbil, nc)
     gap_close = tol * h
-    no_vpre = np.zeros(0)
-    no_work = np.zeros((11, 0))
+    sw = smooth_work(n, joint_row_count(ma.jt_type))
     first_bad = -1
     for k in range(k0, k1):
         t1 = (k + 1) * h
         it_s, ok_s = smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, tol, max_iter, ma,
-                                 q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, False, no_vpre,
-                                 1.0, no_work)
+                                 q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, sw, None, 1.0,
+                                 None)
         it_p, ok_p = position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap,
                                    pwk)
         # normal velocities before the jump, G_N(q1) v~, from the position stage's rows at q1

@@ -9,7 +9,7 @@ from numba import njit
 from .bodies import body_omega, body_point, pair_point_jacobians, transverse_form, unit_direction
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def spring_state(q, v, k, sp_body, sp_geom):
     """Length [m], its rate [m/s], unit direction and lever arms of spring ``k``."""
     bi = sp_body[k, 0]
@@ -36,7 +36,7 @@ def spring_state(q, v, k, sp_body, sp_geom):
     return length, rate, nx, ny, aix, aiy, ajx, ajy, dvx, dvy
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
     """Gravity plus spring-damper forces ``f`` [N, N m]; with ``tangent`` also the stiffness
     ``K = -df/dq`` and damping ``C = -df/dv`` matrices. K is exact for springs between body
@@ -108,7 +108,7 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
                     C[idx[a], idx[c]] += damp * w[a] * w[c]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def total_energy(q, v, ma):
     """Kinetic + gravitational + spring energy [J]."""
     mdiag = ma.mdiag
