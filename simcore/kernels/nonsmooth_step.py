@@ -68,7 +68,7 @@ def position_work(n, nbil, nc):
         wT=np.zeros(6), Gall=np.zeros((mt, n)), ball=np.zeros(mt), Y=np.zeros((mt, n)),
         AU=np.zeros(n),
         first=np.zeros(mt, dtype=np.int64), have=np.zeros(mt, dtype=np.bool_), x=np.zeros(n),
-        Dall=np.zeros((mt, mt)), rows=np.zeros(mt, dtype=np.int64), Dbuf=np.zeros(mt * mt),
+        Dall=np.zeros((mt, mt)), rows=np.zeros(mt, dtype=np.int64), Dbuf=np.zeros((mt, mt)),
         sol=np.zeros(mt), piv=np.zeros(mt, dtype=np.int64))
 
 
@@ -258,7 +258,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                     rows[m] = nbil + k
                     m += 1
             block_gram_rows(fac, n, Gall, rows, m, wk.Y, wk.first, have, Dall)
-            D = wk.Dbuf[:m * m].reshape((m, m))
+            D = wk.Dbuf  # its leading m x m block
             for a in range(m):
                 ra = rows[a]
                 for c in range(m):
@@ -374,8 +374,8 @@ def velocity_work(n, nbil, nc):
         mu_row=np.zeros(mv), pair=np.zeros(mv, dtype=np.int64), lam=np.zeros(mv),
         Y=np.zeros((mv, n)), first=np.zeros(mv, dtype=np.int64), D=np.zeros((mv, mv)),
         c=np.zeros(mv),
-        Dbb=np.zeros(nbil * nbil), pivb=np.zeros(nbil, dtype=np.int64), colb=np.zeros(nbil),
-        X=np.zeros(nbil * (mv + 1)), Dc=np.zeros(mv * mv), cc=np.zeros(mv),
+        Dbb=np.zeros((nbil, nbil)), pivb=np.zeros(nbil, dtype=np.int64), colb=np.zeros(nbil),
+        X=np.zeros((nbil, mv + 1)), Dc=np.zeros((mv, mv)), cc=np.zeros(mv),
         lam_c=np.zeros(mv), pair_c=np.zeros(mv, dtype=np.int64),
         solver=velocity_solver_work(mv))
 
@@ -385,7 +385,7 @@ def velocity_solver_work(m):
     """Work arrays of the semismooth Newton solver of the velocity problem (m rows at most)."""
     return VelocitySolverWork(r=np.zeros(m), F=np.zeros(m), F_try=np.zeros(m), xi=np.zeros(m),
                               xi_try=np.zeros(m), lam_try=np.zeros(m), dl=np.zeros(m),
-                              J=np.zeros(m * m), piv=np.zeros(m, dtype=np.int64))
+                              J=np.zeros((m, m)), piv=np.zeros(m, dtype=np.int64))
 
 
 @njit(cache=True, error_model="numpy")
@@ -484,7 +484,7 @@ def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, s
     xi_try = sw.xi_try[:m]
     lam_try = sw.lam_try[:m]
     dl = sw.dl[:m]
-    J = sw.J[:m * m].reshape((m, m))
+    J = sw.J  # its leading m x m block
     for i in range(m):
         r[i] = 1.0
         if D[i, i] > 0.0:
@@ -499,7 +499,9 @@ def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, s
     # residual by a comparable amount
     while (res > 0.5 * tol or iters == 0) and iters < max_iter and m > 0:
         iters += 1
-        J[:, :] = 0.0
+        for i in range(m):
+            for j in range(m):
+                J[i, j] = 0.0
         for i in range(m):
             if kind[i] == 0:
                 copy_vector(J[i], D[i], m)
@@ -700,13 +702,13 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
         # eliminate the joints (equalities) first: the contact problem then sees the
         # mechanism's effective masses, and its Gauss-Seidel fallback converges
         nct = n_rows - nbil
-        Dbb = wk.Dbb.reshape((nbil, nbil))
+        Dbb = wk.Dbb
         for a in range(nbil):
             for c2 in range(nbil):
                 Dbb[a, c2] = D[a, c2]
         lu_factor(Dbb, nbil, wk.pivb)
         # X = Dbb^-1 [Dbc, c_b], one column at a time
-        X = wk.X[:nbil * (nct + 1)].reshape((nbil, nct + 1))
+        X = wk.X  # its leading nbil x (nct + 1) block
         col = wk.colb
         for j in range(nct + 1):
             for a in range(nbil):
@@ -714,7 +716,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
             lu_solve(Dbb, nbil, wk.pivb, col)
             for a in range(nbil):
                 X[a, j] = col[a]
-        Dc = wk.Dc[:nct * nct].reshape((nct, nct))
+        Dc = wk.Dc  # its leading nct x nct block
         cc = wk.cc[:nct]
         lam_c = wk.lam_c[:nct]
         pair_c = wk.pair_c[:nct]
@@ -747,7 +749,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
             if abs(xi_b) > tol:
                 ok = False
     else:
-        Dv = wk.Dc[:n_rows * n_rows].reshape((n_rows, n_rows))
+        Dv = wk.Dc  # its leading n_rows x n_rows block
         for a in range(n_rows):
             for j in range(n_rows):
                 Dv[a, j] = D[a, j]
