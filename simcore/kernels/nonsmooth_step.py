@@ -218,13 +218,19 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             fac = wk.facH
         # the linearised problem of this iterate, for all rows: joints first, then contacts;
         # row i of the new iterate reads (D nu)_i = b_i (+ proximal term on contacts)
+        # A U: Ap is diagonal but for its coupled block (the indices block_factor found)
         AU = wk.AU
         for i in range(n):
+            AU[i] = Ap[i, i] * U[i]
+        idx_c = wk.facA.idx
+        for a in range(wk.facA.info[0]):
+            i = idx_c[a]
             s = 0.0
-            for j in range(n):
-                s += Ap[i, j] * U[j]
+            for c in range(wk.facA.info[0]):
+                s += Ap[i, idx_c[c]] * U[idx_c[c]]
             AU[i] = s
-            HAU[i] = s
+        for i in range(n):
+            HAU[i] = AU[i]
         block_solve(fac, n, HAU)
         for r in range(nbil):
             s = -gb[r]
