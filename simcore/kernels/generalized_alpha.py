@@ -15,8 +15,8 @@ from .linalg import (
     block_factor_work,
     copy_vector,
     gauss_solve,
+    saddle_point_solve,
     saddle_point_solve_into,
-    solve_dense,
     solve_mass_like,
 )
 from .springs import smooth_forces
@@ -79,19 +79,19 @@ def initial_acceleration(q, v, t, ma, vdot, lam, v_pre, v_reg):
     gam = np.zeros(m)
     dgdt = np.zeros(m)
     bilateral(q, v, t, ma, g, G, gam, dgdt)
-    A = np.zeros((n + m, n + m))
+    # [M, -G^T; G, 0] [vdot; lam] = [f; -gamma], by the solver of the smooth stage's steps
+    # (so that a run compiles no other dense solver)
+    M = K
+    M[:, :] = 0.0
     rhs = np.zeros(n + m)
     for i in range(n):
-        A[i, i] = mdiag[i]
+        M[i, i] = mdiag[i]
         rhs[i] = f[i]
     for r in range(m):
-        for i in range(n):
-            A[i, n + r] = -G[r, i]
-            A[n + r, i] = G[r, i]
         rhs[n + r] = -gam[r]
-    x = solve_dense(A, rhs)
-    copy_vector(vdot, x, n)
-    copy_vector(lam, x[n:], m)
+    saddle_point_solve(M, G, 1.0, rhs)
+    copy_vector(vdot, rhs, n)
+    copy_vector(lam, rhs[n:], m)
 
 
 @njit(cache=True, error_model="numpy")
