@@ -54,18 +54,8 @@ def _profile_kernel():
     from numba import njit, objmode
 
     from simcore.kernels import contact_velocities, smooth_step, total_energy
-    from simcore.kernels.generalized_alpha import (
-        alpha_coefficients,
-        smooth_work,
-        step_work,
-    )
-    from simcore.kernels.joints import joint_row_count
-    from simcore.kernels.nonsmooth_step import (
-        position_step,
-        position_work,
-        velocity_step,
-        velocity_work,
-    )
+    from simcore.kernels.generalized_alpha import alpha_coefficients
+    from simcore.kernels.nonsmooth_step import position_step, velocity_step
 
     @njit
     def clock():
@@ -81,19 +71,18 @@ def _profile_kernel():
         return (clock() - t0) / n
 
     @njit
-    def profile(n_steps, st, ma, state, spent):
+    def profile(n_steps, st, ma, state, work, spent):
         h, tol, max_iter, eta = st.h, st.tol, st.max_iter, st.eta
         q, v, acc, vdot = state.q, state.v, state.acc, state.vdot
         n = q.shape[0]
         nc = ma.ct_type.shape[0]
         coef = alpha_coefficients(st.rho_inf)
-        q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = step_work(n)
-        sw = smooth_work(n, joint_row_count(ma.jt_type))
+        q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
+        sw = work.smooth
         nu_c, gap, vn, vt = np.zeros(nc), np.zeros(nc), np.zeros(nc), np.zeros(nc)
         vnf = np.zeros(nc)
-        nbil = joint_row_count(ma.jt_type)
-        pwk = position_work(n, nbil, nc)
-        vwk = velocity_work(n, nbil, nc)
+        pwk = work.position
+        vwk = work.velocity
         energy = 0.0
         for k in range(n_steps):
             t1 = (k + 1) * h
@@ -155,7 +144,7 @@ def profile_step(model, s, n_steps: int, repeats: int = 3) -> np.ndarray:
         state = nb.StepState(q, v, acc, vdot, lam_s, np.zeros(nbil), np.zeros(nc),
                              np.zeros(nc), vn0, vt0)
         spent = np.zeros(len(STAGES))
-        profile(n_steps, st, arr, state, spent)
+        profile(n_steps, st, arr, state, nb.nonsmooth_work(n, nbil, nc), spent)
         per_step = spent / n_steps
         best = per_step if best is None else np.minimum(best, per_step)
     cost = min(clock_cost(20000) for _ in range(3))

@@ -470,8 +470,10 @@ class Model:
                                       out.energy, out.iterations, out.converged,
                                       out.drive_torque)
 
+            work = nb.nonsmooth_work(ndof, nbil, nc)
+
             def advance(k, k_next):
-                return nb.integrate_chunk(k, k_next, settings, arr, state, outputs)
+                return nb.integrate_chunk(k, k_next, settings, arr, state, outputs, work)
 
         start = time.perf_counter()
         show = progress and sys.stderr.isatty()

@@ -13,7 +13,7 @@ from numba import njit
 from .bodies import scatter_row
 from .contact import contact_hessian, contact_rows, contact_velocities
 from .generalized_alpha import alpha_coefficients, smooth_step, smooth_work, step_work
-from .joints import bilateral, joint_row_count
+from .joints import bilateral
 from .linalg import (
     block_factor,
     block_factor_work,
@@ -50,10 +50,15 @@ VelocityWork = namedtuple("VelocityWork", ["f1", "K1", "C1", "Ks1", "Av", "fac",
 VelocitySolverWork = namedtuple("VelocitySolverWork", ["r", "F", "F_try", "xi", "xi_try",
     "lam_try", "dl", "J", "piv"])
 
+#: All work arrays of :func:`integrate_chunk` (:func:`nonsmooth_work`): the step's
+#: (:func:`~.generalized_alpha.step_work`), the smooth stage's, the position correction's and
+#: the velocity jump's.
+NonsmoothWork = namedtuple("NonsmoothWork", ["step", "smooth", "position", "velocity"])
 
-@njit(cache=True, error_model="numpy")
+
 def position_work(n, nbil, nc):
-    """Work arrays of :func:`position_step` (made once per chunk)."""
+    """Work arrays of :func:`position_step` (made once per run, in Python: allocating them in
+    a kernel would compile some forty array constructors into every time loop)."""
     mt = nbil + nc
     return PositionWork(
         Ap=np.zeros((n, n)), facA=block_factor_work(n), Hm=np.zeros((n, n)),
@@ -366,9 +371,8 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     return iters, converged
 
 
-@njit(cache=True, error_model="numpy")
 def velocity_work(n, nbil, nc):
-    """Work arrays of :func:`velocity_step` (made once per chunk)."""
+    """Work arrays of :func:`velocity_step` (made once per run, in Python)."""
     mv = nbil + 2 * nc
     return VelocityWork(
         f1=np.zeros(n), K1=np.zeros((n, n)), C1=np.zeros((n, n)), Ks1=np.zeros((n, n)),
@@ -386,7 +390,6 @@ def velocity_work(n, nbil, nc):
         solver=velocity_solver_work(mv))
 
 
-@njit(cache=True, error_model="numpy")
 def velocity_solver_work(m):
     """Work arrays of the semismooth Newton solver of the velocity problem (m rows at most)."""
     return VelocitySolverWork(r=np.zeros(m), F=np.zeros(m), F_try=np.zeros(m), xi=np.zeros(m),
@@ -466,7 +469,14 @@ def _local_frictional_contact(D, c, lam, i, mu):
     lam[j] = min(max(-(bT + wTN * lam[i]) / wTT if wTT > 0.0 else 0.0, -bound), bound)
 
 
-@njit(cache=True, error_model="numpy")
+def nonsmooth_work(n, nbil, nc):
+    """Every work array of :func:`integrate_chunk` for n coordinates, nbil joint rows and nc
+    contacts, made once per run."""
+    return NonsmoothWork(step=step_work(n), smooth=smooth_work(n, nbil),
+                         position=position_work(n, nbil, nc),
+                         velocity=velocity_work(n, nbil, nc))
+
+
 def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
     """Solve xi = D lam + c with xi_b = 0 (joints), Newton's law 0 <= xi_N ⊥ lam_N >= 0 and
     Coulomb's law |lam_T| <= mu lam_N (stick xi_T = 0, else lam_T opposes xi_T).
@@ -474,7 +484,7 @@ def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
     Semismooth Newton with Delassus-scaled augmentation, proximal regularisation and a line
     search; projected Gauss-Seidel as fallback. ``lam`` holds the warm start on entry and the
     solution on exit. Returns (iterations, converged). (Allocates its work arrays; the time
-    loop calls :func:`_solve_velocity_problem` with arrays made once per chunk.)"""
+    loop calls :func:`_solve_velocity_problem` with arrays made once per run.)"""
     return _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta,
                                    velocity_solver_work(lam.shape[0]))
 
@@ -784,7 +794,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
 
 
 @njit(cache=True, error_model="numpy")
-def integrate_chunk(k0, k1, st, ma, state, out):
+def integrate_chunk(k0, k1, st, ma, state, out, work):
     """Advance steps k0 .. k1-1 (state at time k0*h on entry, at k1*h on exit), writing the
     outputs of each step at index k+1.
 
@@ -796,6 +806,8 @@ def integrate_chunk(k0, k1, st, ma, state, out):
         The model.
     state : StepState
         Updated in place.
+    work : NonsmoothWork
+        Work arrays (:func:`nonsmooth_work`), reused from chunk to chunk.
     out : ChunkOutputs
         ``out.vn_free`` receives the normal relative velocity just before the jump of the step,
         G_N(q_{n+1}) v~_{n+1}: the smooth-step velocity seen by the contact rows at the
@@ -824,17 +836,16 @@ def integrate_chunk(k0, k1, st, ma, state, out):
     n = q.shape[0]
     nc = ma.ct_type.shape[0]
     coef = alpha_coefficients(st.rho_inf)
-    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = step_work(n)
+    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
     nu_c = np.zeros(nc)
     gap = np.zeros(nc)
     vn = np.zeros(nc)
     vt = np.zeros(nc)
     vn_free = np.zeros(nc)
-    nbil = joint_row_count(ma.jt_type)
-    pwk = position_work(n, nbil, nc)
-    vwk = velocity_work(n, nbil, nc)
+    pwk = work.position
+    vwk = work.velocity
     gap_close = tol * h
-    sw = smooth_work(n, joint_row_count(ma.jt_type))
+    sw = work.smooth
     first_bad = -1
     for k in range(k0, k1):
         t1 = (k + 1) * h
