@@ -25,7 +25,7 @@ def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = 
         run (attribute ``failed = 1``, :func:`simcore.io.failed_run_dataset`).
     settings : dict
         The validated ``analysis`` section (``zero_tol``, ``zero_floor``, ``r_eff``, ``v_min``,
-        ``zoom_top``).
+        ``zoom_top``, ``zoom_steps_per_contact``).
     point : dict
         The run's swept parameters (``clearance`` [m], ``mu`` [-], ``omega0`` [rad/s],
         ``e_N`` [-]), stored as scalar coordinates with units.
@@ -54,9 +54,11 @@ def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = 
                               zero_floor=settings["zero_floor"], r_eff=settings["r_eff"],
                               v_min=settings["v_min"])
     if settings.get("zoom_top", 0) > 0:
-        from .zoom import add_zoom_forces
+        from .zoom import STEPS_PER_CONTACT, add_zoom_forces
 
-        impacts = add_zoom_forces(run_ds, impacts, zoom_top=settings["zoom_top"])
+        impacts = add_zoom_forces(run_ds, impacts, zoom_top=settings["zoom_top"],
+                                  steps_per_contact=settings.get("zoom_steps_per_contact",
+                                                                 STEPS_PER_CONTACT))
     impacts = impacts.assign_coords(coords)
     impacts.attrs.setdefault("failed", 0)
     return impacts

@@ -24,7 +24,7 @@ __all__ = ["STEPS_PER_CONTACT", "add_zoom_forces", "zoom_step"]
 
 #: steps of a zoom per Hertz contact time (dt = t_Hertz / N): doubling N changes F_max_zoom by
 #: less than 1 % on the paper case and on a steady study run at E = 2.1e9 and 2.1e11 Pa
-#: (docs/compliant.md, "Step of a zoom")
+#: (docs/compliant.md, "Step of a zoom"); the study's setting analysis.zoom_steps_per_contact
 STEPS_PER_CONTACT = 40
 
 

@@ -44,3 +44,22 @@ def test_failed_run_gives_an_empty_table():
                          POINT, source="runs/x.nc")
     assert table.attrs["failed"] == 1 and "boom" in table.attrs["error"]
     assert "impact" not in table.sizes and table["clearance"].item() == 4e-4
+
+
+def test_zoom_step_setting_reaches_the_table(run_ds):
+    """analysis.zoom_steps_per_contact (schema default 40) sets the zoom's step: twice the steps,
+    half the step."""
+    from simcore.limits import hertz_contact_time
+
+    default = simcore.validate_config({})["analysis"]["zoom_steps_per_contact"]
+    assert default == 40
+    tables = {n: impact_table(run_ds, dict(SETTINGS, zoom_top=1, zoom_steps_per_contact=n), POINT)
+              for n in (20, 40)}
+    steps = {n: np.nanmax(t["dt_zoom"].values) for n, t in tables.items()}
+    model = simcore.validate_config(
+        {"model": {k.split(".", 1)[1]: v for k, v in run_ds.attrs.items()
+                   if k.startswith("model.")}})["model"]
+    assert steps[20] == pytest.approx(hertz_contact_time(model) / 20)
+    assert steps[20] == pytest.approx(2.0 * steps[40])
+    with pytest.raises(simcore.ConfigError, match="analysis.zoom_steps_per_contact"):
+        load_config(overrides=["analysis.zoom_steps_per_contact=2"])
