@@ -47,12 +47,13 @@ def _first_episode(force: np.ndarray, dt: float) -> float:
         return float("nan")
     s = np.cbrt(np.asarray(force[first:last + 1], dtype=float)) ** 2  # ~ indentation
     t_start, t_end = float(first), float(last)
+    # half a step where the samples cannot place the switch (as counting samples does)
     if first > 0:  # the force was zero at sample first - 1
-        back = 1.0
+        back = 0.5
         if s.size > 1 and s[1] > s[0]:
             back = min(1.0, s[0] / (s[1] - s[0]))
         t_start -= back
-    ahead = 1.0  # the force is zero at sample last + 1
+    ahead = 0.5  # the force is zero at sample last + 1
     if s.size > 1 and s[-2] > s[-1]:
         ahead = min(1.0, s[-1] / (s[-2] - s[-1]))
     t_end += ahead

@@ -114,6 +114,7 @@ def test_contact_time_of_a_sampled_hertz_pulse_is_found_between_samples():
         force = np.where((t - shift * dt > 0) & (t - shift * dt < T), delta, 0.0) ** 1.5
         assert _first_episode(force, dt) == pytest.approx(T, rel=2e-3)
     assert _first_episode(np.zeros(5), dt) == 0.0
+    assert _first_episode(np.array([0.0, 2.0, 0.0, 0.0]), dt) == pytest.approx(dt)  # one sample
     assert np.isnan(_first_episode(np.array([0.0, 1.0, 2.0]), dt))
 
 
