@@ -794,7 +794,7 @@ def _line_figure(da, dim, path, label, failed, title):
     return path
 
 
-def plot_study(summary_ds: xr.Dataset, outdir) -> list[Path]:
+def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1)) -> list[Path]:
     """Every grid point of the study: heat maps of peak forces, p_max and counts.
 
     Parameters
@@ -804,6 +804,9 @@ def plot_study(summary_ds: xr.Dataset, outdir) -> list[Path]:
         ``omega0``, ``e_N`` (any of length 1) and ``race``, ``kind``, ``level``, ...
     outdir : str or Path
         Output folder (created).
+    part : (int, int)
+        ``(i, n)``: draw only the quantities i, i + n, i + 2n, ... (so that n processes can
+        share the work); the default draws all.
 
     Returns
     -------
@@ -824,9 +827,14 @@ def plot_study(summary_ds: xr.Dataset, outdir) -> list[Path]:
     held = ", ".join(_fmt_param(d, float(summary_ds[d].values[0])) for d in single)
     settle = summary_ds.attrs.get("settle_revolutions", summary_ds.attrs.get("analysis_settle"))
     held = f"; {held}" if held else ""
-    quantities = _study_quantities(summary_ds)
+    index, parts = (int(x) for x in part)
+    if not (parts >= 1 and 0 <= index < parts):
+        raise ValueError(f"part: {part!r} is not allowed; allowed: (i, n) with 0 <= i < n")
+    quantities = _study_quantities(summary_ds)[index::parts]
     paths = []
     if not swept:
+        if index > 0:
+            return paths
         path = outdir / "study_single.png"
         fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
         sub = summary_ds.isel({d: 0 for d in single})

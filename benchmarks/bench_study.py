@@ -1,20 +1,26 @@
-"""Wall time of the smoke and default studies, and where a job's time goes.
+"""Runs per minute of a study at -j1 and -j2, bytes per run file, and where a job's time goes.
 
-    python benchmarks/bench_study.py              smoke and default studies at -j1 and -j2
-    python benchmarks/bench_study.py --smoke      smoke study only (about a minute)
-    python benchmarks/bench_study.py --jobs 2     default and smoke studies at -j2 only
+    python benchmarks/bench_study.py                   24-run study (benchmarks/study24.yaml)
+                                                       at -j1 and -j2, bytes per run file
+    python benchmarks/bench_study.py --default 3       also the default 81-run study at -j2,
+                                                       3 times (median)
+    python benchmarks/bench_study.py --smoke           the smoke study instead of the 24 runs
+    python benchmarks/bench_study.py --jobs 2          only -j2
 
 Each study runs from scratch (``--forceall``) into a temporary results folder, so ``results/``
-is left alone. Printed:
+is left alone; the Numba caches are warmed first (one run and one zoom in a fresh process), so
+every figure is a warm one. Printed:
 
 * the wall time of each study and its runs per minute at -j1 and -j2, and the -j2 speed-up;
-* per simulate job (one batch of runs, see ``study.batch_axes``): the job's wall time from its
-  Snakemake ``benchmark:`` file against the simulation time of its runs (``wall_time_s`` of the
-  run files); the difference is the per-job overhead (process start, imports, Numba cache load,
-  writing the files);
-* the time of each rule (simulate, impacts, summarize, figures) summed over its jobs, from the
+* per simulate job (one batch of runs and their impact tables, see ``study.batch_axes``): the
+  job's wall time from its Snakemake ``benchmark:`` file against the simulation time of its
+  runs (``wall_time_s`` of the run files); the rest is the impact tables (filter, forces,
+  compliant zooms) and the per-job overhead (process start, imports, Numba cache load, writing);
+* the time of each rule (simulate, summarize, figures) summed over its jobs, from the
   Snakemake ``benchmark:`` files, and the simulated time of the runs (steady runs last
   (settle + revolutions) turns at their own speed, so slow points dominate);
+* bytes per run file with the default ``study.keep``: median over the study's runs, and the
+  paper's case (``python -m simcore run`` without arguments, 3,000 steps);
 * the same overhead measured directly: a fresh process that imports simcore and runs one step;
 * the machine's load average before and after (the numbers are only comparable on an idle
   machine).
@@ -130,55 +136,94 @@ def fresh_process() -> tuple[float, float, float, float]:
     return imports, first, run, total - run
 
 
+def file_sizes(results: Path) -> list[int]:
+    """Bytes of each run file of a study (failed-run markers left out)."""
+    import xarray as xr
+
+    sizes = []
+    for path in sorted((results / "runs").glob("*.nc")):
+        with xr.open_dataset(path) as ds:
+            failed = int(ds.attrs.get("failed", 0))
+        if not failed:
+            sizes.append(path.stat().st_size)
+    return sizes
+
+
+def paper_case_bytes(folder: Path) -> int:
+    """Bytes of the paper's case run file (``python -m simcore run``, default study.keep)."""
+    out = folder / "paper.nc"
+    subprocess.run([sys.executable, "-m", "simcore", "run", "--quiet", "--out", str(out)],
+                   cwd=ROOT, check=True, capture_output=True)
+    return out.stat().st_size
+
+
 def main() -> None:
+    import statistics
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--smoke", action="store_true", help="smoke study only")
+    parser.add_argument("--smoke", action="store_true",
+                        help="the smoke study instead of the 24-run study")
     parser.add_argument("--jobs", default="1,2", help="comma-separated -j values (default 1,2)")
+    parser.add_argument("--default", type=int, default=0, metavar="N",
+                        help="also run the default 81-run study N times at -j2 (median)")
     args = parser.parse_args()
     job_counts = [int(j) for j in args.jobs.split(",")]
     print("load average before (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
-    studies = [("smoke", "config/smoke.yaml")]
-    if not args.smoke:
-        studies.append(("default", None))
+    studies = [("smoke", "config/smoke.yaml", job_counts, 1) if args.smoke else
+               ("study24", "benchmarks/study24.yaml", job_counts, 1)]
+    if args.default:
+        studies.append(("default", None, [2], args.default))
 
     fresh_process()  # fill Numba's cache if the sources changed since the last run
     imports, first, run, overhead = fresh_process()
     print(f"per-job overhead: {overhead:.2f} s = process start and exit + imports {imports:.2f} s"
           f" + first call (Numba cache load, one step) {first:.2f} s")
-    print(f"one run of the paper's case (free drive, t_end 0.3 s, dt 1e-4 s): {run:.2f} s; "
-          f"a simulate job of 9 runs (study.batch_axes: omega0, e_N) simulates "
-          f"{9 * run:.1f} s against {overhead:.2f} s overhead "
-          f"({'below' if overhead < 9 * run else 'ABOVE'}); one run per job would be "
-          f"{'below' if overhead < run else 'ABOVE'}")
+    print(f"one run of the paper's case (free drive, t_end 0.3 s, dt 1e-4 s): {run:.2f} s")
 
     tmp = Path(tempfile.mkdtemp(prefix="bench_study."))
+    made = []
     try:
-        for name, configfile in studies:
+        print(f"bytes per run file (default study.keep): paper's case {paper_case_bytes(tmp):,}")
+        for name, configfile, jobs_list, repeat in studies:
             walls = {}
-            for jobs in job_counts:
-                results = tmp / f"{name}-j{jobs}"
-                walls[jobs] = run_study(configfile, jobs, results)
-                job_wall, run_wall, n_runs = job_costs(results)
-                n_jobs = max(len(job_wall), 1)
-                sim = sum(sum(w) for w in run_wall)
-                print(f"{name:8s} -j{jobs}: {walls[jobs]:7.1f} s wall, {n_runs} runs, "
-                      f"{60 * n_runs / walls[jobs]:6.1f} runs/min; {len(job_wall)} simulate "
-                      f"jobs of {sum(job_wall) / n_jobs:.2f} s, of which simulation "
-                      f"{sim / n_jobs:.2f} s ({sim / max(n_runs, 1):.2f} s per run; the first "
-                      f"run of a job includes the Numba cache load)")
-                print(f"{name:8s} -j{jobs}: per rule (summed over jobs): " + ", ".join(
-                    f"{rule} {sec:.1f} s" for rule, sec in sorted(rule_costs(results).items()))
-                    + f"; simulated time {simulated_time(results):.2f} s")
+            for jobs in jobs_list:
+                times = []
+                for rep in range(repeat):
+                    results = tmp / f"{name}-j{jobs}-{rep}"
+                    made.append(results)
+                    times.append(run_study(configfile, jobs, results))
+                    load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
+                    job_wall, run_wall, n_runs = job_costs(results)
+                    n_jobs = max(len(job_wall), 1)
+                    sim = sum(sum(w) for w in run_wall)
+                    print(f"{name:8s} -j{jobs}: {times[-1]:7.1f} s wall, {n_runs} runs, "
+                          f"{60 * n_runs / times[-1]:6.1f} runs/min (load average after: "
+                          f"{load}); {len(job_wall)} simulate jobs of "
+                          f"{sum(job_wall) / n_jobs:.2f} s, of which simulation "
+                          f"{sim / n_jobs:.2f} s ({sim / max(n_runs, 1):.2f} s per run), the rest "
+                          "impact tables with zooms and job overhead", flush=True)
+                    print(f"{name:8s} -j{jobs}: per rule (summed over jobs): " + ", ".join(
+                        f"{rule} {sec:.1f} s" for rule, sec in sorted(rule_costs(results).items()))
+                        + f"; simulated time {simulated_time(results):.2f} s", flush=True)
+                walls[jobs] = statistics.median(times)
+                sizes = file_sizes(results)
+                if repeat > 1:
+                    print(f"{name:8s} -j{jobs}: median of {repeat}: {walls[jobs]:.1f} s, "
+                          f"{60 * n_runs / walls[jobs]:.1f} runs/min (all: "
+                          + ", ".join(f"{t:.1f}" for t in times) + " s)")
+                if sizes:
+                    print(f"{name:8s}: bytes per run file (default study.keep): median "
+                          f"{statistics.median(sizes):,.0f}, {min(sizes):,} to {max(sizes):,} "
+                          f"over {len(sizes)} runs")
             if 1 in walls and 2 in walls:
                 print(f"{name:8s} speed-up -j2 over -j1: {walls[1] / walls[2]:.2f}x")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
         print("load average after (1, 5, 15 min): "
               + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
-        for name, _ in studies:
-            for jobs in job_counts:
-                shutil.rmtree(ROOT / "logs" / "_".join((tmp / f"{name}-j{jobs}").relative_to(
-                    tmp.anchor).parts), ignore_errors=True)
+        for results in made:
+            shutil.rmtree(ROOT / "logs" / "_".join(results.relative_to(results.anchor).parts),
+                          ignore_errors=True)
 
 
 if __name__ == "__main__":

@@ -262,7 +262,7 @@ def check_run(cfg: dict, model=None) -> list[str]:
 MIN_CONTACT_STEPS = 5.0
 
 
-def hertz_contact_time(model: dict) -> float:
+def hertz_contact_time(model: dict, speed: float | None = None) -> float:
     """Shortest Hertz contact time of a ball on a race in the crank-slider of ``model`` [s].
 
     An undamped Hertz impact of mass m at speed v on a contact of stiffness K lasts
@@ -271,6 +271,14 @@ def hertz_contact_time(model: dict) -> float:
     R = r_A r_B/(r_A + r_B); K = (4/3) E* sqrt(R), both bodies of the same material) and v the
     speed of the crank pin, |omega0| L_crank, at least 1 m/s: a ball hits a race at about the
     speed the pin carries it, and a faster impact is a shorter one (t ∝ v^(-1/5)).
+
+    Parameters
+    ----------
+    model : dict
+        The validated ``model`` section.
+    speed : float, optional
+        Impact speed [m/s] to use instead of the crank pin's (e.g. an impact's approach speed,
+        for the step of a compliant zoom on it); floored at 1e-3 m/s.
     """
     E, nu = float(model["youngs_modulus"]), float(model["poisson_ratio"])
     e_star = E / (2.0 * (1.0 - nu * nu))
@@ -278,7 +286,9 @@ def hertz_contact_time(model: dict) -> float:
     r_c = r_a + 2.0 * r_b + float(model["clearance"])
     radius = max(r_a * r_b / (r_a + r_b), r_b * r_c / (r_c - r_b))
     stiffness = 4.0 / 3.0 * e_star * math.sqrt(radius)
-    speed = max(abs(float(model["omega0"])) * float(model["crank_length"]), 1.0)
+    if speed is None:
+        speed = max(abs(float(model["omega0"])) * float(model["crank_length"]), 1.0)
+    speed = max(float(speed), 1e-3)
     delta_max = (5.0 * float(model["ball_mass"]) * speed ** 2 / (4.0 * stiffness)) ** 0.4
     return 2.94 * delta_max / speed
 

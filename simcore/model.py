@@ -483,6 +483,7 @@ class Model:
         audit = EnergyAudit(self, dt * output_every, n_out - 1, energy_tol, t0=t0)
         while k < n_steps:
             k_next = min(n_steps, k + chunk)
+            k_prev = k
             try:
                 bad = advance(k, k_next)
             except np.linalg.LinAlgError as exc:
@@ -520,8 +521,8 @@ class Model:
                 bar = "#" * int(30 * frac)
                 sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f}%  t = {t0 + k * dt:.4f} s")
                 sys.stderr.flush()
-            if compliant and stop_when_released:
-                rows = slice(0, k // output_every + 1)
+            if compliant and stop_when_released:  # the rows written since the last check
+                rows = slice(k_prev // output_every, k // output_every + 1)
                 ever_closed |= (out.F_N[rows] > 0.0).any(axis=0)
                 if ever_closed.any() and not (cstate.closed[ever_closed] > 0).any():
                     break

@@ -7,8 +7,8 @@ later step reading it would fail; a run file that was deleted is an intermediate
 where Snakemake decides (when the workflow is parsed) and, before Snakemake looks:
 
 - removes every output netCDF file that cannot be opened;
-- removes the impact table of every run file that is missing (after the first step), so that
-  the impacts job needs its runs again and the simulate job remakes them;
+- removes the impact table of every run file that is missing, so that the simulate job that
+  makes both remakes them;
 - removes the summary when it cannot be opened or when a file it summarises is missing (else
   Snakemake, finding the summary up to date, would not remake the missing intermediates).
 

@@ -109,3 +109,15 @@ def test_study_figures_command_on_a_summary_file(tmp_path):
     assert main(["study-figures", str(path)]) == 0
     assert (tmp_path / "figures" / "study_peak_force_outer.png").exists()
     assert (tmp_path / "figures" / "summary_table.csv").exists()
+
+
+def test_plot_study_parts_share_the_figures(tmp_path):
+    """part=(i, n) draws every n-th quantity: the parts together are the whole set, once."""
+    ds = _summary((2, 2, 2, 2))
+    whole = {p.name for p in plot_study(ds, tmp_path / "all")}
+    parts = [{p.name for p in plot_study(ds, tmp_path / f"p{i}", part=(i, 2))} for i in (0, 1)]
+    assert parts[0] and parts[1] and not parts[0] & parts[1]
+    assert parts[0] | parts[1] == whole
+    assert plot_study(_summary((1, 1, 1, 1)), tmp_path / "one", part=(1, 2)) == []
+    with pytest.raises(ValueError, match="part"):
+        plot_study(ds, tmp_path, part=(2, 2))

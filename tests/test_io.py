@@ -153,11 +153,11 @@ def test_stored_types_are_those_of_the_storage_table(short_paper_case, tmp_path)
             assert var.storage == STORAGE[name], name
             assert var.chunking()[0] == ds.sizes["time"], name  # one chunk per time series
         assert nc.variables["time"].dtype == np.float64
-    with xr.open_dataset(path) as back:  # float64 restart state and impulses: exact
-        for name in ("position", "angle", "velocity", "angular_velocity", "Lambda_N",
-                     "crank_angle", "iterations", "converged"):
+    with xr.open_dataset(path) as back:  # float64 impulses and crank angle: exact
+        for name in ("Lambda_N", "crank_angle", "iterations", "converged"):
             np.testing.assert_array_equal(back[name].values, ds[name].values, err_msg=name)
-        for name in ("vn_free", "slider_x", "journal_x"):  # float32: 7 significant digits
+        for name in ("vn_free", "slider_x", "journal_x", "position", "angle", "velocity",
+                     "angular_velocity"):  # float32: 7 significant digits
             np.testing.assert_allclose(back[name].values, ds[name].values, rtol=1e-7,
                                        atol=1e-7 * float(np.abs(ds[name]).max()), err_msg=name)
 
@@ -200,6 +200,31 @@ def test_default_keep_file_gives_the_impact_table_of_the_run(short_paper_case, t
         np.testing.assert_array_equal(got[name].values, ref[name].values, err_msg=name)
     for name in ("v_pre", "F_max"):
         np.testing.assert_allclose(got[name].values, ref[name].values, rtol=1e-6, err_msg=name)
-    q_ref, q_got = generalized(ds), generalized(back)  # the zoom's restart state, exact
-    np.testing.assert_array_equal(q_got.q.values, q_ref.q.values)
-    np.testing.assert_array_equal(q_got.v.values, q_ref.v.values)
+    q_ref, q_got = generalized(ds), generalized(back)  # the zoom's restart state, float32
+    for name in ("q", "v"):
+        np.testing.assert_allclose(q_got[name].values, q_ref[name].values, rtol=6e-8,
+                                   atol=6e-8 * float(np.abs(q_ref[name]).max()), err_msg=name)
+
+
+@pytest.mark.parametrize("youngs_modulus", [2.1e9, 2.1e11])
+def test_zoom_from_the_default_file_agrees_with_the_zoom_from_memory(short_paper_case, tmp_path,
+                                                                     youngs_modulus):
+    """The restart state is stored as float32: a zoom of the largest impact (a pinch at
+    1.5 ms) from the written default file gives the largest force and the contact time of the
+    zoom from the float64 run in memory within 0.1 % (measured on the paper case: 6e-5)."""
+    import analysis
+    from analysis.zoom import add_zoom_forces
+
+    ds, cfg = short_paper_case
+    path = write_netcdf(ds, tmp_path / "z.nc", keep=cfg["study"]["keep"])
+    back = simcore.io.open_run(path)
+    assert back["position"].dtype == np.float32
+    imp = analysis.extract_impacts(ds)
+    ov = [f"model.youngs_modulus={youngs_modulus}"]
+    memory = add_zoom_forces(ds, imp, zoom_top=2, overrides=ov)
+    from_file = add_zoom_forces(back, imp, zoom_top=2, overrides=ov)
+    zoomed = np.isfinite(memory["F_max_zoom"].values)
+    assert zoomed.sum() == 2
+    for name in ("F_max_zoom", "contact_time_zoom"):
+        np.testing.assert_allclose(from_file[name].values[zoomed], memory[name].values[zoomed],
+                                   rtol=1e-3, err_msg=name)

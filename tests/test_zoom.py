@@ -99,3 +99,56 @@ def test_simulation_stops_once_the_contacts_have_opened_again():
     assert traj.F_N.max() > 0.0 and traj.F_N[-1, 0] == 0.0
     assert traj.time[-1] < 2e-4
     assert traj.v[-1, 1] > 0.99
+
+
+def test_contact_time_of_a_sampled_hertz_pulse_is_found_between_samples():
+    """An undamped Hertz contact: the indentation leaves and returns to zero linearly in time,
+    the force goes as its 3/2 power. Sampled at dt = T/40 (the zoom's step), the duration is
+    found to a small fraction of a step, where counting samples errs by up to a step."""
+    from analysis.zoom import _first_episode
+
+    T, dt = 1.7e-4, 1.7e-4 / 40
+    for shift in (0.0, 0.13, 0.5, 0.91):  # where the contact starts within a step
+        t = np.arange(-5, 60) * dt
+        delta = np.sin(np.pi * (t - shift * dt) / T)
+        force = np.where((t - shift * dt > 0) & (t - shift * dt < T), delta, 0.0) ** 1.5
+        assert _first_episode(force, dt) == pytest.approx(T, rel=2e-3)
+    assert _first_episode(np.zeros(5), dt) == 0.0
+    assert _first_episode(np.array([0.0, 2.0, 0.0, 0.0]), dt) == pytest.approx(dt)  # one sample
+    assert np.isnan(_first_episode(np.array([0.0, 1.0, 2.0]), dt))
+
+
+def test_zoom_step_follows_the_hertz_contact_time(run_ds):
+    """dt = t_Hertz / N: a 100 times stiffer material shortens a Hertz contact by 100^(2/5)
+    (t ~ K^(-2/5)), a faster impact by (v ratio)^(1/5); the run's own step caps it."""
+    from analysis.zoom import STEPS_PER_CONTACT, zoom_step
+    from simcore.compliant_zoom import zoom_config
+    from simcore.limits import hertz_contact_time
+
+    soft = zoom_config(run_ds)["model"]
+    stiff = zoom_config(run_ds, overrides=["model.youngs_modulus=2.1e11"])["model"]
+    assert soft["youngs_modulus"] == 2.1e9
+    h_soft = zoom_step(soft, 1.0, [0.5], STEPS_PER_CONTACT)
+    h_stiff = zoom_step(stiff, 1.0, [0.5], STEPS_PER_CONTACT)
+    assert h_soft / h_stiff == pytest.approx(100.0 ** 0.4, rel=1e-12)
+    assert h_soft == pytest.approx(hertz_contact_time(soft) / STEPS_PER_CONTACT)
+    fast = 20.0 * abs(soft["omega0"]) * soft["crank_length"]  # 20 times the pin speed
+    assert zoom_step(soft, 1.0, [fast], 1) == pytest.approx(
+        hertz_contact_time(soft) / 20.0 ** 0.2, rel=1e-12)
+    assert zoom_step(soft, 1e-7, [0.5], 1) == 1e-7
+
+
+def test_impact_table_records_the_zoom_step(run_ds):
+    from analysis.zoom import STEPS_PER_CONTACT
+    from simcore.limits import hertz_contact_time
+
+    imp = analysis.extract_impacts(run_ds)
+    table = add_zoom_forces(run_ds, imp, zoom_top=1)
+    zoomed = np.isfinite(table["F_max_zoom"].values)
+    t_hertz = hertz_contact_time(simcore.validate_config(
+        {"model": {k.split(".", 1)[1]: v for k, v in run_ds.attrs.items()
+                   if k.startswith("model.")}})["model"])
+    assert table["dt_zoom"].attrs["units"] == "s"
+    np.testing.assert_allclose(table["dt_zoom"].values[zoomed], t_hertz / STEPS_PER_CONTACT)
+    assert np.all(np.isnan(table["dt_zoom"].values[~zoomed]))
+    assert table.attrs["zoom_steps_per_contact"] == STEPS_PER_CONTACT

@@ -1,25 +1,5 @@
-# Filter and forces per run (docs/forces.md; one job per batch of runs, as simulate), then one summary over the grid (docs/study.md).
-
-
-rule impacts:
-    input:
-        runs=batch_files("runs"),
-    output:
-        batch_files("impacts"),
-    log:
-        f"{LOGS}/impacts/{BATCH_NAME}.log",
-    benchmark:
-        f"{LOGS}/impacts/{BATCH_NAME}.benchmark.tsv"
-    params:
-        analysis=config["analysis"],
-    threads: 1
-    resources:
-        runtime=10,
-        mem_mb=1000,
-    conda:
-        "../envs/sim.yaml"
-    script:
-        "../scripts/impacts.py"
+# One summary over the grid (docs/study.md); the impact tables it reads come from the simulate
+# jobs (workflow/rules/simulate.smk).
 
 
 rule summarize:

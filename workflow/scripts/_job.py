@@ -17,8 +17,9 @@ SWEPT = ("clearance", "mu", "omega0", "e_N")
 
 
 @contextmanager
-def job_log(path):
-    """Send all the job prints (Python and C level, stdout and stderr) to the log file ``path``.
+def job_log(path, mode="w"):
+    """Send all the job prints (Python and C level, stdout and stderr) to the log file ``path``
+    (``mode`` "w": a new log, "a": append to it).
 
     Yields a text stream to the terminal's stderr, for the few lines the user must see there
     (a failed run). An exception is written to the log, then raised again.
@@ -27,7 +28,7 @@ def job_log(path):
     sys.stderr.flush()
     saved_out, saved_err = os.dup(1), os.dup(2)
     terminal = os.fdopen(os.dup(saved_err), "w", buffering=1)
-    with open(path, "w", buffering=1, encoding="utf-8") as log:
+    with open(path, mode, buffering=1, encoding="utf-8") as log:
         os.dup2(log.fileno(), 1)
         os.dup2(log.fileno(), 2)
         try:

@@ -1,12 +1,20 @@
-"""Job of rule ``simulate``: the runs of one batch -> results/runs/<params>.nc, one per run.
+"""Job of rule ``simulate``: the runs of one batch -> results/runs/<params>.nc, and their impact
+tables -> results/impacts/<params>.nc, one of each per run, in one process.
+
+Each run is simulated, written (``study.keep``), then its impact table (filter, Flores forces,
+compliant zooms of the largest impacts) is made from the run still in memory, at full
+precision (:func:`analysis.study_tables.impact_table`), and written: the process start, the
+imports and the Numba cache load are paid once per batch.
 
 A run whose solver does not converge (``simcore.SolverError``, or a singular matrix,
 ``numpy.linalg.LinAlgError``, raised from a kernel) does not stop the study: the
 error, naming the run's parameters, goes to the log and to the terminal, and a small marker
 file (the run's parameter coordinates, attribute ``failed = 1`` and the message) takes the place
-of the run, so that the summary shows this point as missing.
+of the run, so that the summary shows this point as missing; its impact table is empty, with
+attribute ``failed = 1``.
 
-The terminal gets one line per batch; the details of every run go to the job's log.
+The terminal gets one line per batch; the details of every run go to the job's simulate log,
+those of every impact table to its impacts log.
 """
 
 import time
@@ -15,18 +23,21 @@ from _job import batch_label, job_log, label, remove_stale, set_threads
 
 sm = snakemake  # noqa: F821  (injected by Snakemake)
 
-with job_log(sm.log[0]) as terminal:
+open(sm.log.impacts, "w").close()  # a new impacts log; each table appends its lines
+with job_log(sm.log.simulate) as terminal:
     batch_start = time.perf_counter()
     n_threads = set_threads(sm.threads)
-    remove_stale(sm.output)
+    remove_stale(list(sm.output.runs) + list(sm.output.impacts))
     from numpy.linalg import LinAlgError
 
     import simcore
+    from analysis.study_tables import impact_table
     from simcore.io import failed_run_dataset
 
-    simulated = loading = 0.0
+    simulated = loading = tabulating = 0.0
     n_failed = 0
-    for point, raw, path in zip(sm.params.points, sm.params.configs, sm.output, strict=True):
+    for point, raw, path, table_path in zip(sm.params.points, sm.params.configs,
+                                            sm.output.runs, sm.output.impacts, strict=True):
         cfg = simcore.validate_config(raw)
         start = time.perf_counter()
         try:
@@ -42,7 +53,18 @@ with job_log(sm.log[0]) as terminal:
         simcore.write_netcdf(ds, path, keep=sm.params.keep)  # study.keep
         print(f"{label(point)}: {time.perf_counter() - start:.2f} s "
               f"(numba threads: {n_threads}) -> {path}", flush=True)
+        with job_log(sm.log.impacts, mode="a"):
+            start = time.perf_counter()
+            impacts = impact_table(ds, sm.params.analysis, point, source=path)
+            if impacts.attrs["failed"]:
+                print(f"{label(point)}: failed run, empty impact table", flush=True)
+            else:
+                print(f"{label(point)}: {impacts.sizes.get('impact', 0)} impacts, "
+                      f"{time.perf_counter() - start:.2f} s -> {table_path}", flush=True)
+            simcore.write_netcdf(impacts, table_path)
+            tabulating += time.perf_counter() - start
     total = time.perf_counter() - batch_start
     failed = f", {n_failed} FAILED" if n_failed else ""
-    print(f"simulated {batch_label(sm.wildcards)}: {len(sm.output)} run(s) in {total:.1f} s "
+    print(f"impact tables (filter, forces, zooms): {tabulating:.1f} s", flush=True)
+    print(f"simulated {batch_label(sm.wildcards)}: {len(sm.output.runs)} run(s) in {total:.1f} s "
           f"(integration {simulated:.1f} s, Numba load {loading:.1f} s){failed}", file=terminal)

@@ -6,7 +6,7 @@ kernels at the same time (minutes on 2 cores after an install) and print nothing
 Numba keeps the compiled code in ``__pycache__`` next to the sources, where every job then
 finds it. A few steps of the paper's case (an impact at 1.5 ms) go through the simulation and
 through the impact analysis, which has kernels of its own, and one short compliant zoom of that
-impact (the kernels of the compliant model, which the impacts jobs use for ``F_max_zoom``).
+impact (the kernels of the compliant model, which the simulate jobs use for ``F_max_zoom``).
 """
 
 import sys
