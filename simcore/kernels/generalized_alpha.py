@@ -21,17 +21,17 @@ from .linalg import (
 )
 from .springs import smooth_forces
 
-#: Work arrays of :func:`smooth_step` (made once per chunk by :func:`smooth_work`): the joint
-#: rows g, G, their velocity terms gm, dgdt, the Newton matrix J and right-hand side rhs, the
-#: factor of J and the Schur-complement arrays JG, S, piv, and the compliant stage's previous
-#: iterate (vdot_prev, lam_prev) for its backtracking.
+#: Work arrays of :func:`smooth_step` (made by :func:`smooth_work`, once per run or chunk):
+#: the joint rows g, G, their velocity terms gm, dgdt, the Newton matrix J and right-hand side
+#: rhs, the factor of J and the Schur-complement arrays JG, S, piv, and the compliant stage's
+#: previous iterate (vdot_prev, lam_prev) for its backtracking.
 SmoothWork = namedtuple("SmoothWork", ["g", "G", "gm", "dgdt", "J", "rhs", "fac", "JG", "S",
                                        "piv", "vdot_prev", "lam_prev"])
 
 
 @njit(cache=True, error_model="numpy")
 def step_work(n):
-    """Work arrays of a step shared by both time loops, made once per chunk: the smooth
+    """Work arrays of a step shared by both time loops, made once per run or chunk: the smooth
     stage's predicted q~, v~, accelerations a, v', force f and its Jacobians K, C, K_s (n x n),
     and the end-of-step q, v."""
     return (np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n),

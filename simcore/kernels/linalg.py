@@ -2,7 +2,7 @@
 
 LAPACK through ``np.linalg`` costs 7-20 µs a call on these sizes, mostly call overhead and
 workspace allocation; the loops below do the same arithmetic in a fraction of that and write
-into work arrays made once per chunk. Every routine works on the leading ``n x n`` block of its
+into work arrays made once per run. Every routine works on the leading ``n x n`` block of its
 arrays, so one work array serves problems of any size up to its own.
 
 - :func:`cholesky_factor` / :func:`cholesky_solve`: A = L L^T of a symmetric positive definite
@@ -362,7 +362,7 @@ def saddle_point_solve(J, G, c, rhs):
 
     ``J`` (n x n) is factorised on its coupled block (:func:`block_factor`, LU: J need not be
     symmetric); ``G`` is m x n, ``c`` a scalar. (Allocates its work arrays; the time loops call
-    :func:`saddle_point_solve_into` with arrays made once per chunk.)"""
+    :func:`saddle_point_solve_into` with arrays made once per run.)"""
     n = J.shape[0]
     m = G.shape[0]
     saddle_point_solve_into(J, G, c, rhs, block_factor_work(n), np.empty((m, n)),
