@@ -54,14 +54,14 @@ def test_contact_rows_match_finite_differences(bearing):
     wN, wT = np.zeros(6), np.zeros(6)
     eps = 1e-8
     for k in range(arr.ct_type.size):
-        g = nb.contact_rows(q, k, arr, wN, wT)
+        g = nb.contact_rows(q, k, arr.ct_type, arr.ct_body, arr.ct_geom, wN, wT)
         row = np.zeros(q.size)
         nb.scatter_row(row, wN, arr.ct_body[k, 0], arr.ct_body[k, 1])
         fd = np.zeros(q.size)
         for i in range(q.size):
             dq = q.copy()
             dq[i] += eps
-            fd[i] = (nb.contact_rows(dq, k, arr,
+            fd[i] = (nb.contact_rows(dq, k, arr.ct_type, arr.ct_body, arr.ct_geom,
                                      np.zeros(6), np.zeros(6)) - g) / eps
         np.testing.assert_allclose(fd, row, atol=1e-6)
         assert nb.row_dot(wN, arr.ct_body[k, 0], arr.ct_body[k, 1], v) == pytest.approx(
@@ -162,7 +162,7 @@ def test_contact_hessian_matches_finite_differences(bearing):
                 dq = q.copy()
                 dq[dof] += sign * eps
                 wN = np.zeros(6)
-                nb.contact_rows(dq, k, arr, wN,
+                nb.contact_rows(dq, k, arr.ct_type, arr.ct_body, arr.ct_geom, wN,
                                 np.zeros(6))
                 rows.append(wN.copy())
             np.testing.assert_allclose((rows[0] - rows[1]) / (2 * eps), H[:, c], atol=1e-5)

@@ -21,7 +21,7 @@ CONTACT_INSIDE = 2
 
 
 @njit(cache=True, error_model="numpy")
-def contact_rows(q, k, ma, wN, wT):
+def contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT):
     """Gap ``g_N`` [m] of contact ``k`` and its normal / tangential Jacobian entries.
 
     ``wN[0:3]``, ``wT[0:3]`` belong to body a (surface), ``wN[3:6]``, ``wT[3:6]`` to body b
@@ -34,9 +34,6 @@ def contact_rows(q, k, ma, wN, wT):
     The tangent is t = e_z x n; the slip is the velocity of the sphere's material point at the
     contact minus that of body a's material point there (taken at the race radius r_a).
     """
-    ct_type = ma.ct_type
-    ct_body = ma.ct_body
-    ct_geom = ma.ct_geom
     ia = ct_body[k, 0]
     ib = ct_body[k, 1]
     p = ct_geom[k]
@@ -147,6 +144,6 @@ def contact_velocities(q, v, ma, gap, vn, vt):
     wN = np.zeros(6)
     wT = np.zeros(6)
     for k in range(ct_type.shape[0]):
-        gap[k] = contact_rows(q, k, ma, wN, wT)
+        gap[k] = contact_rows(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT)
         vn[k] = row_dot(wN, ct_body[k, 0], ct_body[k, 1], v)
         vt[k] = row_dot(wT, ct_body[k, 0], ct_body[k, 1], v)

@@ -61,7 +61,7 @@ def contact_forces(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt
     for k in range(ma.ct_type.shape[0]):
         ia = ma.ct_body[k, 0]
         ib = ma.ct_body[k, 1]
-        g = contact_rows(q, k, ma, wN, wT)
+        g = contact_rows(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT)
         gap[k] = g
         vN = row_dot(wN, ia, ib, v)
         vT = row_dot(wT, ia, ib, v)
@@ -125,7 +125,7 @@ def elastic_energy(q, ma):
     wT = np.zeros(6)
     e = 0.0
     for k in range(ma.ct_type.shape[0]):
-        delta = -contact_rows(q, k, ma, wN, wT)
+        delta = -contact_rows(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT)
         if delta > 0.0:
             e += 0.4 * ma.ct_hertz[k, 0] * delta * delta * np.sqrt(delta)
     return e

@@ -86,7 +86,7 @@ def _position_rows(q_t, U, t1, ma, q1, gb, Gb, gm, dgdt, gap, GN, wN, wT):
         q1[i] = q_t[i] + U[i]
     bilateral(q1, U, t1, ma, gb, Gb, gm, dgdt)
     for k in range(gap.shape[0]):
-        gap[k] = contact_rows(q1, k, ma, wN, wT)
+        gap[k] = contact_rows(q1, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT)
         scatter_row(GN[k], wN, ct_body[k, 0], ct_body[k, 1])
 
 
@@ -680,7 +680,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
         lamT[k] = 0.0
         if not closed[k]:
             continue
-        contact_rows(q1, k, ma, wN, wT)
+        contact_rows(q1, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT)
         scatter_row(G[row], wN, ct_body[k, 0], ct_body[k, 1])
         # Newton's law as docs/model.md states it, with the start-of-step velocity also where
         # the contact was separating then (closed by the position correction, e.g. the partner
