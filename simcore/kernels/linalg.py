@@ -216,6 +216,31 @@ def block_solve(fac, n, x):
 
 
 @njit(cache=True, error_model="numpy")
+def _substitute_row(fac, G, r, y):
+    """y[:k] = the coupled columns of row r of G through the factor of :func:`block_factor`:
+    L^-1 G_c^T for a Cholesky factor (starting at the row's first non-zero, which is returned),
+    A_c^-1 G_c^T for an LU one (returns 0)."""
+    k = fac.info[0]
+    idx = fac.idx
+    B = fac.B
+    f = k
+    for a in range(k):
+        y[a] = G[r, idx[a]]
+        if f == k and y[a] != 0.0:
+            f = a
+    if fac.info[1] != 0:
+        if k > 0:
+            lu_solve(B, k, fac.piv, y)
+        return 0
+    for a in range(f, k):
+        s = y[a]
+        for p in range(f, a):
+            s -= B[a, p] * y[p]
+        y[a] = s / B[a, a]
+    return f
+
+
+@njit(cache=True, error_model="numpy")
 def block_gram(fac, n, G, m, Y, first, D):
     """D[:m, :m] = G[:m] A^-1 G[:m]^T for a symmetric A factorised by :func:`block_factor`.
 
@@ -226,26 +251,9 @@ def block_gram(fac, n, G, m, Y, first, D):
     k = fac.info[0]
     idx = fac.idx
     dinv = fac.dinv
-    B = fac.B
     chol = fac.info[1] == 0
     for r in range(m):
-        y = Y[r]
-        f = k
-        for a in range(k):
-            y[a] = G[r, idx[a]]
-            if f == k and y[a] != 0.0:
-                f = a
-        if chol:
-            first[r] = f
-            for a in range(f, k):
-                s = y[a]
-                for p in range(f, a):
-                    s -= B[a, p] * y[p]
-                y[a] = s / B[a, a]
-        else:
-            first[r] = 0
-            if k > 0:
-                lu_solve(B, k, fac.piv, y)
+        first[r] = _substitute_row(fac, G, r, Y[r])
     for a in range(m):
         for b in range(a, m):
             s = 0.0
@@ -280,30 +288,13 @@ def block_gram_rows(fac, n, G, rows, m, Y, first, have, D):
     k = fac.info[0]
     idx = fac.idx
     dinv = fac.dinv
-    B = fac.B
     chol = fac.info[1] == 0
     for a in range(m):
         r = rows[a]
         if have[r]:
             continue
         have[r] = True
-        y = Y[r]
-        f = k
-        for c in range(k):
-            y[c] = G[r, idx[c]]
-            if f == k and y[c] != 0.0:
-                f = c
-        if chol:
-            first[r] = f
-            for c in range(f, k):
-                s = y[c]
-                for p in range(f, c):
-                    s -= B[c, p] * y[p]
-                y[c] = s / B[c, c]
-        else:
-            first[r] = 0
-            if k > 0:
-                lu_solve(B, k, fac.piv, y)
+        first[r] = _substitute_row(fac, G, r, Y[r])
         for rb in range(G.shape[0]):
             if not have[rb]:
                 continue
@@ -328,24 +319,13 @@ def block_gram_diagonal(fac, n, G, m, y, d):
     k = fac.info[0]
     idx = fac.idx
     dinv = fac.dinv
-    B = fac.B
     for r in range(m):
-        for a in range(k):
-            y[a] = G[r, idx[a]]
+        f = _substitute_row(fac, G, r, y)
         s = 0.0
         if fac.info[1] == 0:
-            f = 0
-            while f < k and y[f] == 0.0:
-                f += 1
             for a in range(f, k):
-                t = y[a]
-                for p in range(f, a):
-                    t -= B[a, p] * y[p]
-                t /= B[a, a]
-                y[a] = t
-                s += t * t
-        elif k > 0:
-            lu_solve(B, k, fac.piv, y)
+                s += y[a] * y[a]
+        else:
             for a in range(k):
                 s += G[r, idx[a]] * y[a]
         for i in range(n):
