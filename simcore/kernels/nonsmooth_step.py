@@ -91,6 +91,22 @@ def _position_rows(q_t, U, t1, ma, q1, gb, Gb, gm, dgdt, gap, GN, wN, wT):
 
 
 @njit(cache=True, error_model="numpy")
+def _metric_product(Ap, fac, U, out):
+    """out = Ap U, for an Ap that is diagonal but for the coupled block ``fac`` found when it
+    was factorised (:func:`~.linalg.block_factor`)."""
+    for i in range(U.shape[0]):
+        out[i] = Ap[i, i] * U[i]
+    idx = fac.idx
+    kc = fac.info[0]
+    for a in range(kc):
+        i = idx[a]
+        s = 0.0
+        for b in range(kc):
+            s += Ap[i, idx[b]] * U[idx[b]]
+        out[i] = s
+
+
+@njit(cache=True, error_model="numpy")
 def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, facA, gb, Gb, gap, GN, eq):
     """Scaled residual [m] of the position problem at (U, nu) from the rows at q_t + U
     (:func:`_position_rows`): joints, complementarity in the augmented-Lagrangian form
@@ -104,16 +120,7 @@ def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, facA, gb, Gb, gap, GN, eq)
         rk = r_c[k]
         val = nu_c[k] - max(0.0, nu_c[k] - rk * gap[k])
         res = max(res, abs(val) / rk)
-    for i in range(n):
-        eq[i] = Ap[i, i] * U[i]
-    idx = facA.idx
-    kc = facA.info[0]
-    for a in range(kc):
-        i = idx[a]
-        s = 0.0
-        for b in range(kc):
-            s += Ap[i, idx[b]] * U[idx[b]]
-        eq[i] = s
+    _metric_product(Ap, facA, U, eq)
     for r in range(gb.shape[0]):
         if nu_b[r] != 0.0:
             for i in range(n):
@@ -223,19 +230,9 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             fac = wk.facH
         # the linearised problem of this iterate, for all rows: joints first, then contacts;
         # row i of the new iterate reads (D nu)_i = b_i (+ proximal term on contacts)
-        # A U: Ap is diagonal but for its coupled block (the indices block_factor found)
         AU = wk.AU
-        for i in range(n):
-            AU[i] = Ap[i, i] * U[i]
-        idx_c = wk.facA.idx
-        for a in range(wk.facA.info[0]):
-            i = idx_c[a]
-            s = 0.0
-            for c in range(wk.facA.info[0]):
-                s += Ap[i, idx_c[c]] * U[idx_c[c]]
-            AU[i] = s
-        for i in range(n):
-            HAU[i] = AU[i]
+        _metric_product(Ap, wk.facA, U, AU)
+        copy_vector(HAU, AU, n)
         block_solve(fac, n, HAU)
         for r in range(nbil):
             s = -gb[r]
