@@ -67,12 +67,12 @@ def initial_acceleration(q, v, t, ma, vdot, lam, v_pre, v_reg):
     n = q.shape[0]
     m = joint_row_count(jt_type)
     f = np.zeros(n)
-    K = np.zeros((n, n))
-    smooth_forces(q, v, ma, f, K, K, K, False)
+    M = np.zeros((n, n))  # no tangents asked of the forces: M stands in for K, C, K_s
+    smooth_forces(q, v, ma, f, M, M, M, False)
     if v_pre is not None:
         nc = ma.ct_type.shape[0]
         w = np.zeros((5, nc))
-        contact_forces(q, v, ma, v_pre, v_reg, f, K, K, False, w[0], w[1], w[2], w[3], w[4],
+        contact_forces(q, v, ma, v_pre, v_reg, f, M, M, False, w[0], w[1], w[2], w[3], w[4],
                        np.zeros((6, nc)))
     g = np.zeros(m)
     G = np.zeros((m, n))
@@ -81,8 +81,6 @@ def initial_acceleration(q, v, t, ma, vdot, lam, v_pre, v_reg):
     bilateral(q, v, t, ma, g, G, gam, dgdt)
     # [M, -G^T; G, 0] [vdot; lam] = [f; -gamma], by the solver of the smooth stage's steps
     # (so that a run compiles no other dense solver)
-    M = K
-    M[:, :] = 0.0
     rhs = np.zeros(n + m)
     for i in range(n):
         M[i, i] = mdiag[i]
@@ -132,8 +130,9 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
     merit_prev = np.inf
     vdot_prev = sw.vdot_prev
     lam_prev = sw.lam_prev
-    copy_vector(vdot_prev, vdot1, n)
-    copy_vector(lam_prev, lam, m)
+    if cwork is not None:
+        copy_vector(vdot_prev, vdot1, n)
+        copy_vector(lam_prev, lam, m)
     halvings = 0
     for it in range(max_iter + 1):
         for i in range(n):
