@@ -460,10 +460,11 @@ class Model:
                                           out.energy, out.iterations, out.converged,
                                           out.drive_torque)
             chunk = max(1, int(chunk) // output_every) * output_every
+            work = nb.compliant_work(ndof, nbil, nc)
 
             def advance(k, k_next):
                 return nb.integrate_compliant_chunk(k, k_next, output_every, settings, arr,
-                                                    state, cstate, outputs)
+                                                    state, cstate, outputs, work)
         else:
             outputs = nb.ChunkOutputs(out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N,
                                       out.gap_N, out.vn_pre, out.vn_post, out.vn_free,

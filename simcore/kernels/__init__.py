@@ -38,7 +38,11 @@ from .bundles import (  # noqa: E402
     StepSettings,
     StepState,
 )
-from .compliant_step import integrate_compliant_chunk, project_joints  # noqa: E402
+from .compliant_step import (  # noqa: E402
+    compliant_work,
+    integrate_compliant_chunk,
+    project_joints,
+)
 from .contact import (  # noqa: E402
     CONTACT_INSIDE,
     CONTACT_OUTSIDE,
@@ -80,5 +84,5 @@ __all__ = [
     "pair_point_jacobians", "position_step", "row_dot", "scatter_row", "smooth_forces",
     "smooth_step", "solve_velocity_problem", "spring_state", "total_energy", "transverse_form",
     "unit_direction", "velocity_step", "contact_forces", "elastic_energy", "normal_force",
-    "integrate_compliant_chunk", "project_joints",
+    "compliant_work", "integrate_compliant_chunk", "project_joints",
 ]

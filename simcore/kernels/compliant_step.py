@@ -12,6 +12,8 @@ against the speed at the exact crossing is at most the change of vn over one ste
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
@@ -20,6 +22,19 @@ from .hertz import elastic_energy
 from .joints import bilateral, joint_row_count
 from .linalg import gauss_solve
 from .springs import total_energy
+
+#: Work arrays of :func:`integrate_compliant_chunk` (:func:`compliant_work`): the step's
+#: (:func:`~.generalized_alpha.step_work`), the smooth stage's and the contacts' (11, nc) rows
+#: of FN, FT, gap, vn, vt and tangential Jacobian entries.
+CompliantWork = namedtuple("CompliantWork", ["step", "smooth", "contacts"])
+
+
+def compliant_work(n, nbil, nc):
+    """Every work array of :func:`integrate_compliant_chunk` for n coordinates, nbil joint
+    rows and nc contacts, made once per run in Python."""
+    return CompliantWork(step=step_work(n), smooth=smooth_work(n, nbil),
+                         contacts=np.zeros((11, nc)))
+
 
 COMPLIANT_STAGE_SMOOTH = 0
 COMPLIANT_STAGE_POSITION = 1
@@ -88,7 +103,7 @@ def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
 
 
 @njit(cache=True, error_model="numpy")
-def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out):
+def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
     """Advance steps k0 .. k1-1 of the compliant model (state at t0 + k0 h on entry).
 
     Every ``every`` steps the output row (k + 1) // every is written: q, v, energy (kinetic,
@@ -124,9 +139,9 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out):
     n = q.shape[0]
     nc = ma.ct_type.shape[0]
     coef = alpha_coefficients(st.rho_inf)
-    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = step_work(n)
-    cwork = np.zeros((11, nc))
-    sw = smooth_work(n, lam_s.shape[0])
+    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
+    cwork = work.contacts
+    sw = work.smooth
     first_bad = -1
     for k in range(k0, k1):
         t1 = st.t0 + (k + 1) * h

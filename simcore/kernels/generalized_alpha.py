@@ -21,7 +21,7 @@ from .linalg import (
 )
 from .springs import smooth_forces
 
-#: Work arrays of :func:`smooth_step` (made by :func:`smooth_work`, once per run or chunk):
+#: Work arrays of :func:`smooth_step` (made by :func:`smooth_work`, once per run):
 #: the joint rows g, G, their velocity terms gm, dgdt, the Newton matrix J and right-hand side
 #: rhs, the factor of J and the Schur-complement arrays JG, S, piv, and the compliant stage's
 #: previous iterate (vdot_prev, lam_prev) for its backtracking.
@@ -29,18 +29,17 @@ SmoothWork = namedtuple("SmoothWork", ["g", "G", "gm", "dgdt", "J", "rhs", "fac"
                                        "piv", "vdot_prev", "lam_prev"])
 
 
-@njit(cache=True, error_model="numpy")
 def step_work(n):
-    """Work arrays of a step shared by both time loops, made once per run or chunk: the smooth
+    """Work arrays of a step shared by both time loops, made once per run in Python: the smooth
     stage's predicted q~, v~, accelerations a, v', force f and its Jacobians K, C, K_s (n x n),
     and the end-of-step q, v."""
     return (np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n),
             np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n)), np.zeros(n), np.zeros(n))
 
 
-@njit(cache=True, error_model="numpy")
 def smooth_work(n, m):
-    """Work arrays of :func:`smooth_step` for n coordinates and m joint rows."""
+    """Work arrays of :func:`smooth_step` for n coordinates and m joint rows (made once per
+    run in Python)."""
     return SmoothWork(g=np.zeros(m), G=np.zeros((m, n)), gm=np.zeros(m), dgdt=np.zeros(m),
                       J=np.zeros((n, n)), rhs=np.zeros(n + m), fac=block_factor_work(n),
                       JG=np.zeros((m, n)), S=np.zeros((m, m)), piv=np.zeros(m, dtype=np.int64),
