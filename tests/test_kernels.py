@@ -137,6 +137,10 @@ def test_small_geometry_and_algebra_kernels():
     # d(c_j - c_i)/dphi_i = -(e_z x a_i) = (0.5, 0) for a_i = (0, 0.5)
     np.testing.assert_allclose(P[:, 2], [0.5, 0.0])
     np.testing.assert_allclose(P[:, 5], [0.0, -1.0])
+    # the row of u.(c_j - c_i) is u^T P, scaled by the sign
+    w = np.zeros(6)
+    nb.point_pair_row(w, 0.6, 0.8, 0.0, 0.5, -1.0, 0.0, -2.0)
+    np.testing.assert_allclose(w, -2.0 * (np.array([0.6, 0.8]) @ P), rtol=1e-15)
     # transverse form along n = x: only the y components count
     assert nb.transverse_form(P, 1.0, 0.0, 1, 1) == pytest.approx(1.0)
     assert nb.transverse_form(P, 1.0, 0.0, 0, 0) == pytest.approx(0.0)

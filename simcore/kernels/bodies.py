@@ -61,6 +61,18 @@ def pair_point_jacobians(P, aix, aiy, ajx, ajy):
 
 
 @njit(cache=True, error_model="numpy")
+def point_pair_row(w, ux, uy, aix, aiy, ajx, ajy, sign):
+    """w (6) = sign * d[u.(c_j - c_i)]/d(q_i, q_j) for a fixed direction u and body points with
+    lever arms a_i, a_j: the row of a spring's length, of a contact's normal or tangent."""
+    w[0] = -sign * ux
+    w[1] = -sign * uy
+    w[2] = -sign * (aix * uy - aiy * ux)
+    w[3] = sign * ux
+    w[4] = sign * uy
+    w[5] = sign * (ajx * uy - ajy * ux)
+
+
+@njit(cache=True, error_model="numpy")
 def transverse_form(P, nx, ny, a, c):
     """Entry (a, c) of P^T (I - n n^T) P: the change of direction of a two-point distance."""
     return (P[0, a] * ((1.0 - nx * nx) * P[0, c] - nx * ny * P[1, c])

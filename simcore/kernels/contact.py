@@ -12,7 +12,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .bodies import body_point, pair_point_jacobians, row_dot, transverse_form, unit_direction
+from .bodies import (
+    body_point,
+    pair_point_jacobians,
+    point_pair_row,
+    row_dot,
+    transverse_form,
+    unit_direction,
+)
 
 CONTACT_PLANE = 0
 CONTACT_OUTSIDE = 1
@@ -53,12 +60,8 @@ def contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT):
         tx = -ny
         ty = nx
         # normal rows: d/dt [n.(c_b - c_a)], n turns with body a
-        wN[0] = -nx
-        wN[1] = -ny
-        wN[2] = -(aax * ny - aay * nx) + (dx * tx + dy * ty)
-        wN[3] = nx
-        wN[4] = ny
-        wN[5] = abx * ny - aby * nx
+        point_pair_row(wN, nx, ny, aax, aay, abx, aby, 1.0)
+        wN[2] += dx * tx + dy * ty
         # contact point on the sphere and on the plane, relative to the body origins
         rbx = abx - rb * nx
         rby = aby - rb * ny
@@ -80,18 +83,8 @@ def contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT):
             rby = aby + rb * ny
         rax = aax + p[4] * nx
         ray = aay + p[4] * ny
-        wN[0] = -sign * nx
-        wN[1] = -sign * ny
-        wN[2] = -sign * (aax * ny - aay * nx)
-        wN[3] = sign * nx
-        wN[4] = sign * ny
-        wN[5] = sign * (abx * ny - aby * nx)
-    wT[0] = -tx
-    wT[1] = -ty
-    wT[2] = -(rax * ty - ray * tx)
-    wT[3] = tx
-    wT[4] = ty
-    wT[5] = rbx * ty - rby * tx
+        point_pair_row(wN, nx, ny, aax, aay, abx, aby, sign)
+    point_pair_row(wT, tx, ty, rax, ray, rbx, rby, 1.0)
     return g
 
 

@@ -6,7 +6,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .bodies import body_omega, body_point, pair_point_jacobians, transverse_form, unit_direction
+from .bodies import (
+    body_omega,
+    body_point,
+    pair_point_jacobians,
+    point_pair_row,
+    transverse_form,
+    unit_direction,
+)
 
 
 @njit(cache=True, error_model="numpy")
@@ -70,12 +77,7 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
                                                                           sp_geom)
         tension = stiff * (length - rest) + damp * rate
         # w = d(length)/d(q_i, q_j)
-        w[0] = -nx
-        w[1] = -ny
-        w[2] = -(aix * ny - aiy * nx)
-        w[3] = nx
-        w[4] = ny
-        w[5] = ajx * ny - ajy * nx
+        point_pair_row(w, nx, ny, aix, aiy, ajx, ajy, 1.0)
         for a in range(3):
             idx[a] = 3 * bi + a
             idx[3 + a] = 3 * bj + a
