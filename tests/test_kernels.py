@@ -45,6 +45,18 @@ def test_bilateral_jacobian_matches_finite_differences(bearing):
         nb.bilateral(dq, v, 0.0, arr, g2,
                      np.zeros((m, n)), np.zeros(m), np.zeros(m))
         np.testing.assert_allclose((g2 - g) / eps, G[:, i], atol=1e-6)
+    # every joint row's non-zeros lie in its support: the columns of the joint's bodies
+    cols, ncols = np.zeros((m, 6), dtype=np.int64), np.zeros(m, dtype=np.int64)
+    nb.joint_support(arr.jt_type, arr.jt_body, cols, ncols)
+    row = 0
+    for j, kind in enumerate(arr.jt_type):
+        bodies = [b for b in arr.jt_body[j] if b >= 0]
+        expected = sorted(3 * b + a for b in bodies for a in range(3))
+        for r in range(row, row + (1 if kind == nb.JOINT_ANGLE else 2)):
+            assert sorted(cols[r, :ncols[r]]) == expected
+            assert set(np.flatnonzero(G[r])) <= set(expected)
+        row += 1 if kind == nb.JOINT_ANGLE else 2
+    assert row == m
 
 
 def test_contact_rows_match_finite_differences(bearing):
@@ -66,6 +78,14 @@ def test_contact_rows_match_finite_differences(bearing):
         np.testing.assert_allclose(fd, row, atol=1e-6)
         assert nb.row_dot(wN, arr.ct_body[k, 0], arr.ct_body[k, 1], v) == pytest.approx(
             row @ v)
+        # the row's support holds every non-zero, and the placed row is the scattered one
+        cols = np.zeros((2, 6), dtype=np.int64)
+        m = nb.pair_support(arr.ct_body[k, 0], arr.ct_body[k, 1], cols, 1)
+        assert set(np.flatnonzero(row)) <= set(cols[1, :m]) and len(set(cols[1, :m])) == m
+        placed = np.zeros((3, q.size))
+        nb.place_row(placed, 2, wN, arr.ct_body[k, 0], arr.ct_body[k, 1])
+        np.testing.assert_array_equal(placed[2], row)
+        assert nb.support_dot(placed, 2, cols, 1, m, v) == pytest.approx(row @ v, rel=1e-14)
 
 
 def test_plane_contact_and_velocities():
@@ -102,6 +122,15 @@ def test_smooth_forces_tangents_match_finite_differences(bearing):
         nb.smooth_forces(dq, v, arr, f2,
                          np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n)), False)
         np.testing.assert_allclose(-(f2 - f) / eps, K[:, i], rtol=1e-4, atol=1e-2)
+        # C = -df/dv, and the velocity jump's damping matrix alone is the same C
+        dv = v.copy()
+        dv[i] += eps
+        f3 = np.zeros(n)
+        nb.smooth_forces(q, dv, arr, f3, K, K, K, False)
+        np.testing.assert_allclose(-(f3 - f) / eps, C[:, i], rtol=1e-4, atol=1e-2)
+    C_alone = np.full((n, n), np.nan)
+    nb.spring_damping(q, v, arr, C_alone)
+    np.testing.assert_allclose(C_alone, C, rtol=1e-14, atol=0.0)
     energy = nb.total_energy(q, v, arr)
     assert np.isfinite(energy)
 
@@ -132,18 +161,21 @@ def test_stage_kernels_on_a_pinched_ball():
 def test_small_geometry_and_algebra_kernels():
     assert nb.unit_direction(3.0, 4.0) == pytest.approx((5.0, 0.6, 0.8))
     assert nb.unit_direction(0.0, 0.0) == (0.0, 1.0, 0.0)
-    P = np.zeros((2, 6))
-    nb.pair_point_jacobians(P, 0.0, 0.5, -1.0, 0.0)
+    P = np.array(nb.pair_point_jacobians(0.0, 0.5, -1.0, 0.0))
     # d(c_j - c_i)/dphi_i = -(e_z x a_i) = (0.5, 0) for a_i = (0, 0.5)
     np.testing.assert_allclose(P[:, 2], [0.5, 0.0])
     np.testing.assert_allclose(P[:, 5], [0.0, -1.0])
     # the row of u.(c_j - c_i) is u^T P, scaled by the sign
     w = np.zeros(6)
-    nb.point_pair_row(w, 0.6, 0.8, 0.0, 0.5, -1.0, 0.0, -2.0)
+    nb.store6(w, nb.point_pair_row(0.6, 0.8, 0.0, 0.5, -1.0, 0.0, -2.0))
     np.testing.assert_allclose(w, -2.0 * (np.array([0.6, 0.8]) @ P), rtol=1e-15)
     # transverse form along n = x: only the y components count
-    assert nb.transverse_form(P, 1.0, 0.0, 1, 1) == pytest.approx(1.0)
-    assert nb.transverse_form(P, 1.0, 0.0, 0, 0) == pytest.approx(0.0)
+    assert nb.transverse_form(*P[:, 1], *P[:, 1], 1.0, 0.0) == pytest.approx(1.0)
+    assert nb.transverse_form(*P[:, 0], *P[:, 0], 1.0, 0.0) == pytest.approx(0.0)
+    # against the matrix product P^T (I - n n^T) P for a slanted n
+    nx, ny = 0.6, 0.8
+    full = P.T @ (np.eye(2) - np.outer([nx, ny], [nx, ny])) @ P
+    assert nb.transverse_form(*P[:, 2], *P[:, 5], nx, ny) == pytest.approx(full[2, 5])
     rng = np.random.default_rng(1)
     A = np.diag(rng.uniform(1.0, 2.0, 7))
     A[2, 5] = A[5, 2] = 0.3

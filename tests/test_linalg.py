@@ -99,6 +99,16 @@ def test_block_factor_falls_back_to_lu_on_an_indefinite_block():
     np.testing.assert_allclose(x, np.linalg.solve(A, b), rtol=1e-10)
 
 
+def _supports(G):
+    """The rows' supports by :func:`dense_support`, checked against numpy's non-zeros."""
+    cols = np.zeros(G.shape, dtype=np.int64)
+    ncols = np.zeros(G.shape[0], dtype=np.int64)
+    la.dense_support(G, G.shape[0], cols, ncols)
+    for r in range(G.shape[0]):
+        np.testing.assert_array_equal(cols[r, :ncols[r]], np.flatnonzero(G[r]))
+    return cols, ncols
+
+
 @pytest.mark.parametrize("indefinite", [False, True])
 def test_block_gram_is_the_delassus_matrix(indefinite):
     rng = np.random.default_rng(9)
@@ -115,7 +125,8 @@ def test_block_gram_is_the_delassus_matrix(indefinite):
     la.block_factor(A, n, fac, True)
     assert fac.info[1] == (1 if indefinite else 0)
     D = np.full((m + 2, m + 2), np.nan)
-    la.block_gram(fac, n, G, m, np.zeros((m, n)), np.zeros(m, dtype=np.int64), D)
+    cols, ncols = _supports(G)
+    la.block_gram(fac, G, m, np.zeros((m, n)), np.zeros(m, dtype=np.int64), D, cols, ncols)
     np.testing.assert_allclose(D[:m, :m], G @ np.linalg.solve(A, G.T), rtol=1e-9, atol=1e-12)
 
 
@@ -173,7 +184,7 @@ def test_block_gram_diagonal():
     fac = la.block_factor_work(n)
     la.block_factor(A, n, fac, True)
     d = np.zeros(m)
-    la.block_gram_diagonal(fac, n, G, m, np.zeros(n), d)
+    la.block_gram_diagonal(fac, G, m, np.zeros((1, n)), d, *_supports(G))
     np.testing.assert_allclose(d, np.diag(G @ np.linalg.solve(A, G.T)), rtol=1e-10)
 
 
@@ -195,7 +206,7 @@ def test_block_gram_rows_grows_a_row_set(indefinite):
     D = np.full((mt, mt), np.nan)
     for rows in ([0, 1, 5], [0, 1, 5, 9, 17, 21]):
         r = np.array(rows + [0] * (mt - len(rows)), dtype=np.int64)
-        la.block_gram_rows(fac, n, G, r, len(rows), Y, first, have, D)
+        la.block_gram_rows(fac, G, r, len(rows), Y, first, have, D, *_supports(G))
         np.testing.assert_allclose(D[np.ix_(rows, rows)], full[np.ix_(rows, rows)], rtol=1e-9,
                                    atol=1e-12)
     assert np.isnan(D[2, 3])  # never asked for

@@ -25,9 +25,13 @@ from .bodies import (  # noqa: E402
     body_omega,
     body_point,
     pair_point_jacobians,
+    pair_support,
+    place_row,
     point_pair_row,
     row_dot,
     scatter_row,
+    store6,
+    support_dot,
     transverse_form,
     unit_direction,
 )
@@ -60,6 +64,7 @@ from .joints import (  # noqa: E402
     JOINT_REVOLUTE,
     bilateral,
     joint_row_count,
+    joint_support,
 )
 from .linalg import block_inverse  # noqa: E402
 from .nonsmooth_step import (  # noqa: E402
@@ -72,18 +77,20 @@ from .nonsmooth_step import (  # noqa: E402
     solve_velocity_problem,
     velocity_step,
 )
-from .springs import smooth_forces, spring_state, total_energy  # noqa: E402
+from .springs import smooth_forces, spring_damping, spring_state, total_energy  # noqa: E402
 
 __all__ = [
     "CACHE_DIR", "CONTACT_INSIDE", "CONTACT_OUTSIDE", "CONTACT_PLANE", "JOINT_ANGLE",
     "JOINT_PRISMATIC", "JOINT_REVOLUTE", "STAGE_POSITION", "STAGE_SMOOTH", "STAGE_VELOCITY",
     "ChunkOutputs", "CompliantOutputs", "CompliantState", "ModelArrays", "StepSettings",
     "StepState", "alpha_coefficients",
-    "bilateral", "block_inverse", "body_omega", "body_point", "contact_hessian", "contact_rows",
+    "bilateral", "block_inverse", "joint_support", "pair_support", "place_row", "store6",
+    "support_dot",
+    "body_omega", "body_point", "contact_hessian", "contact_rows",
     "contact_velocities", "initial_acceleration", "integrate_chunk", "joint_row_count",
     "nonsmooth_work",
     "pair_point_jacobians", "point_pair_row", "position_step", "row_dot", "scatter_row",
-    "smooth_forces",
+    "smooth_forces", "spring_damping",
     "smooth_step", "solve_velocity_problem", "spring_state", "total_energy", "transverse_form",
     "unit_direction", "velocity_step", "contact_forces", "elastic_energy", "normal_force",
     "compliant_work", "integrate_compliant_chunk", "project_joints",

@@ -4,16 +4,19 @@ two-point Jacobian helpers that joints, springs and contact elements share.
 Conventions: ``q``, ``v`` hold 3 entries per body, (x [m], y [m], phi [rad]) and
 (vx [m/s], vy [m/s], omega [rad/s]); body index -1 is the ground, whose "local" points are world
 points. An element between bodies a and b has 3 + 3 Jacobian entries (``w[0:3]`` for a,
-``w[3:6]`` for b); :func:`scatter_row` and :func:`row_dot` map them to generalized rows.
+``w[3:6]`` for b); :func:`scatter_row` and :func:`row_dot` map them to generalized rows, and
+:func:`pair_support` lists the (at most six) generalized columns such a row can occupy, so that
+the step's products with constraint rows visit those columns only.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from .jit import step_kernel
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def body_point(q, body, px, py):
     """World position (x, y) and lever arm (ax, ay) = R(phi) p of a body-fixed point [m]."""
     if body < 0:
@@ -29,7 +32,7 @@ def body_point(q, body, px, py):
     return q[3 * body] + ax, q[3 * body + 1] + ay, ax, ay
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def body_omega(v, body):
     """Angular velocity of a body [rad/s] (0 for the ground)."""
     if body < 0:
@@ -37,7 +40,7 @@ def body_omega(v, body):
     return v[3 * body + 2]
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def unit_direction(dx, dy):
     """Length of (dx, dy) and its unit vector ((1, 0) for a zero vector)."""
     length = np.sqrt(dx * dx + dy * dy)
@@ -46,40 +49,39 @@ def unit_direction(dx, dy):
     return length, 1.0, 0.0
 
 
-@njit(cache=True, error_model="numpy")
-def pair_point_jacobians(P, aix, aiy, ajx, ajy):
-    """P (2 x 6) = d(c_j - c_i)/d(q_i, q_j) for body points with lever arms a_i, a_j."""
-    P[:, :] = 0.0
-    P[0, 0] = -1.0
-    P[1, 1] = -1.0
-    P[0, 2] = aiy
-    P[1, 2] = -aix
-    P[0, 3] = 1.0
-    P[1, 4] = 1.0
-    P[0, 5] = -ajy
-    P[1, 5] = ajx
+@step_kernel
+def pair_point_jacobians(aix, aiy, ajx, ajy):
+    """The two rows (x, y) of P = d(c_j - c_i)/d(q_i, q_j) (2 x 6) for body points with lever
+    arms a_i, a_j, as two 6-tuples (no array is allocated in the step)."""
+    return ((-1.0, 0.0, aiy, 1.0, 0.0, -ajy),
+            (0.0, -1.0, -aix, 0.0, 1.0, ajx))
 
 
-@njit(cache=True, error_model="numpy")
-def point_pair_row(w, ux, uy, aix, aiy, ajx, ajy, sign):
-    """w (6) = sign * d[u.(c_j - c_i)]/d(q_i, q_j) for a fixed direction u and body points with
-    lever arms a_i, a_j: the row of a spring's length, of a contact's normal or tangent."""
-    w[0] = -sign * ux
-    w[1] = -sign * uy
-    w[2] = -sign * (aix * uy - aiy * ux)
-    w[3] = sign * ux
-    w[4] = sign * uy
-    w[5] = sign * (ajx * uy - ajy * ux)
+@step_kernel
+def point_pair_row(ux, uy, aix, aiy, ajx, ajy, sign):
+    """sign * d[u.(c_j - c_i)]/d(q_i, q_j) (a 6-tuple) for a fixed direction u and body points
+    with lever arms a_i, a_j: the row of a spring's length, of a contact's normal or tangent."""
+    return (-sign * ux, -sign * uy, -sign * (aix * uy - aiy * ux),
+            sign * ux, sign * uy, sign * (ajx * uy - ajy * ux))
 
 
-@njit(cache=True, error_model="numpy")
-def transverse_form(P, nx, ny, a, c):
-    """Entry (a, c) of P^T (I - n n^T) P: the change of direction of a two-point distance."""
-    return (P[0, a] * ((1.0 - nx * nx) * P[0, c] - nx * ny * P[1, c])
-            + P[1, a] * (-nx * ny * P[0, c] + (1.0 - ny * ny) * P[1, c]))
+@step_kernel
+def store6(w, t):
+    """w[:6] = the 6-tuple t (tuples are cheap to build, but slow to index by a loop variable:
+    loops read arrays)."""
+    for a in range(6):
+        w[a] = t[a]
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
+def transverse_form(px_a, py_a, px_c, py_c, nx, ny):
+    """Entry (a, c) of P^T (I - n n^T) P from columns a and c of P (:func:`pair_point_jacobians`):
+    the change of direction of a two-point distance."""
+    return (px_a * ((1.0 - nx * nx) * px_c - nx * ny * py_c)
+            + py_a * (-nx * ny * px_c + (1.0 - ny * ny) * py_c))
+
+
+@step_kernel
 def scatter_row(row, w, ia, ib):
     """Write the 6 element entries of ``w`` into a dense generalized row."""
     row[:] = 0.0
@@ -91,7 +93,7 @@ def scatter_row(row, w, ia, ib):
             row[3 * ib + a] += w[3 + a]
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def row_dot(w, ia, ib, x):
     s = 0.0
     if ia >= 0:
@@ -100,4 +102,43 @@ def row_dot(w, ia, ib, x):
     if ib >= 0:
         for a in range(3):
             s += w[3 + a] * x[3 * ib + a]
+    return s
+
+
+@step_kernel
+def pair_support(ia, ib, cols, r):
+    """Write into ``cols[r]`` the generalized columns of a row between bodies ia and ib (three
+    per body that is not the ground, -1) and return their count. (Rows of work arrays are
+    addressed by index throughout: a row view costs two atomic reference-count updates.)"""
+    m = 0
+    if ia >= 0:
+        for a in range(3):
+            cols[r, m] = 3 * ia + a
+            m += 1
+    if ib >= 0 and ib != ia:
+        for a in range(3):
+            cols[r, m] = 3 * ib + a
+            m += 1
+    return m
+
+
+@step_kernel
+def place_row(G, r, w, ia, ib):
+    """Write the 6 element entries of ``w`` into row r of G, whose other entries are known to
+    be zero (:func:`scatter_row` without clearing the row first)."""
+    if ia >= 0:
+        for a in range(3):
+            G[r, 3 * ia + a] = w[a]
+    if ib >= 0:
+        for a in range(3):
+            G[r, 3 * ib + a] = w[3 + a]
+
+
+@step_kernel
+def support_dot(G, r, cols, c, m, x):
+    """G[r] . x over the columns ``cols[c, :m]`` (the row's support, :func:`pair_support`)."""
+    s = 0.0
+    for t in range(m):
+        i = cols[c, t]
+        s += G[r, i] * x[i]
     return s

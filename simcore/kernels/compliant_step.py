@@ -15,10 +15,10 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
 
 from .generalized_alpha import alpha_coefficients, smooth_step, smooth_work, step_work
 from .hertz import elastic_energy
+from .jit import kernel
 from .joints import bilateral, joint_row_count
 from .linalg import gauss_solve
 from .springs import total_energy
@@ -41,7 +41,7 @@ COMPLIANT_STAGE_POSITION = 1
 COMPLIANT_STAGE_VELOCITY = 2
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
     """Remove the joints' drift: q1 = q_t + M^-1 G^T nu with g(q1) = 0 (Newton, |g|/h <= tol;
     no iteration when the drift is already within it), then v1 = v_t + M^-1 G^T mu with
@@ -102,7 +102,7 @@ def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
     return iters, ok
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
     """Advance steps k0 .. k1-1 of the compliant model (state at t0 + k0 h on entry).
 

@@ -10,16 +10,17 @@ with ``t = e_z x n`` and ``n`` the element's normal.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from .bodies import (
     body_point,
     pair_point_jacobians,
     point_pair_row,
     row_dot,
+    store6,
     transverse_form,
     unit_direction,
 )
+from .jit import kernel, step_kernel
 
 CONTACT_PLANE = 0
 CONTACT_OUTSIDE = 1
@@ -27,7 +28,7 @@ CONTACT_INSIDE = 2
 
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT):
     """Gap ``g_N`` [m] of contact ``k`` and its normal / tangential Jacobian entries.
 
@@ -43,15 +44,17 @@ def contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT):
     """
     ia = ct_body[k, 0]
     ib = ct_body[k, 1]
-    p = ct_geom[k]
-    cax, cay, aax, aay = body_point(q, ia, p[0], p[1])
-    cbx, cby, abx, aby = body_point(q, ib, p[2], p[3])
-    rb = p[5]
+    # scalars, not a row view (a view costs two atomic reference-count updates)
+    p0, p1, p2 = ct_geom[k, 0], ct_geom[k, 1], ct_geom[k, 2]
+    p3, p4, p5 = ct_geom[k, 3], ct_geom[k, 4], ct_geom[k, 5]
+    cax, cay, aax, aay = body_point(q, ia, p0, p1)
+    cbx, cby, abx, aby = body_point(q, ib, p2, p3)
+    rb = p5
     dx = cbx - cax
     dy = cby - cay
     kind = ct_type[k]
     if kind == CONTACT_PLANE:
-        ang = p[4]
+        ang = p4
         if ia >= 0:
             ang += q[3 * ia + 2]
         nx = np.cos(ang)
@@ -60,7 +63,7 @@ def contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT):
         tx = -ny
         ty = nx
         # normal rows: d/dt [n.(c_b - c_a)], n turns with body a
-        point_pair_row(wN, nx, ny, aax, aay, abx, aby, 1.0)
+        store6(wN, point_pair_row(nx, ny, aax, aay, abx, aby, 1.0))
         wN[2] += dx * tx + dy * ty
         # contact point on the sphere and on the plane, relative to the body origins
         rbx = abx - rb * nx
@@ -73,22 +76,22 @@ def contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT):
         ty = nx
         sign = 1.0
         if kind == CONTACT_OUTSIDE:
-            g = dist - p[4] - rb
+            g = dist - p4 - rb
             rbx = abx - rb * nx
             rby = aby - rb * ny
         else:
-            g = p[4] - rb - dist
+            g = p4 - rb - dist
             sign = -1.0
             rbx = abx + rb * nx
             rby = aby + rb * ny
-        rax = aax + p[4] * nx
-        ray = aay + p[4] * ny
-        point_pair_row(wN, nx, ny, aax, aay, abx, aby, sign)
-    point_pair_row(wT, tx, ty, rax, ray, rbx, rby, 1.0)
+        rax = aax + p4 * nx
+        ray = aay + p4 * ny
+        store6(wN, point_pair_row(nx, ny, aax, aay, abx, aby, sign))
+    store6(wT, point_pair_row(tx, ty, rax, ray, rbx, rby, 1.0))
     return g
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def contact_hessian(q, k, ma, H):
     """Second derivative of the gap of contact ``k`` with respect to (q_a, q_b), 6 x 6.
 
@@ -106,18 +109,22 @@ def contact_hessian(q, k, ma, H):
         return
     ia = ct_body[k, 0]
     ib = ct_body[k, 1]
-    p = ct_geom[k]
-    cax, cay, aax, aay = body_point(q, ia, p[0], p[1])
-    cbx, cby, abx, aby = body_point(q, ib, p[2], p[3])
+    # scalars, not a row view (a view costs two atomic reference-count updates)
+    p0, p1, p2, p3 = ct_geom[k, 0], ct_geom[k, 1], ct_geom[k, 2], ct_geom[k, 3]
+    cax, cay, aax, aay = body_point(q, ia, p0, p1)
+    cbx, cby, abx, aby = body_point(q, ib, p2, p3)
     dist, nx, ny = unit_direction(cbx - cax, cby - cay)
     if dist <= 1e-300:
         return
     sign = 1.0 if kind == CONTACT_OUTSIDE else -1.0
-    P = np.zeros((2, 6))
-    pair_point_jacobians(P, aax, aay, abx, aby)
+    Px = np.empty(6)
+    Py = np.empty(6)
+    px_t, py_t = pair_point_jacobians(aax, aay, abx, aby)
+    store6(Px, px_t)
+    store6(Py, py_t)
     for a in range(6):
         for c in range(6):
-            H[a, c] = sign * transverse_form(P, nx, ny, a, c) / dist
+            H[a, c] = sign * transverse_form(Px[a], Py[a], Px[c], Py[c], nx, ny) / dist
     if ia < 0:
         for a in range(3):
             for c in range(6):
@@ -129,7 +136,7 @@ def contact_hessian(q, k, ma, H):
         H[5, 5] -= sign * (nx * abx + ny * aby)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def contact_velocities(q, v, ma, gap, vn, vt):
     """Gaps [m], normal and tangential relative velocities [m/s] of every contact."""
     ct_type = ma.ct_type

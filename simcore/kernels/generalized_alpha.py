@@ -7,9 +7,9 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
 
 from .hertz import contact_forces
+from .jit import kernel, step_kernel
 from .joints import bilateral, joint_row_count
 from .linalg import (
     block_factor_work,
@@ -46,7 +46,7 @@ def smooth_work(n, m):
                       vdot_prev=np.zeros(n), lam_prev=np.zeros(m))
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def alpha_coefficients(rho_inf):
     """(alpha_m, alpha_f, gamma, beta) of generalized-alpha for a spectral radius rho_inf."""
     am = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0)
@@ -56,7 +56,7 @@ def alpha_coefficients(rho_inf):
     return am, af, gam, beta
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def initial_acceleration(q, v, t, ma, vdot, lam, v_pre, v_reg):
     """Smooth acceleration at t = 0 from M vdot = f + G^T lam, G vdot + gamma = 0. With onset
     speeds ``v_pre`` (compliant contacts; ``None`` for the nonsmooth model, whose contact
@@ -91,7 +91,7 @@ def initial_acceleration(q, v, t, ma, vdot, lam, v_pre, v_reg):
     copy_vector(lam, rhs[n:], m)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, acc1, vdot1,
                 f_t, K_t, C_t, Ks_t, sw, v_pre, v_reg, cwork):
     """Generalized-alpha prediction with smooth forces and bilateral joints (velocity level).
@@ -208,7 +208,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
     return iters, converged
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _newton_direction_compliant(J, rhs, G, cv):
     """As :func:`_newton_direction`, with the hand-written solves of :mod:`.linalg`: one
     elimination of the coupled block for the residual and the joint columns together."""
@@ -242,7 +242,7 @@ def _newton_direction_compliant(J, rhs, G, cv):
     return dv, dlam
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _branch(x):
     """Friction branch of a scaled slip x = v_T / v_reg: 0 inside the band, else its sign."""
     if abs(x) < 1.0:
@@ -250,7 +250,7 @@ def _branch(x):
     return 1 if x > 0.0 else -1
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _friction_branches(J, rhs, G, cv, dv, dlam, ma, v_reg, cwork):
     """Re-solve the Newton step with each contact's friction on the branch its predicted slip
     falls on (slope mu F / v_reg in the band, 0 outside, with the model's value shifted to that

@@ -19,13 +19,13 @@ the turning of the tangent row with q is left out (a term of size mu F / L).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from .bodies import row_dot
 from .contact import contact_hessian, contact_rows
+from .jit import kernel
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def normal_force(delta, delta_dot, K, chi, v_pre):
     """Hertz force with hysteresis damping and its partial derivatives.
 
@@ -42,7 +42,7 @@ def normal_force(delta, delta_dot, K, chi, v_pre):
     return F, 1.5 * K * root * damp, elastic * chi / v_pre
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def contact_forces(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt, WT):
     """Add the compliant contact forces to ``f`` [N, N m] and, with ``tangent``, their
     stiffness ``K`` and damping ``C`` to the matrices (in place). Fills the per-contact normal
@@ -118,7 +118,7 @@ def contact_forces(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt
                 C[idx[a], idx[c]] += cc
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def elastic_energy(q, ma):
     """Energy stored in the compliant contacts, sum of (2/5) K delta^(5/2) [J]."""
     wN = np.zeros(6)

@@ -4,9 +4,9 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
-from .bodies import body_omega, body_point
+from .bodies import body_omega, body_point, pair_support
+from .jit import step_kernel
 
 JOINT_REVOLUTE = 0
 JOINT_PRISMATIC = 1
@@ -14,7 +14,7 @@ JOINT_ANGLE = 2
 
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def joint_row_count(jt_type):
     """Number of constraint rows of each joint and in total."""
     n = 0
@@ -23,7 +23,24 @@ def joint_row_count(jt_type):
     return n
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
+def joint_support(jt_type, jt_body, cols, ncols):
+    """Support of every joint row (the columns of its bodies, :func:`~.bodies.pair_support`):
+    ``cols[r, :ncols[r]]`` for the rows in the order :func:`bilateral` writes them."""
+    row = 0
+    for j in range(jt_type.shape[0]):
+        m = pair_support(jt_body[j, 0], jt_body[j, 1], cols, row)
+        ncols[row] = m
+        if jt_type[j] != JOINT_ANGLE:
+            for a in range(m):
+                cols[row + 1, a] = cols[row, a]
+            ncols[row + 1] = m
+            row += 2
+        else:
+            row += 1
+
+
+@step_kernel
 def bilateral(q, v, t, ma, g, G, gamma, dgdt):
     """Evaluate all bilateral constraints.
 
@@ -39,11 +56,13 @@ def bilateral(q, v, t, ma, g, G, gamma, dgdt):
     for j in range(jt_type.shape[0]):
         bi = jt_body[j, 0]
         bj = jt_body[j, 1]
-        p = jt_geom[j]
+        # scalars, not a row view (a view costs two atomic reference-count updates)
+        p0, p1, p2 = jt_geom[j, 0], jt_geom[j, 1], jt_geom[j, 2]
+        p3, p4, p5 = jt_geom[j, 3], jt_geom[j, 4], jt_geom[j, 5]
         kind = jt_type[j]
         if kind == JOINT_REVOLUTE:
-            xi, yi, aix, aiy = body_point(q, bi, p[0], p[1])
-            xj, yj, ajx, ajy = body_point(q, bj, p[2], p[3])
+            xi, yi, aix, aiy = body_point(q, bi, p0, p1)
+            xj, yj, ajx, ajy = body_point(q, bj, p2, p3)
             wi = body_omega(v, bi)
             wj = body_omega(v, bj)
             g[row] = xi - xj
@@ -64,14 +83,14 @@ def bilateral(q, v, t, ma, g, G, gamma, dgdt):
                 G[row + 1, 3 * bj + 2] -= ajx
             row += 2
         elif kind == JOINT_PRISMATIC:
-            # body bi slides along the ground axis through (p[2], p[3]) at angle p[4];
-            # its rotation is locked at p[5]
-            xi, yi, aix, aiy = body_point(q, bi, p[0], p[1])
-            nx = -np.sin(p[4])
-            ny = np.cos(p[4])
+            # body bi slides along the ground axis through (p2, p3) at angle p4;
+            # its rotation is locked at p5
+            xi, yi, aix, aiy = body_point(q, bi, p0, p1)
+            nx = -np.sin(p4)
+            ny = np.cos(p4)
             wi = body_omega(v, bi)
-            g[row] = nx * (xi - p[2]) + ny * (yi - p[3])
-            g[row + 1] = q[3 * bi + 2] - p[5]
+            g[row] = nx * (xi - p2) + ny * (yi - p3)
+            g[row + 1] = q[3 * bi + 2] - p5
             gamma[row] = -(nx * aix + ny * aiy) * wi * wi
             gamma[row + 1] = 0.0
             dgdt[row] = 0.0
@@ -82,9 +101,9 @@ def bilateral(q, v, t, ma, g, G, gamma, dgdt):
             G[row + 1, 3 * bi + 2] = 1.0
             row += 2
         else:
-            # prescribed rotation phi = p[0] + p[1] t (rheonomic)
-            g[row] = q[3 * bi + 2] - p[0] - p[1] * t
+            # prescribed rotation phi = p0 + p1 t (rheonomic)
+            g[row] = q[3 * bi + 2] - p0 - p1 * t
             gamma[row] = 0.0
-            dgdt[row] = -p[1]
+            dgdt[row] = -p1
             G[row, 3 * bi + 2] = 1.0
             row += 1

@@ -24,7 +24,8 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
+
+from .jit import kernel, step_kernel
 
 #: A matrix factorised on its coupled block (see :func:`block_factor`): ``B`` holds the
 #: factors of the coupled block, ``idx[:k]`` the coupled indices, ``dinv`` the inverse
@@ -33,7 +34,7 @@ from numba import njit
 BlockFactor = namedtuple("BlockFactor", ["B", "idx", "dinv", "piv", "tmp", "info"])
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def copy_vector(dst, src, n):
     """dst[:n] = src[:n] (an explicit loop: an array assignment would compile Numba's
     shape-mismatch error path, several seconds of compile time for nothing)."""
@@ -41,7 +42,7 @@ def copy_vector(dst, src, n):
         dst[i] = src[i]
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def copy_matrix(dst, src, m, n):
     """dst[:m, :n] = src[:m, :n] (see :func:`copy_vector`)."""
     for i in range(m):
@@ -49,7 +50,7 @@ def copy_matrix(dst, src, m, n):
             dst[i, j] = src[i, j]
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def cholesky_factor(A, n):
     """Overwrite the lower triangle of ``A[:n, :n]`` with L, A = L L^T.
 
@@ -71,7 +72,7 @@ def cholesky_factor(A, n):
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def cholesky_solve(L, n, x):
     """Solve L L^T y = x in place (``L`` from :func:`cholesky_factor`)."""
     for i in range(n):
@@ -86,7 +87,7 @@ def cholesky_solve(L, n, x):
         x[i] = s / L[i, i]
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def lu_factor(A, n, piv):
     """Overwrite ``A[:n, :n]`` with its LU factors (unit lower L), row pivots in ``piv``.
 
@@ -115,7 +116,7 @@ def lu_factor(A, n, piv):
                     A[i, c] -= lij * A[j, c]
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def lu_solve(LU, n, piv, x):
     """Solve A y = x in place from the factors of :func:`lu_factor`."""
     for j in range(n):
@@ -136,7 +137,7 @@ def lu_solve(LU, n, piv, x):
         x[i] = s / LU[i, i]
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def block_factor_work(n):
     """Work arrays of :func:`block_factor` for matrices up to ``n x n``."""
     # every entry is written by block_factor before it is read
@@ -144,7 +145,7 @@ def block_factor_work(n):
                        np.empty(n, dtype=np.int64), np.empty(n), np.zeros(2, dtype=np.int64))
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def block_factor(A, n, fac, symmetric):
     """Factorise ``A[:n, :n]`` on its coupled block into ``fac``.
 
@@ -158,12 +159,14 @@ def block_factor(A, n, fac, symmetric):
     degree = fac.piv  # coupling counts first, pivots later
     for i in range(n):
         degree[i] = 0
+    # one triangle suffices where the structure is symmetric; counts added without branches
+    # (this scan of all n^2 entries is a good part of a factorisation's cost at these sizes)
     for i in range(n):
-        for j in range(n):
-            if i != j and A[i, j] != 0.0:
-                degree[i] += 1
-                degree[j] += 1
-    k = 0
+        for j in range(i + 1, n):
+            c = A[i, j] != 0.0 if symmetric else (A[i, j] != 0.0 or A[j, i] != 0.0)
+            degree[i] += c
+            degree[j] += c
+    k = np.int64(0)  # not a literal 0: that would compile a second cholesky/lu specialisation
     for i in range(n):
         if degree[i] != 0:
             # least coupled first (the balls before the races they all touch): the factor
@@ -195,7 +198,7 @@ def block_factor(A, n, fac, symmetric):
     return k
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def block_solve(fac, n, x):
     """Solve A y = x in place with the factors of :func:`block_factor` (``x`` of length n)."""
     k = fac.info[0]
@@ -215,45 +218,52 @@ def block_solve(fac, n, x):
         x[idx[a]] = tmp[a]
 
 
-@njit(cache=True, error_model="numpy")
-def _substitute_row(fac, G, r, y):
-    """y[:k] = the coupled columns of row r of G through the factor of :func:`block_factor`:
-    L^-1 G_c^T for a Cholesky factor (starting at the row's first non-zero, which is returned),
-    A_c^-1 G_c^T for an LU one (returns 0)."""
+@step_kernel
+def _substitute_row(fac, G, r, Y, yr):
+    """Y[yr, :k] = the coupled columns of row r of G through the factor of
+    :func:`block_factor`: L^-1 G_c^T for a Cholesky factor (starting at the row's first
+    non-zero, which is returned), A_c^-1 G_c^T for an LU one (returns 0). (Rows are addressed
+    by index, not passed as views: a view costs two atomic reference-count updates.)"""
     k = fac.info[0]
     idx = fac.idx
     B = fac.B
     f = k
     for a in range(k):
-        y[a] = G[r, idx[a]]
-        if f == k and y[a] != 0.0:
+        Y[yr, a] = G[r, idx[a]]
+        if f == k and Y[yr, a] != 0.0:
             f = a
     if fac.info[1] != 0:
         if k > 0:
-            lu_solve(B, k, fac.piv, y)
+            tmp = fac.tmp
+            for a in range(k):
+                tmp[a] = Y[yr, a]
+            lu_solve(B, k, fac.piv, tmp)
+            for a in range(k):
+                Y[yr, a] = tmp[a]
         return 0
     for a in range(f, k):
-        s = y[a]
+        s = Y[yr, a]
         for p in range(f, a):
-            s -= B[a, p] * y[p]
-        y[a] = s / B[a, a]
+            s -= B[a, p] * Y[yr, p]
+        Y[yr, a] = s / B[a, a]
     return f
 
 
-@njit(cache=True, error_model="numpy")
-def block_gram(fac, n, G, m, Y, first, D):
+@step_kernel
+def block_gram(fac, G, m, Y, first, D, cols, ncols):
     """D[:m, :m] = G[:m] A^-1 G[:m]^T for a symmetric A factorised by :func:`block_factor`.
 
     With a Cholesky factor only the forward substitution Y = L^-1 G_c^T is needed (the
     coupled columns of G), D = Y^T Y, and it starts at each row's first non-zero (``first``
-    records it); the uncoupled columns add G_u diag(A_u)^-1 G_u^T (sparse rows: only their
-    non-zeros are visited). ``Y``: work array of at least m x n, ``first``: of length m."""
+    records it); the uncoupled columns add G_u diag(A_u)^-1 G_u^T over each row's support
+    ``cols[r, :ncols[r]]`` (every non-zero of row r is among those columns). ``Y``: work array
+    of at least m x k, ``first``: of length m."""
     k = fac.info[0]
     idx = fac.idx
     dinv = fac.dinv
     chol = fac.info[1] == 0
     for r in range(m):
-        first[r] = _substitute_row(fac, G, r, Y[r])
+        first[r] = _substitute_row(fac, G, r, Y, r)
     for a in range(m):
         for b in range(a, m):
             s = 0.0
@@ -263,28 +273,23 @@ def block_gram(fac, n, G, m, Y, first, D):
             else:
                 for p in range(k):
                     s += G[a, idx[p]] * Y[b, p]
+            for t in range(ncols[a]):  # the uncoupled columns of row a's support
+                i = cols[a, t]
+                s += G[a, i] * dinv[i] * G[b, i]
             D[a, b] = s
-    for i in range(n):
-        di = dinv[i]
-        if di != 0.0:
-            for a in range(m):
-                ga = G[a, i]
-                if ga != 0.0:
-                    ga *= di
-                    for b in range(a, m):
-                        D[a, b] += ga * G[b, i]
     for a in range(m):
         for b in range(a + 1, m):
             D[b, a] = D[a, b]
 
 
-@njit(cache=True, error_model="numpy")
-def block_gram_rows(fac, n, G, rows, m, Y, first, have, D):
+@step_kernel
+def block_gram_rows(fac, G, rows, m, Y, first, have, D, cols, ncols):
     """Entries of D = G A^-1 G^T (see :func:`block_gram`) among the rows ``rows[:m]`` of G,
     computed only where missing: a row r not yet marked in ``have`` gets its forward
     substitution (kept in ``Y[r]``, ``first[r]``) and its entries with every marked row
     (itself included). A caller that grows its row set one row at a time thus pays for the new
-    row only. Clear ``have`` whenever A or G change. ``D``: the full G.shape[0]-square cache."""
+    row only. Clear ``have`` whenever A or G change. ``D``: the full G.shape[0]-square cache;
+    ``cols``/``ncols``: the rows' supports."""
     k = fac.info[0]
     idx = fac.idx
     dinv = fac.dinv
@@ -294,7 +299,7 @@ def block_gram_rows(fac, n, G, rows, m, Y, first, have, D):
         if have[r]:
             continue
         have[r] = True
-        first[r] = _substitute_row(fac, G, r, Y[r])
+        first[r] = _substitute_row(fac, G, r, Y, r)
         for rb in range(G.shape[0]):
             if not have[rb]:
                 continue
@@ -305,37 +310,50 @@ def block_gram_rows(fac, n, G, rows, m, Y, first, have, D):
             else:
                 for p in range(k):
                     s += G[r, idx[p]] * Y[rb, p]
-            for i in range(n):
-                if dinv[i] != 0.0 and G[r, i] != 0.0:
-                    s += G[r, i] * dinv[i] * G[rb, i]
+            for t in range(ncols[r]):
+                i = cols[r, t]
+                s += G[r, i] * dinv[i] * G[rb, i]
             D[r, rb] = s
             D[rb, r] = s
 
 
-@njit(cache=True, error_model="numpy")
-def block_gram_diagonal(fac, n, G, m, y, d):
-    """d[:m] = the diagonal of G[:m] A^-1 G[:m]^T (see :func:`block_gram`; ``y``: work
-    array of length n)."""
+@step_kernel
+def block_gram_diagonal(fac, G, m, Y, d, cols, ncols):
+    """d[:m] = the diagonal of G[:m] A^-1 G[:m]^T (see :func:`block_gram`; ``Y``: work
+    array of at least 1 x k)."""
     k = fac.info[0]
     idx = fac.idx
     dinv = fac.dinv
     for r in range(m):
-        f = _substitute_row(fac, G, r, y)
+        f = _substitute_row(fac, G, r, Y, 0)
         s = 0.0
         if fac.info[1] == 0:
             for a in range(f, k):
-                s += y[a] * y[a]
+                s += Y[0, a] * Y[0, a]
         else:
             for a in range(k):
-                s += G[r, idx[a]] * y[a]
-        for i in range(n):
-            g = G[r, i]
-            if g != 0.0:
-                s += g * g * dinv[i]
+                s += G[r, idx[a]] * Y[0, a]
+        for t in range(ncols[r]):
+            i = cols[r, t]
+            s += G[r, i] * G[r, i] * dinv[i]
         d[r] = s
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
+def dense_support(G, m, cols, ncols):
+    """The support of each of the rows ``G[:m]`` (its non-zero columns) into ``cols[r]``,
+    ``ncols[r]``: for rows whose support is not known from their bodies (tests, callers with
+    general rows); ``cols`` needs as many columns as the densest row has non-zeros."""
+    for r in range(m):
+        c = 0
+        for i in range(G.shape[1]):
+            if G[r, i] != 0.0:
+                cols[r, c] = i
+                c += 1
+        ncols[r] = c
+
+
+@kernel
 def saddle_point_solve(J, G, c, rhs):
     """Solve [J, -G^T; c G, 0] [x; y] = rhs in place (``rhs[:n]`` becomes x, ``rhs[n:]``
     becomes y) by the Schur complement S = c G J^-1 G^T of the m constraint rows.
@@ -349,7 +367,7 @@ def saddle_point_solve(J, G, c, rhs):
                             np.empty((m, m)), np.empty(m, dtype=np.int64))
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def saddle_point_solve_into(J, G, c, rhs, fac, JG, S, piv):
     """:func:`saddle_point_solve` on work arrays: ``fac`` (:func:`block_factor_work` of n),
     ``JG`` (m x n), ``S`` (m x m), ``piv`` (m integers)."""
@@ -387,7 +405,7 @@ def saddle_point_solve_into(J, G, c, rhs, fac, JG, S, piv):
         x[i] = s
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def solve_dense(A, b):
     """x = A^-1 b for a small square matrix (LU with partial pivoting; A and b untouched)."""
     n = A.shape[0]
@@ -399,7 +417,7 @@ def solve_dense(A, b):
     return x
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def block_inverse(A):
     """Inverse of a matrix that is diagonal outside the rows/columns coupled by off-diagonal
     entries (M + h^2 K: only the bodies joined by springs or contacts are coupled): only the
@@ -423,7 +441,7 @@ def block_inverse(A):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def gauss_solve(A, B):
     """Solve A X = B for a small dense A (k x k) and several right-hand sides B (k x r) by
     Gaussian elimination with partial pivoting, written out (no LAPACK call overhead, which
@@ -466,7 +484,7 @@ def gauss_solve(A, B):
     return X
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def solve_mass_like(A, B):
     """Solve A X = B where A is diagonal outside the rows/columns coupled by off-diagonal
     entries (M plus the tangents of springs and contacts): the uncoupled rows by division, the

@@ -8,12 +8,12 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
 
-from .bodies import scatter_row
+from .bodies import pair_support, place_row, scatter_row, support_dot
 from .contact import contact_hessian, contact_rows, contact_velocities
 from .generalized_alpha import alpha_coefficients, smooth_step, smooth_work, step_work
-from .joints import bilateral
+from .jit import step_kernel
+from .joints import bilateral, joint_support
 from .linalg import (
     block_factor,
     block_factor_work,
@@ -26,7 +26,7 @@ from .linalg import (
     lu_factor,
     lu_solve,
 )
-from .springs import smooth_forces, total_energy
+from .springs import smooth_forces, spring_damping, total_energy
 
 # layout of the per-step statistics written by integrate_chunk
 STAGE_SMOOTH = 0
@@ -38,22 +38,24 @@ PositionWork = namedtuple("PositionWork", ["Ap", "facA", "Hm", "facH", "U", "U_n
     "q_try", "HAU", "eq", "nu_b", "nub_new", "nub_try", "gb", "Gb", "gb_try", "Gb_try", "gm",
     "dgdt", "r_c", "reg_c", "nuc_new", "nuc_try", "gap_try", "GN", "GN_try", "active",
     "Hloc", "wN", "wT", "Gall", "ball", "Y", "AU", "first", "have", "x", "Dall", "rows", "Dbuf",
-    "sol", "piv"])
+    "sol", "piv", "cols", "ncols"])
 
 #: Work arrays of the velocity jump (:func:`velocity_work`).
-VelocityWork = namedtuple("VelocityWork", ["f1", "K1", "C1", "Ks1", "Av", "fac", "b", "Ab",
+VelocityWork = namedtuple("VelocityWork", ["f1", "C1", "Av", "fac", "b", "Ab",
     "tmp", "wN", "wT", "gb", "gm", "dgdt", "Gb", "closed", "row_of", "G",
     "off", "kind", "mu_row", "pair", "lam", "Y", "first", "D", "c", "Dbb", "pivb",
-    "colb", "X", "Dc", "cc", "lam_c", "pair_c", "solver"])
+    "colb", "X", "Dc", "cc", "lam_c", "pair_c", "cols", "ncols", "solver"])
 
 #: Work arrays of the velocity problem's Newton solver.
 VelocitySolverWork = namedtuple("VelocitySolverWork", ["r", "F", "F_try", "xi", "xi_try",
     "lam_try", "dl", "J", "piv"])
 
 #: All work arrays of :func:`integrate_chunk` (:func:`nonsmooth_work`): the step's
-#: (:func:`~.generalized_alpha.step_work`), the smooth stage's, the position correction's and
-#: the velocity jump's.
-NonsmoothWork = namedtuple("NonsmoothWork", ["step", "smooth", "position", "velocity"])
+#: (:func:`~.generalized_alpha.step_work`), the smooth stage's, the position correction's,
+#: the velocity jump's, and the contacts' (multipliers nu_N, gaps, normal and tangential
+#: velocities after the step and normal velocities before the jump, one entry per contact).
+NonsmoothWork = namedtuple("NonsmoothWork", ["step", "smooth", "position", "velocity",
+                                             "contact"])
 
 
 def position_work(n, nbil, nc):
@@ -74,23 +76,25 @@ def position_work(n, nbil, nc):
         AU=np.zeros(n),
         first=np.zeros(mt, dtype=np.int64), have=np.zeros(mt, dtype=np.bool_), x=np.zeros(n),
         Dall=np.zeros((mt, mt)), rows=np.zeros(mt, dtype=np.int64), Dbuf=np.zeros((mt, mt)),
-        sol=np.zeros(mt), piv=np.zeros(mt, dtype=np.int64))
+        sol=np.zeros(mt), piv=np.zeros(mt, dtype=np.int64),
+        cols=np.zeros((mt, 6), dtype=np.int64), ncols=np.zeros(mt, dtype=np.int64))
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def _position_rows(q_t, U, t1, ma, q1, gb, Gb, gm, dgdt, gap, GN, wN, wT):
     """Joint and contact rows at q1 = q_t + U: joint residuals gb, Jacobian Gb, gaps and
-    normal rows GN."""
+    normal rows GN (only the six entries of each contact's bodies are written: the others are
+    zero from the start and stay so)."""
     ct_body = ma.ct_body
     for i in range(q_t.shape[0]):
         q1[i] = q_t[i] + U[i]
     bilateral(q1, U, t1, ma, gb, Gb, gm, dgdt)
     for k in range(gap.shape[0]):
         gap[k] = contact_rows(q1, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT)
-        scatter_row(GN[k], wN, ct_body[k, 0], ct_body[k, 1])
+        place_row(GN, k, wN, ct_body[k, 0], ct_body[k, 1])
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def _metric_product(Ap, fac, U, out):
     """out = Ap U, for an Ap that is diagonal but for the coupled block ``fac`` found when it
     was factorised (:func:`~.linalg.block_factor`)."""
@@ -106,12 +110,14 @@ def _metric_product(Ap, fac, U, out):
         out[i] = s
 
 
-@njit(cache=True, error_model="numpy")
-def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, facA, gb, Gb, gap, GN, eq):
+@step_kernel
+def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, facA, gb, Gb, gap, GN, eq, cols,
+                       ncols):
     """Scaled residual [m] of the position problem at (U, nu) from the rows at q_t + U
     (:func:`_position_rows`): joints, complementarity in the augmented-Lagrangian form
     (nu - max(0, nu - r g))/r, and equilibrium M^-1 (Ap U - G^T nu). ``facA``: the
-    factorisation of Ap, whose coupled indices are the only ones with off-diagonal entries."""
+    factorisation of Ap, whose coupled indices are the only ones with off-diagonal entries;
+    ``cols``/``ncols``: the supports of the joint rows, then of the contact rows."""
     n = U.shape[0]
     res = 0.0
     for r in range(gb.shape[0]):
@@ -121,20 +127,23 @@ def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, facA, gb, Gb, gap, GN, eq)
         val = nu_c[k] - max(0.0, nu_c[k] - rk * gap[k])
         res = max(res, abs(val) / rk)
     _metric_product(Ap, facA, U, eq)
-    for r in range(gb.shape[0]):
+    nbil = gb.shape[0]
+    for r in range(nbil):
         if nu_b[r] != 0.0:
-            for i in range(n):
+            for t in range(ncols[r]):
+                i = cols[r, t]
                 eq[i] -= Gb[r, i] * nu_b[r]
     for k in range(gap.shape[0]):
         if nu_c[k] != 0.0:
-            for i in range(n):
+            for t in range(ncols[nbil + k]):
+                i = cols[nbil + k, t]
                 eq[i] -= GN[k, i] * nu_c[k]
     for i in range(n):
         res = max(res, abs(eq[i]) / mdiag[i])
     return res
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     """Position correction: M U = G^T nu (with the springs' elastic stiffness h^2 Ks in the
     metric, symmetric positive semi-definite so that the metric stays positive definite),
@@ -157,6 +166,12 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     Gb = wk.Gb
     GN = wk.GN
     r_c = wk.r_c
+    # the support of every row (joints first, then contacts): products with rows visit it only
+    cols = wk.cols
+    ncols = wk.ncols
+    joint_support(ma.jt_type, ma.jt_body, cols, ncols)
+    for k in range(nc):
+        ncols[nbil + k] = pair_support(ct_body[k, 0], ct_body[k, 1], cols, nbil + k)
     for i in range(n):
         for j in range(n):
             Ap[i, j] = h * h * Ks_t[i, j]
@@ -167,12 +182,12 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     nu_c[:] = 0.0
     # Delassus scaling from the rows at the predicted configuration
     _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT)
-    block_gram_diagonal(wk.facA, n, GN, nc, wk.AU, r_c)
+    block_gram_diagonal(wk.facA, GN, nc, wk.Y, r_c, cols[nbil:], ncols[nbil:])
     for k in range(nc):
         dkk = r_c[k]
         r_c[k] = 1.0 / dkk if dkk > 0.0 else 1.0
     res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, wk.facA, gb, Gb, gap, GN,
-                                 wk.eq)
+                             wk.eq, cols, ncols)
     target = tol * h
     iters = 0
     converged = res <= target
@@ -234,15 +249,18 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
         _metric_product(Ap, wk.facA, U, AU)
         copy_vector(HAU, AU, n)
         block_solve(fac, n, HAU)
+        # (Gall is zero outside the rows' supports from the start)
         for r in range(nbil):
             s = -gb[r]
-            for i in range(n):
+            for t in range(ncols[r]):
+                i = cols[r, t]
                 Gall[r, i] = Gb[r, i]
                 s += Gb[r, i] * HAU[i]
             ball[r] = s
         for k in range(nc):
             s = -gap[k]
-            for i in range(n):
+            for t in range(ncols[nbil + k]):
+                i = cols[nbil + k, t]
                 Gall[nbil + k, i] = GN[k, i]
                 s += GN[k, i] * HAU[i]
             ball[nbil + k] = s
@@ -265,7 +283,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                 if active[k]:
                     rows[m] = nbil + k
                     m += 1
-            block_gram_rows(fac, n, Gall, rows, m, wk.Y, wk.first, have, Dall)
+            block_gram_rows(fac, Gall, rows, m, wk.Y, wk.first, have, Dall, cols, ncols)
             D = wk.Dbuf  # its leading m x m block
             for a in range(m):
                 ra = rows[a]
@@ -278,10 +296,12 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             lu_factor(D, m, wk.piv)
             lu_solve(D, m, wk.piv, sol)
             for i in range(n):
-                s = 0.0
-                for a in range(m):
-                    s += Gall[rows[a], i] * sol[a]
-                x[i] = s
+                x[i] = 0.0
+            for a in range(m):
+                ra = rows[a]
+                for t in range(ncols[ra]):
+                    i = cols[ra, t]
+                    x[i] += Gall[ra, i] * sol[a]
             block_solve(fac, n, x)
             # Murty's least-index rule: flip only the first contact that violates the
             # complementarity; finite for the positive definite (P-matrix) contact problem,
@@ -295,9 +315,8 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                 if flip >= 0 and k >= flip:
                     break
                 if not active[k]:
-                    lin_gap = -ball[nbil + k]
-                    for i in range(n):
-                        lin_gap += Gall[nbil + k, i] * x[i]
+                    lin_gap = -ball[nbil + k] + support_dot(Gall, nbil + k, cols, nbil + k,
+                                                            ncols[nbil + k], x)
                     if lin_gap < -0.1 * target:
                         flip = k
                         break
@@ -327,7 +346,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             _position_rows(q_t, U_try, t1, ma, q_try, gb_try, Gb_try, wk.gm, wk.dgdt,
                            gap_try, GN_try, wk.wN, wk.wT)
             res_try = _position_residual(U_try, nub_try, nuc_try, r_c, mdiag, Ap, wk.facA,
-                                         gb_try, Gb_try, gap_try, GN_try, wk.eq)
+                                         gb_try, Gb_try, gap_try, GN_try, wk.eq, cols, ncols)
             if best < 0.0 or res_try < best:
                 best = res_try
                 best_theta = theta
@@ -363,7 +382,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                 nu_c[k] += theta * (nuc_new[k] - nu_c[k])
             _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT)
             res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, wk.facA, gb, Gb, gap, GN,
-                                 wk.eq)
+                                     wk.eq, cols, ncols)
         converged = res <= target
     return iters, converged
 
@@ -372,7 +391,7 @@ def velocity_work(n, nbil, nc):
     """Work arrays of :func:`velocity_step` (made once per run, in Python)."""
     mv = nbil + 2 * nc
     return VelocityWork(
-        f1=np.zeros(n), K1=np.zeros((n, n)), C1=np.zeros((n, n)), Ks1=np.zeros((n, n)),
+        f1=np.zeros(n), C1=np.zeros((n, n)),
         Av=np.zeros((n, n)), fac=block_factor_work(n), b=np.zeros(n), Ab=np.zeros(n),
         tmp=np.zeros(n), wN=np.zeros(6), wT=np.zeros(6),
         gb=np.zeros(nbil), gm=np.zeros(nbil), dgdt=np.zeros(nbil), Gb=np.zeros((nbil, n)),
@@ -384,6 +403,7 @@ def velocity_work(n, nbil, nc):
         Dbb=np.zeros((nbil, nbil)), pivb=np.zeros(nbil, dtype=np.int64), colb=np.zeros(nbil),
         X=np.zeros((nbil, mv + 1)), Dc=np.zeros((mv, mv)), cc=np.zeros(mv),
         lam_c=np.zeros(mv), pair_c=np.zeros(mv, dtype=np.int64),
+        cols=np.zeros((mv, 6), dtype=np.int64), ncols=np.zeros(mv, dtype=np.int64),
         solver=velocity_solver_work(mv))
 
 
@@ -394,7 +414,7 @@ def velocity_solver_work(m):
                               J=np.zeros((m, m)), piv=np.zeros(m, dtype=np.int64))
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def _affine(D, lam, c, m, xi):
     """xi = D lam + c on the leading m rows."""
     for i in range(m):
@@ -404,7 +424,7 @@ def _affine(D, lam, c, m, xi):
         xi[i] = s
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def _velocity_residual(lam, xi, kind, r, mu_row, pair, F):
     """Scaled residual [m/s] of the velocity problem, row by row.
 
@@ -424,7 +444,7 @@ def _velocity_residual(lam, xi, kind, r, mu_row, pair, F):
     return res
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def _local_frictional_contact(D, c, lam, i, mu):
     """Solve one contact's rows (normal i, tangent i+1) exactly, the others held fixed."""
     j = i + 1
@@ -471,7 +491,9 @@ def nonsmooth_work(n, nbil, nc):
     contacts, made once per run."""
     return NonsmoothWork(step=step_work(n), smooth=smooth_work(n, nbil),
                          position=position_work(n, nbil, nc),
-                         velocity=velocity_work(n, nbil, nc))
+                         velocity=velocity_work(n, nbil, nc),
+                         contact=(np.zeros(nc), np.zeros(nc), np.zeros(nc), np.zeros(nc),
+                                  np.zeros(nc)))
 
 
 def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
@@ -486,7 +508,7 @@ def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
                                    velocity_solver_work(lam.shape[0]))
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, sw):
     """:func:`solve_velocity_problem` on the work arrays ``sw`` (:func:`velocity_solver_work`)."""
     m = lam.shape[0]
@@ -578,7 +600,7 @@ def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, s
         # where redundant frictional contacts make the Newton iteration stall
         for _sweep in range(200 * max_iter):
             iters += 1
-            i = 0
+            i = np.int64(0)  # not a literal 0, which compiles a second specialisation
             while i < m:
                 if kind[i] == 1 and i + 1 < m and kind[i + 1] == 2 and pair[i + 1] == i:
                     _local_frictional_contact(D, c, lam, i, mu_row[i + 1])
@@ -613,7 +635,7 @@ def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, s
     return iters, res <= tol
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, nu_c, gap,
                   vn_minus, vt_minus, v1, lamN, lamT, lam_b, wk):
     """Velocity jump W = v1 - v_t with impulses Lambda on the joints and on the contacts closed
@@ -629,7 +651,9 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     nc = ct_type.shape[0]
     f1 = wk.f1
     C1 = wk.C1
-    smooth_forces(q1, v_t, ma, f1, wk.K1, C1, wk.Ks1, True)
+    # the forces at (q1, v~) and the damping matrix (the stiffness is not needed here)
+    smooth_forces(q1, v_t, ma, f1, C1, C1, C1, False)
+    spring_damping(q1, v_t, ma, C1)
     Av = wk.Av
     b = wk.b
     for i in range(n):
@@ -659,6 +683,9 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     lam = wk.lam
     row_of = wk.row_of
     row_of[:] = -1
+    cols = wk.cols
+    ncols = wk.ncols
+    joint_support(ma.jt_type, ma.jt_body, cols, ncols)
     for r in range(nbil):
         for i in range(n):
             G[r, i] = Gb[r, i]
@@ -679,6 +706,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
             continue
         contact_rows(q1, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT)
         scatter_row(G[row], wN, ct_body[k, 0], ct_body[k, 1])
+        ncols[row] = pair_support(ct_body[k, 0], ct_body[k, 1], cols, row)
         # Newton's law as docs/model.md states it, with the start-of-step velocity also where
         # the contact was separating then (closed by the position correction, e.g. the partner
         # of a pinched ball): xi_N = dg_N+ + e_N dg_N- may then leave it slightly approaching.
@@ -693,6 +721,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
         row += 1
         if ct_law[k, 0] > 0.0:
             scatter_row(G[row], wT, ct_body[k, 0], ct_body[k, 1])
+            ncols[row] = pair_support(ct_body[k, 0], ct_body[k, 1], cols, row)
             off[row] = ct_law[k, 2] * vt_minus[k]
             kind[row] = 2
             mu_row[row] = ct_law[k, 0]
@@ -702,13 +731,12 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     # Delassus matrix D = G A^-1 G^T and free velocity c = G (v_t + A^-1 b) + off
     D = wk.D
     c = wk.c
-    block_gram(fac, n, G, n_rows, wk.Y, wk.first, D)
+    block_gram(fac, G, n_rows, wk.Y, wk.first, D, cols, ncols)
     for a in range(n_rows):
         s = off[a]
-        for i in range(n):
-            g = G[a, i]
-            if g != 0.0:
-                s += g * (v_t[i] + Ab[i])
+        for t in range(ncols[a]):
+            i = cols[a, t]
+            s += G[a, i] * (v_t[i] + Ab[i])
         c[a] = s
     sw = wk.solver
     if nbil > 0 and n_rows > nbil:
@@ -772,10 +800,11 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     # W = A^-1 (b + G^T Lambda)
     W = wk.tmp
     for i in range(n):
-        s = b[i]
-        for r in range(n_rows):
-            s += G[r, i] * lam[r]
-        W[i] = s
+        W[i] = b[i]
+    for r in range(n_rows):
+        for t in range(ncols[r]):
+            i = cols[r, t]
+            W[i] += G[r, i] * lam[r]
     block_solve(fac, n, W)
     for i in range(n):
         v1[i] = v_t[i] + W[i]
@@ -790,7 +819,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     return iters, ok
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def integrate_chunk(k0, k1, st, ma, state, out, work):
     """Advance steps k0 .. k1-1 (state at time k0*h on entry, at k1*h on exit), writing the
     outputs of each step at index k+1.
@@ -832,13 +861,10 @@ def integrate_chunk(k0, k1, st, ma, state, out, work):
     vt_prev = state.vt
     n = q.shape[0]
     nc = ma.ct_type.shape[0]
+    nbil = work.position.nu_b.shape[0]
     coef = alpha_coefficients(st.rho_inf)
     q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
-    nu_c = np.zeros(nc)
-    gap = np.zeros(nc)
-    vn = np.zeros(nc)
-    vt = np.zeros(nc)
-    vn_free = np.zeros(nc)
+    nu_c, gap, vn, vt, vn_free = work.contact
     pwk = work.position
     vwk = work.velocity
     gap_close = tol * h
@@ -853,10 +879,7 @@ def integrate_chunk(k0, k1, st, ma, state, out, work):
                                    pwk)
         # normal velocities before the jump, G_N(q1) v~, from the position stage's rows at q1
         for j in range(nc):
-            s = 0.0
-            for i in range(n):
-                s += pwk.GN[j, i] * v_t[i]
-            vn_free[j] = s
+            vn_free[j] = support_dot(pwk.GN, j, pwk.cols, nbil + j, pwk.ncols[nbil + j], v_t)
         it_v, ok_v = velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t,
                                    nu_c, gap, vn_prev, vt_prev, v1, lamN_prev, lamT_prev, lam_b,
                                    vwk)

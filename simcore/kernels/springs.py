@@ -4,26 +4,28 @@ their exact tangents, and the mechanical energy they store."""
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from .bodies import (
     body_omega,
     body_point,
     pair_point_jacobians,
     point_pair_row,
+    store6,
     transverse_form,
     unit_direction,
 )
+from .jit import kernel, step_kernel
 
 
-@njit(cache=True, error_model="numpy")
+@step_kernel
 def spring_state(q, v, k, sp_body, sp_geom):
     """Length [m], its rate [m/s], unit direction and lever arms of spring ``k``."""
     bi = sp_body[k, 0]
     bj = sp_body[k, 1]
-    p = sp_geom[k]
-    xi, yi, aix, aiy = body_point(q, bi, p[0], p[1])
-    xj, yj, ajx, ajy = body_point(q, bj, p[2], p[3])
+    # scalars, not a row view (a view costs two atomic reference-count updates)
+    p0, p1, p2, p3 = sp_geom[k, 0], sp_geom[k, 1], sp_geom[k, 2], sp_geom[k, 3]
+    xi, yi, aix, aiy = body_point(q, bi, p0, p1)
+    xj, yj, ajx, ajy = body_point(q, bj, p2, p3)
     length, nx, ny = unit_direction(xj - xi, yj - yi)
     wi = body_omega(v, bi)
     wj = body_omega(v, bj)
@@ -43,7 +45,7 @@ def spring_state(q, v, k, sp_body, sp_geom):
     return length, rate, nx, ny, aix, aiy, ajx, ajy, dvx, dvy
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
     """Gravity plus spring-damper forces ``f`` [N, N m]; with ``tangent`` also the stiffness
     ``K = -df/dq`` and damping ``C = -df/dv`` matrices. K is exact for springs between body
@@ -64,9 +66,10 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
         K[:, :] = 0.0
         C[:, :] = 0.0
         Ks[:, :] = 0.0
-    w = np.zeros(6)
-    P = np.zeros((2, 6))
-    idx = np.zeros(6, dtype=np.int64)
+    w = np.empty(6)
+    Px = np.empty(6)
+    Py = np.empty(6)
+    idx = np.empty(6, dtype=np.int64)
     for k in range(sp_body.shape[0]):
         bi = sp_body[k, 0]
         bj = sp_body[k, 1]
@@ -77,17 +80,17 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
                                                                           sp_geom)
         tension = stiff * (length - rest) + damp * rate
         # w = d(length)/d(q_i, q_j)
-        point_pair_row(w, nx, ny, aix, aiy, ajx, ajy, 1.0)
-        for a in range(3):
-            idx[a] = 3 * bi + a
-            idx[3 + a] = 3 * bj + a
+        store6(w, point_pair_row(nx, ny, aix, aiy, ajx, ajy, 1.0))
+        store6(idx, (3 * bi, 3 * bi + 1, 3 * bi + 2, 3 * bj, 3 * bj + 1, 3 * bj + 2))
         for a in range(6):
             body = bi if a < 3 else bj
             if body >= 0:
                 f[idx[a]] -= tension * w[a]
         if tangent:
             # point Jacobians for the geometric stiffness (tension / length) (I - n n^T)
-            pair_point_jacobians(P, aix, aiy, ajx, ajy)
+            px_t, py_t = pair_point_jacobians(aix, aiy, ajx, ajy)
+            store6(Px, px_t)
+            store6(Py, py_t)
             inv_l = 1.0 / length if length > 1e-300 else 0.0
             geo = tension * inv_l
             geo_s = max(stiff * (length - rest), 0.0) * inv_l
@@ -103,14 +106,40 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
                     bc = bi if c < 3 else bj
                     if bc < 0:
                         continue
-                    pp = transverse_form(P, nx, ny, a, c)
+                    pp = transverse_form(Px[a], Py[a], Px[c], Py[c], nx, ny)
                     K[idx[a], idx[c]] += (stiff * w[a] * w[c] + geo * pp
-                                          + w[a] * (px * P[0, c] + py * P[1, c]))
+                                          + w[a] * (px * Px[c] + py * Py[c]))
                     Ks[idx[a], idx[c]] += stiff * w[a] * w[c] + geo_s * pp
                     C[idx[a], idx[c]] += damp * w[a] * w[c]
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
+def spring_damping(q, v, ma, C):
+    """The damping matrix C = -df/dv of the spring-dampers alone (what the velocity jump
+    needs of the smooth forces' tangents; :func:`smooth_forces` with ``tangent`` also fills
+    the stiffness matrices)."""
+    sp_body = ma.sp_body
+    sp_geom = ma.sp_geom
+    C[:, :] = 0.0
+    w = np.empty(6)
+    idx = np.empty(6, dtype=np.int64)
+    for k in range(sp_body.shape[0]):
+        bi = sp_body[k, 0]
+        bj = sp_body[k, 1]
+        damp = sp_geom[k, 5]
+        _, _, nx, ny, aix, aiy, ajx, ajy, _, _ = spring_state(q, v, k, sp_body, sp_geom)
+        store6(w, point_pair_row(nx, ny, aix, aiy, ajx, ajy, 1.0))
+        store6(idx, (3 * bi, 3 * bi + 1, 3 * bi + 2, 3 * bj, 3 * bj + 1, 3 * bj + 2))
+        for a in range(6):
+            if (bi if a < 3 else bj) < 0:
+                continue
+            for c in range(6):
+                if (bi if c < 3 else bj) < 0:
+                    continue
+                C[idx[a], idx[c]] += damp * w[a] * w[c]
+
+
+@step_kernel
 def total_energy(q, v, ma):
     """Kinetic + gravitational + spring energy [J]."""
     mdiag = ma.mdiag
