@@ -128,9 +128,24 @@ def test_smooth_forces_tangents_match_finite_differences(bearing):
         f3 = np.zeros(n)
         nb.smooth_forces(q, dv, arr, f3, K, K, K, False)
         np.testing.assert_allclose(-(f3 - f) / eps, C[:, i], rtol=1e-4, atol=1e-2)
-    C_alone = np.full((n, n), np.nan)
+    C_alone = np.zeros((n, n))
     nb.spring_damping(q, v, arr, C_alone)
     np.testing.assert_allclose(C_alone, C, rtol=1e-14, atol=0.0)
+    # the tangents live in the springs' body-pair blocks, the only entries that get cleared
+    mask = np.zeros((n, n), dtype=bool)
+    for bi, bj in arr.sp_body:
+        cols = [3 * b + a for b in (bi, bj) if b >= 0 for a in range(3)]
+        mask[np.ix_(cols, cols)] = True
+    assert not K[~mask].any() and not C[~mask].any() and not Ks[~mask].any()
+    junk = np.full((n, n), 7.0)
+    nb.clear_pair_blocks(junk, arr.sp_body)
+    np.testing.assert_array_equal(junk == 0.0, mask)
+    # a second evaluation into the filled matrices gives the same tangents
+    K2, C2, Ks2 = K.copy(), C.copy(), Ks.copy()
+    nb.smooth_forces(q, v, arr, np.zeros(n), K2, C2, Ks2, True)
+    np.testing.assert_array_equal(K2, K)
+    np.testing.assert_array_equal(C2, C)
+    np.testing.assert_array_equal(Ks2, Ks)
     energy = nb.total_energy(q, v, arr)
     assert np.isfinite(energy)
 

@@ -24,6 +24,7 @@ CACHE_DIR = configure_cache()
 from .bodies import (  # noqa: E402
     body_omega,
     body_point,
+    clear_pair_blocks,
     pair_point_jacobians,
     pair_support,
     place_row,
@@ -86,7 +87,7 @@ __all__ = [
     "StepState", "alpha_coefficients",
     "bilateral", "block_inverse", "joint_support", "pair_support", "place_row", "store6",
     "support_dot",
-    "body_omega", "body_point", "contact_hessian", "contact_rows",
+    "body_omega", "body_point", "clear_pair_blocks", "contact_hessian", "contact_rows",
     "contact_velocities", "initial_acceleration", "integrate_chunk", "joint_row_count",
     "nonsmooth_work",
     "pair_point_jacobians", "point_pair_row", "position_step", "row_dot", "scatter_row",

@@ -142,3 +142,23 @@ def support_dot(G, r, cols, c, m, x):
         i = cols[c, t]
         s += G[r, i] * x[i]
     return s
+
+
+@step_kernel
+def clear_pair_blocks(A, pair_body):
+    """Zero the entries of the n x n matrix A that couple the two bodies of each pair
+    (``pair_body`` (m, 2), -1 the ground), diagonal blocks included: all that an element between
+    those bodies writes. Clearing these blocks instead of the whole matrix keeps a tangent
+    matrix's cost at that of its elements."""
+    for k in range(pair_body.shape[0]):
+        for s in range(2):
+            ba = pair_body[k, s]
+            if ba < 0:
+                continue
+            for t in range(2):
+                bc = pair_body[k, t]
+                if bc < 0:
+                    continue
+                for a in range(3):
+                    for c in range(3):
+                        A[3 * ba + a, 3 * bc + c] = 0.0

@@ -8,6 +8,7 @@ from collections import namedtuple
 
 import numpy as np
 
+from .bodies import clear_pair_blocks
 from .hertz import contact_forces
 from .jit import kernel, step_kernel
 from .joints import bilateral, joint_row_count
@@ -138,6 +139,11 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             acc1[i] = ((1.0 - af) * vdot1[i] + af * vdot[i] - am * acc[i]) / (1.0 - am)
             q_t[i] = q[i] + h * v[i] + h * h * (0.5 - beta) * acc[i] + h * h * beta * acc1[i]
             v_t[i] = v[i] + h * (1.0 - gam) * acc[i] + h * gam * acc1[i]
+        if cwork is not None:
+            # the contacts' tangents are added in their body pairs' blocks: clear those first
+            # (smooth_forces clears the springs' own)
+            clear_pair_blocks(K_t, ma.ct_body)
+            clear_pair_blocks(C_t, ma.ct_body)
         smooth_forces(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, True)
         if cwork is not None:
             contact_forces(q_t, v_t, ma, v_pre, v_reg, f_t, K_t, C_t, True, cwork[0], cwork[1],

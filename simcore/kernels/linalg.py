@@ -159,13 +159,17 @@ def block_factor(A, n, fac, symmetric):
     degree = fac.piv  # coupling counts first, pivots later
     for i in range(n):
         degree[i] = 0
-    # one triangle suffices where the structure is symmetric; counts added without branches
-    # (this scan of all n^2 entries is a good part of a factorisation's cost at these sizes)
+    # off-diagonal non-zeros of each row and column, counted row by row in contiguous loops
+    # that the compiler vectorises (this scan of all n^2 entries is a good part of a
+    # factorisation's cost at these sizes)
     for i in range(n):
-        for j in range(i + 1, n):
-            c = A[i, j] != 0.0 if symmetric else (A[i, j] != 0.0 or A[j, i] != 0.0)
-            degree[i] += c
-            degree[j] += c
+        in_row = 0
+        for j in range(n):
+            nz = A[i, j] != 0.0
+            in_row += nz
+            degree[j] += nz
+        diagonal = A[i, i] != 0.0
+        degree[i] += in_row - 2 * diagonal
     k = np.int64(0)  # not a literal 0: that would compile a second cholesky/lu specialisation
     for i in range(n):
         if degree[i] != 0:
@@ -205,9 +209,13 @@ def block_solve(fac, n, x):
     idx = fac.idx
     tmp = fac.tmp
     dinv = fac.dinv
+    nonzero = False
     for a in range(k):
         tmp[a] = x[idx[a]]
-    if k > 0:
+        nonzero = nonzero or tmp[a] != 0.0
+    # a right-hand side without coupled entries (a joint row that touches no ball, say) has a
+    # zero coupled solution: no substitution needed
+    if nonzero:
         if fac.info[1] == 0:
             cholesky_solve(fac.B, k, tmp)
         else:
@@ -233,7 +241,7 @@ def _substitute_row(fac, G, r, Y, yr):
         if f == k and Y[yr, a] != 0.0:
             f = a
     if fac.info[1] != 0:
-        if k > 0:
+        if f < k:  # (a row without coupled entries has a zero solution)
             tmp = fac.tmp
             for a in range(k):
                 tmp[a] = Y[yr, a]

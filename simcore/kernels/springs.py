@@ -8,6 +8,7 @@ import numpy as np
 from .bodies import (
     body_omega,
     body_point,
+    clear_pair_blocks,
     pair_point_jacobians,
     point_pair_row,
     store6,
@@ -52,7 +53,11 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
     origins (the cage); for off-centre points the lever arms' second derivative is left out
     (Newton stays convergent, only its rate changes). ``Ks`` receives the symmetric positive
     semi-definite elastic part (axial stiffness and the geometric term of a tensile spring): it
-    is the metric of the position correction, which must stay positive definite."""
+    is the metric of the position correction, which must stay positive definite.
+
+    The tangents are written in the blocks of the springs' body pairs only (cleared first,
+    :func:`~.bodies.clear_pair_blocks`): elsewhere K, C and Ks keep what they held, zero in
+    every caller."""
     mass = ma.mass
     gvec = ma.gvec
     sp_body = ma.sp_body
@@ -63,9 +68,9 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
         f[3 * b + 1] = mass[b] * gvec[1]
         f[3 * b + 2] = 0.0
     if tangent:
-        K[:, :] = 0.0
-        C[:, :] = 0.0
-        Ks[:, :] = 0.0
+        clear_pair_blocks(K, sp_body)
+        clear_pair_blocks(C, sp_body)
+        clear_pair_blocks(Ks, sp_body)
     w = np.empty(6)
     Px = np.empty(6)
     Py = np.empty(6)
@@ -117,10 +122,11 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
 def spring_damping(q, v, ma, C):
     """The damping matrix C = -df/dv of the spring-dampers alone (what the velocity jump
     needs of the smooth forces' tangents; :func:`smooth_forces` with ``tangent`` also fills
-    the stiffness matrices)."""
+    the stiffness matrices). Written in the springs' blocks only, as :func:`smooth_forces`
+    does."""
     sp_body = ma.sp_body
     sp_geom = ma.sp_geom
-    C[:, :] = 0.0
+    clear_pair_blocks(C, sp_body)
     w = np.empty(6)
     idx = np.empty(6, dtype=np.int64)
     for k in range(sp_body.shape[0]):
