@@ -16,7 +16,7 @@ from numba import njit
 
 #: Kernels that may allocate arrays. (Reference counting is asked for explicitly: a callee
 #: inherits the caller's setting otherwise, and a step kernel calls some of these.)
-kernel = njit(cache=True, error_model="numpy", _nrt=True)
+kernel = njit(cache=True, error_model="numpy", _nrt=True, no_cfunc_wrapper=True)
 
 #: Kernels that allocate nothing (see the module docstring).
-step_kernel = njit(cache=True, error_model="numpy", _nrt=False)
+step_kernel = njit(cache=True, error_model="numpy", _nrt=False, no_cfunc_wrapper=True)
