@@ -3,8 +3,10 @@
 The start-up savings (README, "Performance") come from not importing what a run does not use:
 SciPy's ``scipy.linalg`` package (Numba's BLAS check is served by the ``cython_blas`` module
 alone, :func:`simcore.numba_cache.preload_scipy_blas`) and ``dask.array`` (the run's dataset is
-built from xarray Variables made on the fast path, :func:`simcore.io.dataset_of_arrays`). These
-tests check that the shortcuts give the same objects as the ordinary way.
+built from xarray Variables made on the fast path, :func:`simcore.io.dataset_of_arrays`). The run
+file is written without the question to dask's scheduler that imports ``distributed``
+(:func:`simcore.io.to_netcdf4`). These tests check that the shortcuts give the same objects and
+files as the ordinary way.
 """
 
 import json
@@ -35,6 +37,8 @@ out = {"scipy_linalg": "scipy.linalg" in sys.modules,
        "dask_array": "dask.array" in sys.modules,
        "have_blas": bool(arraymath._HAVE_BLAS),
        "steps": int(ds.sizes["time"]) - 1}
+simcore.write_netcdf(ds, sys.argv[1])
+out["distributed"] = "distributed" in sys.modules
 import scipy.linalg
 import scipy.linalg.cython_blas
 out["attribute"] = scipy.linalg.cython_blas is sys.modules["scipy.linalg.cython_blas"]
@@ -50,16 +54,17 @@ print(json.dumps(out))
 """
 
 
-def test_first_run_imports_neither_scipy_linalg_nor_dask_array():
+def test_first_run_imports_neither_scipy_linalg_nor_dask_array_nor_distributed(tmp_path):
     env = dict(os.environ, NUMBA_NUM_THREADS="1",
                PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
-    proc = subprocess.run([sys.executable, "-c", FRESH_PROCESS], capture_output=True, text=True,
-                          env=env, cwd=ROOT, timeout=600)
+    proc = subprocess.run([sys.executable, "-c", FRESH_PROCESS, str(tmp_path / "run.nc")],
+                          capture_output=True, text=True, env=env, cwd=ROOT, timeout=600)
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout.strip().splitlines()[-1])
     assert out["steps"] == 2
     assert not out["scipy_linalg"], "Numba's BLAS check imported the scipy.linalg package"
     assert not out["dask_array"], "building the run's dataset imported dask.array"
+    assert not out["distributed"], "writing the run file imported distributed"
     assert out["have_blas"], "Numba must still see BLAS"
     # imported later the ordinary way, scipy.linalg carries the preloaded module
     assert out["attribute"]
@@ -136,3 +141,51 @@ def test_dataset_of_arrays_is_the_ordinary_dataset(tmp_path):
 def test_dataset_of_arrays_refuses_object_values():
     with pytest.raises(TypeError, match="x: values of dtype object"):
         dataset_of_arrays({"x": (("a",), np.array([None, 1], dtype=object))}, {}, {})
+
+
+def _file_contents(path):
+    """Everything a netCDF file holds, but its HDF5 layout: dimensions (with unlimited), global
+    attributes, and per variable its dimensions, type, filters, chunking, attributes and the
+    bytes of its values."""
+    def attrs(obj):
+        # repr: a NaN _FillValue equals itself as text
+        return {k: repr(np.asarray(obj.getncattr(k)).tolist()) for k in obj.ncattrs()}
+
+    with netCDF4.Dataset(path) as nc:
+        out = {"dims": {k: (len(d), d.isunlimited()) for k, d in nc.dimensions.items()},
+               "attrs": attrs(nc), "vars": {}}
+        for name, var in nc.variables.items():
+            var.set_auto_maskandscale(False)
+            out["vars"][name] = (var.dimensions, str(var.dtype), var.filters(), var.chunking(),
+                                 attrs(var), np.asarray(var[...]).tobytes())
+    return out
+
+
+def test_run_file_is_the_file_to_netcdf_writes(tmp_path):
+    from simcore.io import netcdf_encoding, to_netcdf4
+
+    cfg = simcore.load_config(overrides=["solver.t_end=2e-3"])
+    ds = simcore.run(cfg)
+    encoding = netcdf_encoding(ds)
+    assert encoding["Lambda_N"]["zlib"] and encoding["time"]["_FillValue"] is None
+    to_netcdf4(ds, tmp_path / "fast.nc", encoding)
+    ds.to_netcdf(tmp_path / "plain.nc", engine="netcdf4", encoding=encoding)
+    fast, plain = _file_contents(tmp_path / "fast.nc"), _file_contents(tmp_path / "plain.nc")
+    assert fast == plain
+    assert fast["vars"]["race"][1] == "|S1"  # labels as character arrays
+    assert fast["vars"]["Lambda_N"][2]["zlib"]
+    # and xarray reads them back alike
+    with xr.open_dataset(tmp_path / "fast.nc") as a, xr.open_dataset(tmp_path / "plain.nc") as b:
+        assert a.identical(b)
+
+
+def test_unusual_datasets_go_through_to_netcdf(tmp_path):
+    from simcore.io import to_netcdf4
+
+    ds = xr.Dataset({"x": (("t",), np.arange(3.0))})
+    ds.encoding["unlimited_dims"] = {"t"}
+    to_netcdf4(ds, tmp_path / "u.nc", {})
+    assert _file_contents(tmp_path / "u.nc")["dims"]["t"] == (3, True)
+    bad = xr.Dataset({"x": (("t",), np.arange(3.0))}, attrs={"flag": None})
+    with pytest.raises(TypeError, match="Invalid value for attr 'flag'"):
+        to_netcdf4(bad, tmp_path / "bad.nc", {})
