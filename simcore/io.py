@@ -485,29 +485,39 @@ def trajectory_dataset(traj, model, layout, cfg: dict, compile_time_s: float = 0
 
 def dataset_of_arrays(data: dict, coords: dict, attrs: dict) -> xr.Dataset:
     """``xr.Dataset(data, coords=coords, attrs=attrs)`` for entries ``(dims, values[, attrs])``
-    whose values are NumPy arrays or numbers, the same dataset built a faster way.
+    whose values are NumPy arrays, lists or numbers: the same dataset, built a faster way.
 
-    Each entry becomes an ``xr.Variable`` made on xarray's fast path, which takes a NumPy array
-    as it is. The ordinary constructor first asks whether each value is a dask array, and to
-    ask it imports ``dask.array`` (0.2-0.3 s), which a run never needs: the first run in a new
-    process, when nothing else has imported it, saves that much. Values of dtype object or
-    datetime are refused (the ordinary constructor converts those; a run has none).
-
-    Raises
-    ------
-    TypeError
-        For an entry whose values are of dtype object, datetime or timedelta.
+    The ordinary constructor asks of every value whether it is a dask array, which imports
+    ``dask.array`` (0.2-0.3 s), and of every dimension coordinate whether it is a dask
+    collection, which imports ``dask`` (about 0.1 s); a run has NumPy arrays only, and the
+    first run in a new process would pay for both imports. Here each entry becomes an
+    ``xr.Variable`` made on xarray's fast path (which takes a NumPy array as it is), and each
+    dimension coordinate gets the index the ordinary constructor gives it, a
+    ``xarray.indexes.PandasIndex`` of ``pandas.Index(values)`` that keeps the coordinate's
+    dtype, with its variable made by that index. Values of dtype object, datetime, timedelta
+    or float16 (which the ordinary constructor converts) go to the ordinary constructor.
     """
-    def variable(name, spec):
+    import pandas as pd
+
+    def variable(spec):
         dims, values, *rest = spec
         values = np.asarray(values)
-        if values.dtype.kind in "OMm":
-            raise TypeError(f"{name}: values of dtype {values.dtype} are not allowed here; "
-                            "allowed: numbers, booleans, strings (use xarray.Dataset)")
+        if values.dtype.kind in "OMm" or values.dtype == np.float16:
+            return None
         return xr.Variable(dims, values, rest[0] if rest else None, fastpath=True)
 
-    return xr.Dataset({k: variable(k, v) for k, v in data.items()},
-                      coords={k: variable(k, v) for k, v in coords.items()}, attrs=attrs)
+    data_vars = {k: variable(v) for k, v in data.items()}
+    coord_vars = {k: variable(v) for k, v in coords.items()}
+    if any(v is None for v in (*data_vars.values(), *coord_vars.values())):
+        return xr.Dataset(data, coords=coords, attrs=attrs)
+    indexes = {}
+    for name, var in list(coord_vars.items()):
+        if var.dims == (name,):  # a dimension coordinate
+            index = xr.indexes.PandasIndex(pd.Index(var.values), name, coord_dtype=var.dtype)
+            indexes[name] = index
+            coord_vars.update(index.create_variables({name: var}))
+    return xr.Dataset(data_vars, coords=xr.Coordinates(coord_vars, indexes=indexes),
+                      attrs=attrs)
 
 
 def failed_run_dataset(cfg: dict, message: str) -> xr.Dataset:
