@@ -65,17 +65,34 @@ def _child_env(**extra) -> dict:
 def first_run_stages(path: str, repeats: int) -> list[dict]:
     """Stages of ``repeats`` new processes' first run of the paper case (``path``: "api" or
     "cli"), see ``benchmarks/first_run.py``; one process before them fills the caches."""
-    import json
 
     script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "first_run.py")
     rows = []
     for i in range(repeats + 1):
-        env = _child_env(FIRST_RUN_T0=repr(time.time()))
-        out = subprocess.run([sys.executable, script, path], capture_output=True, text=True,
-                             env=env, check=True).stdout
+        row = run_child([sys.executable, script, path], _child_env(FIRST_RUN_T0="{t0}"))
         if i:
-            rows.append(json.loads(out.strip().splitlines()[-1]))
+            rows.append(row)
     return rows
+
+
+def run_child(argv: list, env: dict) -> dict:
+    """Run one ``first_run.py`` process; its JSON stages plus, from this side, ``process_wall``
+    (start to exit, interpreter shut-down included) and ``process_cpu`` (its CPU time, user +
+    system, shut-down included)."""
+    import json
+    import resource
+
+    def cpu():
+        r = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return r.ru_utime + r.ru_stime
+
+    c0, t0 = cpu(), time.time()
+    env = {k: v.format(t0=repr(t0)) for k, v in env.items()}
+    out = subprocess.run(argv, capture_output=True, text=True, env=env, check=True).stdout
+    row = json.loads(out.strip().splitlines()[-1])
+    row["process_wall"] = time.time() - t0
+    row["process_cpu"] = cpu() - c0
+    return row
 
 
 #: (key, label, indentation) of the printed breakdown; a stage's parts follow it, indented.
@@ -116,6 +133,10 @@ def print_first_run(rows_by_path: dict) -> None:
     print(f"  {'':62s}" + "".join(f"{p.upper():>8s}" for p in paths))
     print(f"  {'total, interpreter start to the dataset / the written file':62s}"
           + "".join(f"{med[p]['total']:8.3f}" for p in paths))
+    print(f"  {'the process, start to exit (shut-down included): wall':62s}"
+          + "".join(f"{med[p]['process_wall']:8.3f}" for p in paths))
+    print(f"  {'the process, start to exit: CPU time (user + system)':62s}"
+          + "".join(f"{med[p]['process_cpu']:8.3f}" for p in paths))
     for key, label, depth in FIRST_RUN_LINES:
         if not any(med[p].get(key, 0.0) for p in paths):
             continue

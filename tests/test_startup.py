@@ -198,3 +198,28 @@ def test_unusual_datasets_go_through_to_netcdf(tmp_path):
     bad = xr.Dataset({"x": (("t",), np.arange(3.0))}, attrs={"flag": None})
     with pytest.raises(TypeError, match="Invalid value for attr 'flag'"):
         to_netcdf4(bad, tmp_path / "bad.nc", {})
+
+
+def test_collector_runs_again_after_the_first_run_and_the_command(tmp_path):
+    import gc
+
+    import simcore.cli
+
+    assert gc.isenabled()
+    simcore.run(simcore.load_config(overrides=["solver.t_end=2e-4"]))
+    assert gc.isenabled()
+    assert simcore.cli.main(["run", "--quiet", "--set", "solver.t_end=2e-4",
+                             "--out", str(tmp_path / "r.nc")]) == 0
+    assert gc.isenabled()
+    # also when the command fails (bad input: exit code 2, no file)
+    assert simcore.cli.main(["run", "--quiet", "--set", "solver.dt=-1",
+                             "--out", str(tmp_path / "bad.nc")]) == 2
+    assert gc.isenabled() and not (tmp_path / "bad.nc").exists()
+    # a collector switched off by the caller stays off
+    gc.disable()
+    try:
+        simcore.cli.main(["run", "--quiet", "--set", "solver.dt=-1",
+                          "--out", str(tmp_path / "bad.nc")])
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
