@@ -4,7 +4,10 @@ Prints, in one run:
 
 - cold compile: a new process with an empty Numba cache (a temporary ``NUMBA_CACHE_DIR``):
   imports, then the first (compiling) 1-step run of the paper case;
-- a new process with a warm cache: imports, then the first 1-step run (cache load);
+- a new process with a warm cache: the first run of the paper case in all, from the interpreter's
+  start to the returned dataset (``simcore.run``, the API) and to the written file
+  (``python -m simcore run``, the CLI), with where the time goes (``benchmarks/first_run.py``,
+  median of N processes each);
 - the warm wall time of the full paper case (0.3 s, h = 1e-4, 3,000 steps): median of N runs
   in one process, one thread, and the steps per second;
 - a profile of a step: the same time loop as ``integrate_chunk`` with a read of the process's
@@ -14,7 +17,11 @@ Prints, in one run:
 Wall times are printed with the process's CPU time beside them: on a shared machine the wall
 time includes the time the process waited for a core.
 
-Usage: python benchmarks/bench_core.py [--repeats 5]
+The child processes write Python's bytecode caches (``PYTHONDONTWRITEBYTECODE`` is removed from
+their environment), as an installed package has them: without, every process compiles simcore's
+sources again (some 50 ms).
+
+Usage: python benchmarks/bench_core.py [--repeats 5] [--first-run-only]
 """
 
 from __future__ import annotations
@@ -41,12 +48,121 @@ STAGES = ("smooth stage", "position correction", "normal velocities before the j
 
 
 def _subprocess_times(env_extra: dict) -> tuple[float, float, float]:
-    env = dict(os.environ, NUMBA_NUM_THREADS="1", **env_extra)
+    env = _child_env(**env_extra)
     start = time.perf_counter()
     out = subprocess.run([sys.executable, "-c", ONE_STEP], capture_output=True, text=True,
                          env=env, check=True).stdout.split()
     total = time.perf_counter() - start
     return float(out[0]), float(out[1]), total
+
+
+def _child_env(**extra) -> dict:
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env.update(NUMBA_NUM_THREADS="1", **extra)
+    return env
+
+
+def first_run_stages(path: str, repeats: int) -> list[dict]:
+    """Stages of ``repeats`` new processes' first run of the paper case (``path``: "api" or
+    "cli"), see ``benchmarks/first_run.py``; one process before them fills the caches."""
+
+    script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "first_run.py")
+    rows = []
+    for i in range(repeats + 1):
+        row = run_child([sys.executable, script, path], _child_env(FIRST_RUN_T0="{t0}"))
+        if i:
+            rows.append(row)
+    return rows
+
+
+def run_child(argv: list, env: dict) -> dict:
+    """Run one ``first_run.py`` process; its JSON stages plus, from this side, ``process_wall``
+    (start to exit, interpreter shut-down included) and ``process_cpu`` (its CPU time, user +
+    system, shut-down included)."""
+    import json
+    import resource
+
+    def cpu():
+        r = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return r.ru_utime + r.ru_stime
+
+    c0, t0 = cpu(), time.time()
+    env = {k: v.format(t0=repr(t0)) for k, v in env.items()}
+    out = subprocess.run(argv, capture_output=True, text=True, env=env, check=True).stdout
+    row = json.loads(out.strip().splitlines()[-1])
+    row["process_wall"] = time.time() - t0
+    row["process_cpu"] = cpu() - c0
+    return row
+
+
+#: Stages that add up to ``total`` (with ``unlisted``), and parts of ``run`` that do not
+#: overlap (with ``run_rest``).
+TOP_STAGES = ("start", "import_numpy", "import_numba", "import_simcore", "config", "run")
+RUN_PARTS = ("warm_up", "integrate", "import_xarray", "dataset", "write")
+
+#: (key, label, indentation) of the printed breakdown; a stage's parts follow it, indented.
+FIRST_RUN_LINES = (
+    ("start", "interpreter start-up", 0),
+    ("import_numpy", "import numpy", 0),
+    ("import_numba", "import numba", 0),
+    ("import_simcore", "import simcore (the rest: kernels decorated, config, model)", 0),
+    ("config", "load_config (CLI: inside the command)", 0),
+    ("run", "the run (API: simcore.run; CLI: the command)", 0),
+    ("warm_up", "kernels ready (simulate.warm_up: a 2-step run)", 1),
+    ("numba_refresh", "Numba's registries, first kernel call", 2),
+    ("scipy_blas", "of which SciPy's scipy.linalg (BLAS check)", 3),
+    ("cache_load", "cache load, all specialisations", 2),
+    ("cache_index", "of which index look-up and unpickling", 3),
+    ("integrate", "integration, 3,000 steps (wall_time_s)", 1),
+    ("typeof", "typeof of the argument bundles, every call", 1),
+    ("import_xarray", "import xarray (pandas with it)", 1),
+    ("dataset", "trajectory_dataset", 1),
+    ("write", "write_netcdf", 1),
+    ("import_dask", "import dask (inside one of the above, where it happens)", 1),
+    ("import_dask_array", "import dask.array (likewise)", 1),
+    ("import_netcdf4", "import netCDF4", 1),
+    ("run_rest", "the rest of the run (config checks, model, summary, ...)", 1),
+    ("unlisted", "the rest (the measuring script's own imports)", 0),
+)
+
+
+def print_first_run(rows_by_path: dict) -> None:
+    paths = list(rows_by_path)
+    med = {p: {} for p in paths}
+    for p, rows in rows_by_path.items():
+        for row in rows:  # what the listed stages leave out (harness, checks, summary, ...)
+            row["run_rest"] = row["run"] - sum(row.get(k, 0.0) for k in RUN_PARTS)
+            row["unlisted"] = row["total"] - sum(row[k] for k in TOP_STAGES)
+        for key in rows[0]:
+            values = [r.get(key, 0.0) for r in rows]
+            if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+                med[p][key] = statistics.median(values)
+    n = len(next(iter(rows_by_path.values())))
+    print(f"new process, warm cache, first run of the paper case (median of {n} processes "
+          "each; seconds):")
+    print(f"  {'':62s}" + "".join(f"{p.upper():>8s}" for p in paths))
+    print(f"  {'total, interpreter start to the dataset / the written file':62s}"
+          + "".join(f"{med[p]['total']:8.3f}" for p in paths))
+    print(f"  {'the process, start to exit (shut-down included): wall':62s}"
+          + "".join(f"{med[p]['process_wall']:8.3f}" for p in paths))
+    print(f"  {'the process, start to exit: CPU time (user + system)':62s}"
+          + "".join(f"{med[p]['process_cpu']:8.3f}" for p in paths))
+    for key, label, depth in FIRST_RUN_LINES:
+        if not any(med[p].get(key, 0.0) for p in paths):
+            continue
+        text = "  " * depth + label
+        print(f"    {text:60s}" + "".join(
+            f"{med[p].get(key, 0.0):8.3f}" if key in med[p] else f"{'-':>8s}" for p in paths))
+    for p in paths:
+        loads: dict = {}
+        for row in rows_by_path[p]:
+            for item in row["loads"]:
+                loads.setdefault(item["function"], []).append(item["seconds"])
+        calls = med[p].get("typeof_calls", 0)
+        print(f"  {p.upper()}: {len(loads)} specialisations loaded (ms each, median): "
+              + ", ".join(f"{name} {1e3 * statistics.median(v):.1f}"
+                          for name, v in loads.items())
+              + f"; {calls:.0f} typeof calls; {med[p]['modules']:.0f} modules imported")
 
 
 def _profile_kernel():
@@ -154,17 +270,19 @@ def profile_step(model, s, n_steps: int, repeats: int = 3) -> np.ndarray:
 def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--first-run-only", action="store_true",
+                   help="print only the new process's first run (API and CLI)")
     args = p.parse_args()
+
+    first = {path: first_run_stages(path, args.repeats) for path in ("api", "cli")}
+    print_first_run(first)
+    if args.first_run_only:
+        return
 
     with tempfile.TemporaryDirectory() as cache:
         imp, first, total = _subprocess_times({"NUMBA_CACHE_DIR": cache})
         print(f"cold compile (empty cache): import {imp:.2f} s, first 1-step run {first:.2f} s "
               f"(compile of everything a run needs), process total {total:.2f} s")
-    _subprocess_times({})  # make sure the default cache is warm
-    warm = [_subprocess_times({}) for _ in range(3)]
-    print("new process, warm cache: import {:.2f} s, first 1-step run {:.2f} s, process total "
-          "{:.2f} s (median of 3)".format(*(statistics.median(w[i] for w in warm)
-                                            for i in range(3))))
 
     import numba
 

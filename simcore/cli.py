@@ -167,6 +167,16 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 
 def main(argv=None) -> int:
+    """The command line (module docstring); returns the exit code. Python's cyclic garbage
+    collector is paused while it runs (a command loads much and frees little: see
+    ``simcore._collector_paused``) and runs again afterwards."""
+    from . import _collector_paused
+
+    with _collector_paused():
+        return _main(argv)
+
+
+def _main(argv=None) -> int:
     args = _parser().parse_args(argv)
     if args.command == "zoom":
         return _zoom_main(args)

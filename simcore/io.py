@@ -24,6 +24,7 @@ from __future__ import annotations
 import datetime
 import os
 import tempfile
+from numbers import Number
 from pathlib import Path
 
 import numpy as np
@@ -72,9 +73,9 @@ DEFAULT_KEEP = ("Lambda_N", "vn_free", "position", "angle", "velocity", "angular
                 "crank_angle", "slider_x", "journal_x", "journal_y", "iterations", "converged",
                 "F_N")
 
-__all__ = ["write_netcdf", "trajectory_dataset", "failed_run_dataset", "generalized",
-           "open_run", "parameter_coords", "history_line", "keep_variables", "CONVENTIONS",
-           "PARAMETERS", "STORAGE", "RUN_VARIABLES", "DEFAULT_KEEP"]
+__all__ = ["write_netcdf", "trajectory_dataset", "dataset_of_arrays", "failed_run_dataset",
+           "generalized", "open_run", "parameter_coords", "history_line", "keep_variables",
+           "CONVENTIONS", "PARAMETERS", "STORAGE", "RUN_VARIABLES", "DEFAULT_KEEP"]
 
 
 def _is_text(var: xr.Variable) -> bool:
@@ -135,6 +136,30 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4, keep=None
     path = Path(path)
     ds = keep_variables(ds, keep)
     path.parent.mkdir(parents=True, exist_ok=True)
+    encoding = netcdf_encoding(ds, complevel)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        try:
+            to_netcdf4(ds, tmp, encoding)
+        except (OSError, RuntimeError) as exc:
+            _raise_if_disk_full(exc, path, ds.nbytes)
+            raise
+        # mkstemp creates the file for its owner only; give it the permissions of a file
+        # opened the ordinary way (0666 less the umask)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def netcdf_encoding(ds: xr.Dataset, complevel: int = 4) -> dict:
+    """The ``encoding`` argument with which :func:`write_netcdf` writes ``ds`` (see there)."""
     encoding = {}
     for name, var in ds.variables.items():
         enc = {}
@@ -151,25 +176,62 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4, keep=None
                 enc["chunksizes"] = (max(1, var.shape[0]),) + (1,) * (var.ndim - 1)
         if enc:
             encoding[name] = enc
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
+    return encoding
+
+
+_ATTRIBUTE_TYPES = (str, Number, np.ndarray, np.number, list, tuple, bytes)
+
+
+def _plainly_writable(ds: xr.Dataset) -> bool:
+    """True when no variable of ``ds`` is chunked (a dask array), ``ds`` names no unlimited
+    dimension, and its names and attributes are of the kinds ``to_netcdf`` accepts (non-empty
+    strings; numbers, strings, arrays, lists)."""
+    if ds.encoding.get("unlimited_dims") is not None:
+        return False
+    for name, var in ds.variables.items():
+        if not isinstance(name, str) or not name or var.chunks is not None:
+            return False
+    for attrs in [ds.attrs] + [var.attrs for var in ds.variables.values()]:
+        for key, value in attrs.items():
+            if not isinstance(key, str) or not key or not isinstance(value, _ATTRIBUTE_TYPES):
+                return False
+    return True
+
+
+def to_netcdf4(ds: xr.Dataset, target: str | Path, encoding: dict) -> None:
+    """``ds.to_netcdf(target, engine="netcdf4", encoding=encoding)``, the same file written
+    with less to import, for a ``target`` that nothing else writes meanwhile (the fresh
+    temporary file of :func:`write_netcdf`).
+
+    ``Dataset.to_netcdf`` asks dask twice which scheduler is active: to decide whether to close
+    the file between the writes of chunked arrays, and to choose the kind of lock that guards
+    the file (a ``distributed`` lock under a ``distributed`` client). Asking imports
+    ``distributed`` when it is installed: 0.15-0.3 s in a new process, for a dataset without
+    chunked arrays, which neither question concerns. For such a dataset
+    (:func:`_plainly_writable`) this opens xarray's netCDF4 store as ``to_netcdf`` does (mode
+    "w", the default format) with the locks ``to_netcdf`` takes in a process without a
+    ``distributed`` client (the netCDF library's and one for the file) and stores the dataset
+    in it with ``Dataset.dump_to_store``, the step ``to_netcdf`` takes next, which writes the
+    arrays there and then. Any other dataset (dask arrays, unlimited dimensions, names or
+    attributes ``to_netcdf`` would refuse), or an xarray whose internals differ, goes through
+    ``to_netcdf`` itself.
+    """
+    target = os.fspath(target)
     try:
-        try:
-            ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
-        except (OSError, RuntimeError) as exc:
-            _raise_if_disk_full(exc, path, ds.nbytes)
-            raise
-        # mkstemp creates the file for its owner only; give it the permissions of a file
-        # opened the ordinary way (0666 less the umask)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+        from xarray.backends import NetCDF4DataStore
+        from xarray.backends.locks import SerializableLock, combine_locks
+        from xarray.backends.netCDF4_ import NETCDF4_PYTHON_LOCK
+    except ImportError:
+        NetCDF4DataStore = None
+    if NetCDF4DataStore is None or not _plainly_writable(ds):
+        ds.to_netcdf(target, engine="netcdf4", encoding=encoding)
+        return
+    lock = combine_locks([NETCDF4_PYTHON_LOCK, SerializableLock(target)])
+    store = NetCDF4DataStore.open(target, mode="w", format=None, lock=lock)
+    try:
+        ds.dump_to_store(store, encoding=encoding)
+    finally:
+        store.close()
 
 
 def _raise_if_disk_full(exc: BaseException, path: Path, nbytes: int) -> None:
@@ -415,10 +477,47 @@ def trajectory_dataset(traj, model, layout, cfg: dict, compile_time_s: float = 0
     if audit is not None:
         attrs.update(audit.summary(traj.energy))
     attrs["solver.output_dt"] = float(cfg["solver"]["dt"]) * out_every
-    ds = xr.Dataset(data, coords=coords, attrs=attrs)
+    ds = dataset_of_arrays(data, coords, attrs)
     for name in data:
         ds[name].encoding["dtype"] = np.dtype(storage[name])
     return ds
+
+
+def dataset_of_arrays(data: dict, coords: dict, attrs: dict) -> xr.Dataset:
+    """``xr.Dataset(data, coords=coords, attrs=attrs)`` for entries ``(dims, values[, attrs])``
+    whose values are NumPy arrays, lists or numbers: the same dataset, built a faster way.
+
+    The ordinary constructor asks of every value whether it is a dask array, which imports
+    ``dask.array`` (0.2-0.3 s), and of every dimension coordinate whether it is a dask
+    collection, which imports ``dask`` (about 0.1 s); a run has NumPy arrays only, and the
+    first run in a new process would pay for both imports. Here each entry becomes an
+    ``xr.Variable`` made on xarray's fast path (which takes a NumPy array as it is), and each
+    dimension coordinate gets the index the ordinary constructor gives it, a
+    ``xarray.indexes.PandasIndex`` of ``pandas.Index(values)`` that keeps the coordinate's
+    dtype, with its variable made by that index. Values of dtype object, datetime, timedelta
+    or float16 (which the ordinary constructor converts) go to the ordinary constructor.
+    """
+    import pandas as pd
+
+    def variable(spec):
+        dims, values, *rest = spec
+        values = np.asarray(values)
+        if values.dtype.kind in "OMm" or values.dtype == np.float16:
+            return None
+        return xr.Variable(dims, values, rest[0] if rest else None, fastpath=True)
+
+    data_vars = {k: variable(v) for k, v in data.items()}
+    coord_vars = {k: variable(v) for k, v in coords.items()}
+    if any(v is None for v in (*data_vars.values(), *coord_vars.values())):
+        return xr.Dataset(data, coords=coords, attrs=attrs)
+    indexes = {}
+    for name, var in list(coord_vars.items()):
+        if var.dims == (name,):  # a dimension coordinate
+            index = xr.indexes.PandasIndex(pd.Index(var.values), name, coord_dtype=var.dtype)
+            indexes[name] = index
+            coord_vars.update(index.create_variables({name: var}))
+    return xr.Dataset(data_vars, coords=xr.Coordinates(coord_vars, indexes=indexes),
+                      attrs=attrs)
 
 
 def failed_run_dataset(cfg: dict, message: str) -> xr.Dataset:

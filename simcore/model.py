@@ -15,8 +15,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import kernels as nb
-from .audit import EnergyAudit
+from .numba_cache import preload_scipy_blas
+
+preload_scipy_blas()  # before Numba's first kernel call: 0.2 s less in a new process
+
+from . import kernels as nb  # noqa: E402
+from .audit import EnergyAudit  # noqa: E402
 
 CONTACT_MODELS = ("nonsmooth", "compliant")
 DAMPING_LAWS = ("flores", "hunt_crossley", "lankarani_nikravesh")
@@ -308,6 +312,13 @@ class Model:
         return (np.array(self.q0, dtype=np.float64).ravel(),
                 np.array(self.v0, dtype=np.float64).ravel())
 
+    def constraint_rows(self) -> int:
+        """Number of constraint rows of the joints: one for a prescribed rotation, two for a
+        revolute or prismatic joint (counted here rather than by the kernel
+        ``joint_row_count``, which would be one more compiled function to load in a new
+        process)."""
+        return sum(1 if kind == nb.JOINT_ANGLE else 2 for kind, *_ in self.joints)
+
     def drive_row(self) -> int:
         """Constraint row of the first prescribed rotation (the drive), or -1."""
         row = 0
@@ -396,7 +407,7 @@ class Model:
             v = np.array(v0, dtype=np.float64).copy()
         ndof = q.size
         nc = arr.ct_type.size
-        nbil = int(nb.joint_row_count(arr.jt_type))
+        nbil = self.constraint_rows()
         acc = np.zeros(ndof)
         vdot = np.zeros(ndof)
         lam_s = np.zeros(nbil)

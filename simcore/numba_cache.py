@@ -61,3 +61,87 @@ def configure_cache(folder: str | Path = KERNELS_DIR) -> str:
     path = str(cache_dir_for(folder))
     numba.config.CACHE_DIR = path
     return path
+
+
+def preload_scipy_blas() -> bool:
+    """Load SciPy's ``cython_blas`` extension module on its own, without the ``scipy.linalg``
+    package around it.
+
+    The first call of any kernel in a process, even one loaded from the cache, makes Numba import
+    its lowering registries; one of them, ``numba.np.arraymath``, checks at import that BLAS is
+    there with ``import scipy.linalg.cython_blas``. Python imports the parent package first, and
+    ``scipy.linalg`` with what it imports (SciPy's array-API layer, which touches ``numpy.f2py``
+    and ``numpy.testing``) takes about 0.2 s, a fifth of a new process's first run, for a
+    module the kernels never use. Loaded here from its file (about 2 ms), the extension module
+    sits in ``sys.modules`` under its own name, so Numba's check finds it and goes on exactly as
+    before: BLAS is reported present, Numba's check of the Fortran integer width runs, and a kernel
+    that uses BLAS gets its functions from this same module. ``scipy.linalg`` is imported the
+    ordinary way by whoever asks for it later, and gets the module as its attribute then.
+
+    Does nothing (returns False) when ``scipy.linalg`` or Numba's registries are already imported,
+    when SciPy is missing, or when the module cannot be found or loaded this way (the ordinary
+    import then happens as before).
+
+    Returns
+    -------
+    bool
+        True when the module was loaded here.
+    """
+    import importlib.machinery
+    import importlib.util
+    import sys
+
+    name = "scipy.linalg.cython_blas"
+    if name in sys.modules or "scipy.linalg" in sys.modules or "numba.np.arraymath" in sys.modules:
+        return False
+    try:
+        import scipy  # light: its submodules load on demand (Numba imports it anyway)
+    except ImportError:
+        return False
+    folders = [os.path.join(folder, "linalg") for folder in getattr(scipy, "__path__", [])]
+    spec = importlib.machinery.PathFinder.find_spec(name, folders)
+    if spec is None or not isinstance(spec.loader, importlib.machinery.ExtensionFileLoader):
+        return False
+    try:
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+    except Exception:  # leave the ordinary import to Numba
+        sys.modules.pop(name, None)
+        return False
+    sys.meta_path.insert(0, _AttachOnImport("scipy.linalg", "cython_blas", module))
+    return True
+
+
+class _AttachOnImport:
+    """Meta-path hook that sets ``module`` as attribute ``attr`` of package ``package`` once that
+    package is imported (what the import system does for a submodule it loads itself), then
+    removes itself."""
+
+    def __init__(self, package: str, attr: str, module):
+        self.package, self.attr, self.module = package, attr, module
+
+    def find_spec(self, name, path, target=None):
+        if name != self.package:
+            return None
+        import importlib.machinery
+        import sys
+
+        sys.meta_path.remove(self)
+        spec = importlib.machinery.PathFinder.find_spec(name, path)
+        if spec is None or spec.loader is None:
+            return spec
+        spec.loader = _AttachingLoader(spec.loader, self.attr, self.module)
+        return spec
+
+
+class _AttachingLoader:
+    def __init__(self, loader, attr, module):
+        self.loader, self.attr, self.module = loader, attr, module
+
+    def create_module(self, spec):
+        return self.loader.create_module(spec)
+
+    def exec_module(self, package):
+        setattr(package, self.attr, self.module)
+        self.loader.exec_module(package)

@@ -1,0 +1,225 @@
+"""A new process's first run: what it imports and what it loads, with the results unchanged.
+
+The start-up savings (README, "Performance") come from not importing what a run does not use:
+SciPy's ``scipy.linalg`` package (Numba's BLAS check is served by the ``cython_blas`` module
+alone, :func:`simcore.numba_cache.preload_scipy_blas`) and ``dask.array`` (the run's dataset is
+built from xarray Variables made on the fast path, :func:`simcore.io.dataset_of_arrays`). The run
+file is written without the question to dask's scheduler that imports ``distributed``
+(:func:`simcore.io.to_netcdf4`). These tests check that the shortcuts give the same objects and
+files as the ordinary way.
+"""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import netCDF4
+import numpy as np
+import pytest
+import xarray as xr
+
+import simcore
+from simcore import kernels as nb
+from simcore.io import dataset_of_arrays, parameter_coords, write_netcdf
+from simcore.mechanism import ball_in_ring, ball_on_plane, crank_slider, pinched_balls
+
+ROOT = Path(__file__).resolve().parents[1]
+
+FRESH_PROCESS = r"""
+import json, sys
+import numpy as np
+import simcore
+ds = simcore.run(simcore.load_config(overrides=["solver.t_end=2e-4"]))
+from numba.np import arraymath
+out = {"scipy_linalg": "scipy.linalg" in sys.modules,
+       "dask_array": "dask.array" in sys.modules,
+       "dask": "dask" in sys.modules,
+       "have_blas": bool(arraymath._HAVE_BLAS),
+       "steps": int(ds.sizes["time"]) - 1}
+simcore.write_netcdf(ds, sys.argv[1])
+out["distributed"] = "distributed" in sys.modules
+import scipy.linalg
+import scipy.linalg.cython_blas
+out["attribute"] = scipy.linalg.cython_blas is sys.modules["scipy.linalg.cython_blas"]
+from numba import njit
+
+@njit
+def product(a, b):
+    return a @ b  # BLAS through the preloaded module
+
+a = np.arange(9.0).reshape(3, 3)
+out["product_error"] = float(np.abs(product(a, a) - a @ a).max())
+print(json.dumps(out))
+"""
+
+
+def test_first_run_imports_neither_scipy_linalg_nor_dask_nor_distributed(tmp_path):
+    env = dict(os.environ, NUMBA_NUM_THREADS="1",
+               PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    proc = subprocess.run([sys.executable, "-c", FRESH_PROCESS, str(tmp_path / "run.nc")],
+                          capture_output=True, text=True, env=env, cwd=ROOT, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out["steps"] == 2
+    assert not out["scipy_linalg"], "Numba's BLAS check imported the scipy.linalg package"
+    assert not out["dask_array"], "building the run's dataset imported dask.array"
+    assert not out["dask"], "building the run's dataset imported dask"
+    assert not out["distributed"], "writing the run file imported distributed"
+    assert out["have_blas"], "Numba must still see BLAS"
+    # imported later the ordinary way, scipy.linalg carries the preloaded module
+    assert out["attribute"]
+    # and a kernel that uses BLAS compiles and computes A A
+    assert out["product_error"] == 0.0
+
+
+def _paper_model(**over):
+    model = simcore.load_config()["model"]
+    model.update(over)
+    return crank_slider(model)[0]
+
+
+@pytest.mark.parametrize("scene", [_paper_model, ball_on_plane, ball_in_ring, pinched_balls])
+def test_constraint_rows_counts_what_the_kernel_counts(scene):
+    model = scene()
+    assert model.constraint_rows() == nb.joint_row_count(model.arrays().jt_type)
+
+
+@pytest.mark.parametrize("drive, rows", [("free", 6), ("constant", 7)])
+def test_crank_slider_constraint_rows_by_hand(drive, rows):
+    # two revolute joints (crank on the ground, rod on the slider) and the slider's prismatic
+    # joint, two rows each; the constant-speed drive adds its one prescribed angle
+    assert _paper_model(drive=drive).constraint_rows() == rows
+
+
+def _parts():
+    rng = np.random.default_rng(3)
+    attrs = {"units": "m", "long_name": "a length"}
+    data = {
+        "x": (("time", "contact"), rng.normal(size=(5, 4)), dict(attrs)),
+        "it": (("time", "stage"), rng.integers(0, 9, size=(5, 3)).astype(np.int32),
+               {"units": "1", "long_name": "iterations"}),
+        "ok": (("time",), np.ones(5, np.int8), {"units": "1", "long_name": "flag",
+                                                 "flag_values": np.array([0, 1], np.int8)}),
+    }
+    coords = {
+        "time": ("time", np.arange(5) * 1e-4, {"units": "s", "long_name": "time"}),
+        "contact": ("contact", np.arange(4), {"units": "1", "long_name": "contact"}),
+        "race": ("contact", np.array(["inner", "inner", "outer", "outer"]),
+                 {"long_name": "race"}),
+        "stage": ("stage", np.array(["smooth", "position", "velocity"]),
+                  {"long_name": "stage"}),
+    }
+    coords.update(parameter_coords({"clearance": 4e-4, "mu": 0.01}))
+    coords.update({f"{k}_scalar": v for k, v in
+                   parameter_coords({"e_N": 0.9}, length_one=False).items()})
+    return data, coords, {"title": "t", "n": 3}
+
+
+def test_dataset_of_arrays_is_the_ordinary_dataset(tmp_path):
+    data, coords, attrs = _parts()
+    fast = dataset_of_arrays(data, coords, attrs)
+    plain = xr.Dataset(data, coords=coords, attrs=attrs)
+    assert fast.identical(plain)
+    for name in list(plain.variables):
+        assert fast[name].dtype == plain[name].dtype, name
+        assert fast[name].dims == plain[name].dims, name
+    assert list(fast.variables) == list(plain.variables)
+    assert set(fast.xindexes) == set(plain.xindexes) == {"time", "contact", "stage",
+                                                        "clearance", "mu"}
+    for name in plain.xindexes:
+        assert type(fast[name].variable) is type(plain[name].variable), name
+        assert fast.indexes[name].equals(plain.indexes[name])
+        assert fast.indexes[name].dtype == plain.indexes[name].dtype
+        assert fast.xindexes[name].coord_dtype == plain.xindexes[name].coord_dtype
+    # and the files hold the same variables, types and values
+    paths = [write_netcdf(ds, tmp_path / f"{i}.nc") for i, ds in enumerate((fast, plain))]
+    with netCDF4.Dataset(paths[0]) as a, netCDF4.Dataset(paths[1]) as b:
+        assert set(a.variables) == set(b.variables)
+        for name in a.variables:
+            va, vb = a.variables[name], b.variables[name]
+            assert va.dtype == vb.dtype and va.dimensions == vb.dimensions, name
+            assert {k: va.getncattr(k) for k in va.ncattrs()}.keys() == set(vb.ncattrs())
+            np.testing.assert_array_equal(va[...], vb[...])
+
+
+def test_dataset_of_arrays_leaves_object_values_to_xarray():
+    data = {"x": (("a",), np.array([None, 1], dtype=object))}
+    coords = {"a": ("a", np.array([1.5, 2.5]))}
+    fast = dataset_of_arrays(data, coords, {})
+    assert fast.identical(xr.Dataset(data, coords=coords))
+    assert fast["x"].dtype == object
+
+
+def _file_contents(path):
+    """Everything a netCDF file holds, but its HDF5 layout: dimensions (with unlimited), global
+    attributes, and per variable its dimensions, type, filters, chunking, attributes and the
+    bytes of its values."""
+    def attrs(obj):
+        # repr: a NaN _FillValue equals itself as text
+        return {k: repr(np.asarray(obj.getncattr(k)).tolist()) for k in obj.ncattrs()}
+
+    with netCDF4.Dataset(path) as nc:
+        out = {"dims": {k: (len(d), d.isunlimited()) for k, d in nc.dimensions.items()},
+               "attrs": attrs(nc), "vars": {}}
+        for name, var in nc.variables.items():
+            var.set_auto_maskandscale(False)
+            out["vars"][name] = (var.dimensions, str(var.dtype), var.filters(), var.chunking(),
+                                 attrs(var), np.asarray(var[...]).tobytes())
+    return out
+
+
+def test_run_file_is_the_file_to_netcdf_writes(tmp_path):
+    from simcore.io import netcdf_encoding, to_netcdf4
+
+    cfg = simcore.load_config(overrides=["solver.t_end=2e-3"])
+    ds = simcore.run(cfg)
+    encoding = netcdf_encoding(ds)
+    assert encoding["Lambda_N"]["zlib"] and encoding["time"]["_FillValue"] is None
+    to_netcdf4(ds, tmp_path / "fast.nc", encoding)
+    ds.to_netcdf(tmp_path / "plain.nc", engine="netcdf4", encoding=encoding)
+    fast, plain = _file_contents(tmp_path / "fast.nc"), _file_contents(tmp_path / "plain.nc")
+    assert fast == plain
+    assert fast["vars"]["race"][1] == "|S1"  # labels as character arrays
+    assert fast["vars"]["Lambda_N"][2]["zlib"]
+    # and xarray reads them back alike
+    with xr.open_dataset(tmp_path / "fast.nc") as a, xr.open_dataset(tmp_path / "plain.nc") as b:
+        assert a.identical(b)
+
+
+def test_unusual_datasets_go_through_to_netcdf(tmp_path):
+    from simcore.io import to_netcdf4
+
+    ds = xr.Dataset({"x": (("t",), np.arange(3.0))})
+    ds.encoding["unlimited_dims"] = {"t"}
+    to_netcdf4(ds, tmp_path / "u.nc", {})
+    assert _file_contents(tmp_path / "u.nc")["dims"]["t"] == (3, True)
+    bad = xr.Dataset({"x": (("t",), np.arange(3.0))}, attrs={"flag": None})
+    with pytest.raises(TypeError, match="Invalid value for attr 'flag'"):
+        to_netcdf4(bad, tmp_path / "bad.nc", {})
+
+
+def test_collector_runs_again_after_the_first_run_and_the_command(tmp_path):
+    import gc
+
+    import simcore.cli
+
+    assert gc.isenabled()
+    simcore.run(simcore.load_config(overrides=["solver.t_end=2e-4"]))
+    assert gc.isenabled()
+    assert simcore.cli.main(["run", "--quiet", "--set", "solver.t_end=2e-4",
+                             "--out", str(tmp_path / "r.nc")]) == 0
+    assert gc.isenabled()
+    # also when the command fails (bad input: exit code 2, no file)
+    assert simcore.cli.main(["run", "--quiet", "--set", "solver.dt=-1",
+                             "--out", str(tmp_path / "bad.nc")]) == 2
+    assert gc.isenabled() and not (tmp_path / "bad.nc").exists()
+    # a collector switched off by the caller stays off
+    gc.disable()
+    try:
+        simcore.cli.main(["run", "--quiet", "--set", "solver.dt=-1",
+                          "--out", str(tmp_path / "bad.nc")])
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
