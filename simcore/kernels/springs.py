@@ -75,6 +75,7 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
     Px = np.empty(6)
     Py = np.empty(6)
     idx = np.empty(6, dtype=np.int64)
+    loc = np.empty(6, dtype=np.int64)
     for k in range(sp_body.shape[0]):
         bi = sp_body[k, 0]
         bj = sp_body[k, 1]
@@ -103,14 +104,18 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
             proj = nx * dvx + ny * dvy
             px = (dvx - proj * nx) * inv_l * damp
             py = (dvy - proj * ny) * inv_l * damp
+            # the local coordinates the spring's point pair moves with (a spring between ball
+            # centres has no lever arms: its rotations drop out, 4 x 4 entries instead of 6 x 6)
+            m = 0
             for a in range(6):
-                ba = bi if a < 3 else bj
-                if ba < 0:
-                    continue
-                for c in range(6):
-                    bc = bi if c < 3 else bj
-                    if bc < 0:
-                        continue
+                if (bi if a < 3 else bj) >= 0 and (w[a] != 0.0 or Px[a] != 0.0
+                                                    or Py[a] != 0.0):
+                    loc[m] = a
+                    m += 1
+            for ia in range(m):
+                a = loc[ia]
+                for ic in range(m):
+                    c = loc[ic]
                     pp = transverse_form(Px[a], Py[a], Px[c], Py[c], nx, ny)
                     K[idx[a], idx[c]] += (stiff * w[a] * w[c] + geo * pp
                                           + w[a] * (px * Px[c] + py * Py[c]))
