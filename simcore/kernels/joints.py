@@ -27,7 +27,7 @@ def joint_row_count(jt_type):
 def joint_support(jt_type, jt_body, cols, ncols):
     """Support of every joint row (the columns of its bodies, :func:`~.bodies.pair_support`):
     ``cols[r, :ncols[r]]`` for the rows in the order :func:`bilateral` writes them."""
-    row = 0
+    row = np.int64(0)  # not a literal 0, which would compile a second specialisation
     for j in range(jt_type.shape[0]):
         m = pair_support(jt_body[j, 0], jt_body[j, 1], cols, row)
         ncols[row] = m

@@ -332,8 +332,9 @@ def block_gram_diagonal(fac, G, m, Y, d, cols, ncols):
     k = fac.info[0]
     idx = fac.idx
     dinv = fac.dinv
+    row0 = np.int64(0)  # not a literal 0, which would compile a second specialisation
     for r in range(m):
-        f = _substitute_row(fac, G, r, Y, 0)
+        f = _substitute_row(fac, G, r, Y, row0)
         s = 0.0
         if fac.info[1] == 0:
             for a in range(f, k):

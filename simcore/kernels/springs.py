@@ -87,7 +87,9 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
         tension = stiff * (length - rest) + damp * rate
         # w = d(length)/d(q_i, q_j)
         store6(w, point_pair_row(nx, ny, aix, aiy, ajx, ajy, 1.0))
-        store6(idx, (3 * bi, 3 * bi + 1, 3 * bi + 2, 3 * bj, 3 * bj + 1, 3 * bj + 2))
+        for a in range(3):
+            idx[a] = 3 * bi + a
+            idx[3 + a] = 3 * bj + a
         for a in range(6):
             body = bi if a < 3 else bj
             if body >= 0:
@@ -140,7 +142,9 @@ def spring_damping(q, v, ma, C):
         damp = sp_geom[k, 5]
         _, _, nx, ny, aix, aiy, ajx, ajy, _, _ = spring_state(q, v, k, sp_body, sp_geom)
         store6(w, point_pair_row(nx, ny, aix, aiy, ajx, ajy, 1.0))
-        store6(idx, (3 * bi, 3 * bi + 1, 3 * bi + 2, 3 * bj, 3 * bj + 1, 3 * bj + 2))
+        for a in range(3):
+            idx[a] = 3 * bi + a
+            idx[3 + a] = 3 * bj + a
         for a in range(6):
             if (bi if a < 3 else bj) < 0:
                 continue
