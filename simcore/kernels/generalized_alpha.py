@@ -25,9 +25,9 @@ from .springs import smooth_forces
 #: Work arrays of :func:`smooth_step` (made by :func:`smooth_work`, once per run):
 #: the joint rows g, G, their velocity terms gm, dgdt, the Newton matrix J and right-hand side
 #: rhs, the factor of J and the Schur-complement arrays JG, S, piv, and the compliant stage's
-#: previous iterate (vdot_prev, lam_prev) for its backtracking.
+#: previous iterate (vdot_prev, lam_prev) for its backtracking and its Newton step (sol).
 SmoothWork = namedtuple("SmoothWork", ["g", "G", "gm", "dgdt", "J", "rhs", "fac", "JG", "S",
-                                       "piv", "vdot_prev", "lam_prev"])
+                                       "piv", "vdot_prev", "lam_prev", "sol"])
 
 
 def step_work(n):
@@ -44,7 +44,7 @@ def smooth_work(n, m):
     return SmoothWork(g=np.zeros(m), G=np.zeros((m, n)), gm=np.zeros(m), dgdt=np.zeros(m),
                       J=np.zeros((n, n)), rhs=np.zeros(n + m), fac=block_factor_work(n),
                       JG=np.zeros((m, n)), S=np.zeros((m, m)), piv=np.zeros(m, dtype=np.int64),
-                      vdot_prev=np.zeros(n), lam_prev=np.zeros(m))
+                      vdot_prev=np.zeros(n), lam_prev=np.zeros(m), sol=np.zeros(n + m))
 
 
 @step_kernel
@@ -199,8 +199,13 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
                 J[i, j] = (C_t[i, j] * h * gam + K_t[i, j] * h * h * beta) * ca
             J[i, i] += mdiag[i]
         if cwork is not None:
-            dv, dlam = _newton_direction_compliant(J, rhs, G, h * gam * ca)
-            dv, dlam = _friction_branches(J, rhs, G, h * gam * ca, dv, dlam, ma, v_reg, cwork)
+            # the step by the same block solver as the nonsmooth model's, on a copy of the
+            # residual (the friction branches may solve again with a modified one)
+            sol = sw.sol
+            copy_vector(sol, rhs, n + m)
+            saddle_point_solve_into(J, G, h * gam * ca, sol, sw.fac, sw.JG, sw.S, sw.piv)
+            dv, dlam = _friction_branches(J, rhs, G, h * gam * ca, sol[:n], sol[n:], ma, v_reg,
+                                          cwork)
             for r in range(m):
                 lam[r] += dlam[r]
             for i in range(n):
