@@ -140,6 +140,9 @@ def test_smooth_forces_tangents_match_finite_differences(bearing):
     junk = np.full((n, n), 7.0)
     nb.clear_pair_blocks(junk, arr.sp_body)
     np.testing.assert_array_equal(junk == 0.0, mask)
+    scaled = np.full((n, n), 7.0)
+    nb.scale_pair_blocks(scaled, Ks, 0.5, arr.sp_body)
+    np.testing.assert_array_equal(scaled, np.where(mask, 0.5 * Ks, 7.0))
     # a second evaluation into the filled matrices gives the same tangents
     K2, C2, Ks2 = K.copy(), C.copy(), Ks.copy()
     nb.smooth_forces(q, v, arr, np.zeros(n), K2, C2, Ks2, True)

@@ -184,7 +184,11 @@ def test_block_gram_diagonal():
     fac = la.block_factor_work(n)
     la.block_factor(A, n, fac, True)
     d = np.zeros(m)
-    la.block_gram_diagonal(fac, G, m, np.zeros((1, n)), d, *_supports(G))
+    cols, ncols = _supports(G)
+    la.block_gram_diagonal(fac, G, m, np.zeros((1, n)), d, cols, ncols)
+    # one entry alone, its substitution in another work row
+    Y = np.zeros((3, n))
+    assert la.block_gram_entry(fac, G, 4, Y, 2, cols, 4, ncols[4]) == d[4]
     np.testing.assert_allclose(d, np.diag(G @ np.linalg.solve(A, G.T)), rtol=1e-10)
 
 

@@ -162,3 +162,22 @@ def clear_pair_blocks(A, pair_body):
                 for a in range(3):
                     for c in range(3):
                         A[3 * ba + a, 3 * bc + c] = 0.0
+
+
+@step_kernel
+def scale_pair_blocks(dst, src, alpha, pair_body):
+    """dst = alpha * src on the body-pair blocks of ``pair_body`` (see
+    :func:`clear_pair_blocks`), for a ``src`` that is zero elsewhere; the rest of ``dst`` is left
+    as it is."""
+    for k in range(pair_body.shape[0]):
+        for s in range(2):
+            ba = pair_body[k, s]
+            if ba < 0:
+                continue
+            for t in range(2):
+                bc = pair_body[k, t]
+                if bc < 0:
+                    continue
+                for a in range(3):
+                    for c in range(3):
+                        dst[3 * ba + a, 3 * bc + c] = alpha * src[3 * ba + a, 3 * bc + c]

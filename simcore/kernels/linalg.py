@@ -329,23 +329,30 @@ def block_gram_rows(fac, G, rows, m, Y, first, have, D, cols, ncols):
 def block_gram_diagonal(fac, G, m, Y, d, cols, ncols):
     """d[:m] = the diagonal of G[:m] A^-1 G[:m]^T (see :func:`block_gram`; ``Y``: work
     array of at least 1 x k)."""
+    row0 = np.int64(0)  # not a literal 0, which would compile a second specialisation
+    for r in range(m):
+        d[r] = block_gram_entry(fac, G, r, Y, row0, cols, r, ncols[r])
+
+
+@step_kernel
+def block_gram_entry(fac, G, r, Y, yr, cols, c, m):
+    """G_r A^-1 G_r^T for row r of G (see :func:`block_gram`), whose support is
+    ``cols[c, :m]``; ``Y[yr]`` is the work row of the substitution."""
     k = fac.info[0]
     idx = fac.idx
     dinv = fac.dinv
-    row0 = np.int64(0)  # not a literal 0, which would compile a second specialisation
-    for r in range(m):
-        f = _substitute_row(fac, G, r, Y, row0)
-        s = 0.0
-        if fac.info[1] == 0:
-            for a in range(f, k):
-                s += Y[0, a] * Y[0, a]
-        else:
-            for a in range(k):
-                s += G[r, idx[a]] * Y[0, a]
-        for t in range(ncols[r]):
-            i = cols[r, t]
-            s += G[r, i] * G[r, i] * dinv[i]
-        d[r] = s
+    f = _substitute_row(fac, G, r, Y, yr)
+    s = 0.0
+    if fac.info[1] == 0:
+        for a in range(f, k):
+            s += Y[yr, a] * Y[yr, a]
+    else:
+        for a in range(k):
+            s += G[r, idx[a]] * Y[yr, a]
+    for t in range(m):
+        i = cols[c, t]
+        s += G[r, i] * G[r, i] * dinv[i]
+    return s
 
 
 @step_kernel

@@ -9,7 +9,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .bodies import pair_support, place_row, scatter_row, support_dot
+from .bodies import pair_support, place_row, scale_pair_blocks, scatter_row, support_dot
 from .contact import contact_hessian, contact_rows, contact_velocities
 from .generalized_alpha import alpha_coefficients, smooth_step, smooth_work, step_work
 from .jit import step_kernel
@@ -18,7 +18,7 @@ from .linalg import (
     block_factor,
     block_factor_work,
     block_gram,
-    block_gram_diagonal,
+    block_gram_entry,
     block_gram_rows,
     block_solve,
     copy_matrix,
@@ -36,7 +36,7 @@ STAGE_VELOCITY = 2
 #: Work arrays of the position correction (:func:`position_work`).
 PositionWork = namedtuple("PositionWork", ["Ap", "facA", "Hm", "facH", "U", "U_new", "U_try",
     "q_try", "HAU", "eq", "nu_b", "nub_new", "nub_try", "gb", "Gb", "gb_try", "Gb_try", "gm",
-    "dgdt", "r_c", "reg_c", "nuc_new", "nuc_try", "gap_try", "GN", "GN_try", "active",
+    "dgdt", "r_c", "GN0", "ys", "nuc_new", "nuc_try", "gap_try", "GN", "GN_try", "active",
     "Hloc", "wN", "wT", "Gall", "ball", "Y", "AU", "first", "have", "x", "Dall", "rows", "Dbuf",
     "sol", "piv", "cols", "ncols"])
 
@@ -69,7 +69,8 @@ def position_work(n, nbil, nc):
         nu_b=np.zeros(nbil), nub_new=np.zeros(nbil), nub_try=np.zeros(nbil),
         gb=np.zeros(nbil), Gb=np.zeros((nbil, n)), gb_try=np.zeros(nbil),
         Gb_try=np.zeros((nbil, n)), gm=np.zeros(nbil), dgdt=np.zeros(nbil),
-        r_c=np.ones(nc), reg_c=np.zeros(nc), nuc_new=np.zeros(nc), nuc_try=np.zeros(nc),
+        r_c=np.zeros(nc), GN0=np.zeros((nc, n)), ys=np.zeros((1, n)), nuc_new=np.zeros(nc),
+        nuc_try=np.zeros(nc),
         gap_try=np.zeros(nc), GN=np.zeros((nc, n)), GN_try=np.zeros((nc, n)),
         active=np.zeros(nc, dtype=np.bool_), Hloc=np.zeros((6, 6)), wN=np.zeros(6),
         wT=np.zeros(6), Gall=np.zeros((mt, n)), ball=np.zeros(mt), Y=np.zeros((mt, n)),
@@ -111,23 +112,38 @@ def _metric_product(Ap, fac, U, out):
 
 
 @step_kernel
+def _contact_scale(k, r_c, facA, GN0, ys, cols, nbil, ncols):
+    """The augmentation r_k = 1 / (G_k A^-1 G_k^T) of contact k, from its row at the predicted
+    configuration (``GN0``), computed when first needed (``r_c[k]`` is 0 until then): only a
+    contact that is loaded or penetrates, or becomes active, needs it."""
+    if r_c[k] == 0.0:
+        row0 = np.int64(0)  # (a literal 0 would compile a second specialisation)
+        d = block_gram_entry(facA, GN0, k, ys, row0, cols, nbil + k, ncols[nbil + k])
+        r_c[k] = 1.0 / d if d > 0.0 else 1.0
+    return r_c[k]
+
+
+@step_kernel
 def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, facA, gb, Gb, gap, GN, eq, cols,
-                       ncols):
+                       ncols, GN0, ys):
     """Scaled residual [m] of the position problem at (U, nu) from the rows at q_t + U
     (:func:`_position_rows`): joints, complementarity in the augmented-Lagrangian form
     (nu - max(0, nu - r g))/r, and equilibrium M^-1 (Ap U - G^T nu). ``facA``: the
     factorisation of Ap, whose coupled indices are the only ones with off-diagonal entries;
-    ``cols``/``ncols``: the supports of the joint rows, then of the contact rows."""
+    ``cols``/``ncols``: the supports of the joint rows, then of the contact rows; ``GN0``,
+    ``ys``: for :func:`_contact_scale`."""
     n = U.shape[0]
+    nbil = gb.shape[0]
     res = 0.0
-    for r in range(gb.shape[0]):
+    for r in range(nbil):
         res = max(res, abs(gb[r]))
     for k in range(gap.shape[0]):
-        rk = r_c[k]
+        if nu_c[k] == 0.0 and gap[k] >= 0.0:
+            continue  # an open contact without multiplier: its term is 0 whatever r_k
+        rk = _contact_scale(k, r_c, facA, GN0, ys, cols, nbil, ncols)
         val = nu_c[k] - max(0.0, nu_c[k] - rk * gap[k])
         res = max(res, abs(val) / rk)
     _metric_product(Ap, facA, U, eq)
-    nbil = gb.shape[0]
     for r in range(nbil):
         if nu_b[r] != 0.0:
             for t in range(ncols[r]):
@@ -172,22 +188,27 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     joint_support(ma.jt_type, ma.jt_body, cols, ncols)
     for k in range(nc):
         ncols[nbil + k] = pair_support(ct_body[k, 0], ct_body[k, 1], cols, nbil + k)
+    # Ap = M + h^2 Ks: Ks is zero outside the springs' body-pair blocks (smooth_forces), and so
+    # is Ap but for its diagonal, from the start
+    scale_pair_blocks(Ap, Ks_t, h * h, ma.sp_body)
     for i in range(n):
-        for j in range(n):
-            Ap[i, j] = h * h * Ks_t[i, j]
-        Ap[i, i] += mdiag[i]
+        Ap[i, i] = h * h * Ks_t[i, i] + mdiag[i]
         U[i] = 0.0
     block_factor(Ap, n, wk.facA, True)
     nu_b[:] = 0.0
     nu_c[:] = 0.0
-    # Delassus scaling from the rows at the predicted configuration
+    # the rows at the predicted configuration; the Delassus scaling r_k of a contact comes
+    # from them, on first need (_contact_scale)
     _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT)
-    block_gram_diagonal(wk.facA, GN, nc, wk.Y, r_c, cols[nbil:], ncols[nbil:])
+    GN0 = wk.GN0
+    ys = wk.ys
     for k in range(nc):
-        dkk = r_c[k]
-        r_c[k] = 1.0 / dkk if dkk > 0.0 else 1.0
+        r_c[k] = 0.0
+        for t in range(ncols[nbil + k]):
+            i = cols[nbil + k, t]
+            GN0[k, i] = GN[k, i]
     res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, wk.facA, gb, Gb, gap, GN,
-                             wk.eq, cols, ncols)
+                             wk.eq, cols, ncols, GN0, ys)
     target = tol * h
     iters = 0
     converged = res <= target
@@ -209,7 +230,6 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     eta_k = eta
     Gall = wk.Gall
     ball = wk.ball
-    reg_c = wk.reg_c
     rows = wk.rows  # rows[:nbil] are the joints, always present
     for r in range(nbil):
         rows[r] = r
@@ -220,7 +240,10 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     while (not converged or iters == 0) and iters < max_iter:
         iters += 1
         for k in range(nc):
-            active[k] = nu_c[k] - r_c[k] * gap[k] > 0.0
+            # (an open contact without multiplier is inactive whatever r_k)
+            active[k] = (nu_c[k] != 0.0 or gap[k] < 0.0) and (
+                nu_c[k] - _contact_scale(k, r_c, wk.facA, GN0, ys, cols, nbil, ncols)
+                * gap[k] > 0.0)
         # Newton matrix of the equilibrium: A - sum nu_j d2g_j (contact geometric stiffness)
         fac = wk.facA
         loaded = False
@@ -264,7 +287,6 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                 Gall[nbil + k, i] = GN[k, i]
                 s += GN[k, i] * HAU[i]
             ball[nbil + k] = s
-            reg_c[k] = eta_k / r_c[k]
         # exact active set of the linearised problem (primal-dual active set): drop contacts
         # whose multiplier turns negative, add those whose linearised gap turns negative;
         # one geometric Newton step then never cycles on a degenerate contact. Only the
@@ -291,8 +313,11 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                     D[a, c] = Dall[ra, rows[c]]
                 sol[a] = ball[ra]
                 if ra >= nbil:
-                    D[a, a] += reg_c[ra - nbil]
-                    sol[a] += reg_c[ra - nbil] * nu_c[ra - nbil]
+                    # proximal term on the contacts, (eta / r_k)(nu - nu_k)
+                    k = ra - nbil
+                    reg = eta_k / _contact_scale(k, r_c, wk.facA, GN0, ys, cols, nbil, ncols)
+                    D[a, a] += reg
+                    sol[a] += reg * nu_c[k]
             lu_factor(D, m, wk.piv)
             lu_solve(D, m, wk.piv, sol)
             for i in range(n):
@@ -346,7 +371,8 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             _position_rows(q_t, U_try, t1, ma, q_try, gb_try, Gb_try, wk.gm, wk.dgdt,
                            gap_try, GN_try, wk.wN, wk.wT)
             res_try = _position_residual(U_try, nub_try, nuc_try, r_c, mdiag, Ap, wk.facA,
-                                         gb_try, Gb_try, gap_try, GN_try, wk.eq, cols, ncols)
+                                         gb_try, Gb_try, gap_try, GN_try, wk.eq, cols, ncols,
+                                         GN0, ys)
             if best < 0.0 or res_try < best:
                 best = res_try
                 best_theta = theta
@@ -382,7 +408,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                 nu_c[k] += theta * (nuc_new[k] - nu_c[k])
             _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT)
             res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, wk.facA, gb, Gb, gap, GN,
-                                     wk.eq, cols, ncols)
+                                     wk.eq, cols, ncols, GN0, ys)
         converged = res <= target
     return iters, converged
 
@@ -656,10 +682,10 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     spring_damping(q1, v_t, ma, C1)
     Av = wk.Av
     b = wk.b
+    # Av = M + h C, on the springs' blocks and the diagonal (see position_step)
+    scale_pair_blocks(Av, C1, h, ma.sp_body)
     for i in range(n):
-        for j in range(n):
-            Av[i, j] = h * C1[i, j]
-        Av[i, i] += mdiag[i]
+        Av[i, i] = h * C1[i, i] + mdiag[i]
         b[i] = h * (f1[i] - f_t[i])
     fac = wk.fac
     block_factor(Av, n, fac, True)
