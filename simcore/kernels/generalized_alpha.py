@@ -194,10 +194,13 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             lam_prev[:] = lam
         # Newton step on [J, -G^T; c G, 0] by the Schur complement of the joints: J is
         # diagonal but for the bodies joined by springs, so only that block is factorised
+        # K_t and C_t are zero outside the springs' (and the compliant contacts') body-pair
+        # blocks, and so is J but for its diagonal, from the start
+        _newton_matrix_blocks(J, C_t, K_t, h, gam, beta, ca, ma.sp_body)
+        if cwork is not None:
+            _newton_matrix_blocks(J, C_t, K_t, h, gam, beta, ca, ma.ct_body)
         for i in range(n):
-            for j in range(n):
-                J[i, j] = (C_t[i, j] * h * gam + K_t[i, j] * h * h * beta) * ca
-            J[i, i] += mdiag[i]
+            J[i, i] = (C_t[i, i] * h * gam + K_t[i, i] * h * h * beta) * ca + mdiag[i]
         if cwork is not None:
             # the step by the same block solver as the nonsmooth model's, on a copy of the
             # residual (the friction branches may solve again with a modified one)
@@ -217,6 +220,26 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             for i in range(n):
                 vdot1[i] += rhs[i]
     return iters, converged
+
+
+@step_kernel
+def _newton_matrix_blocks(J, C_t, K_t, h, gam, beta, ca, pair_body):
+    """J = (h gamma C + h^2 beta K) ca on the body-pair blocks of ``pair_body`` (see
+    :func:`~.bodies.clear_pair_blocks`)."""
+    for k in range(pair_body.shape[0]):
+        for s in range(2):
+            ba = pair_body[k, s]
+            if ba < 0:
+                continue
+            for t in range(2):
+                bc = pair_body[k, t]
+                if bc < 0:
+                    continue
+                for a in range(3):
+                    i = 3 * ba + a
+                    for c in range(3):
+                        j = 3 * bc + c
+                        J[i, j] = (C_t[i, j] * h * gam + K_t[i, j] * h * h * beta) * ca
 
 
 @kernel
