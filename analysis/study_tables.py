@@ -5,7 +5,9 @@ table for a failed run.
 
 The study computes it in the process that simulated the run, from the run in memory (every
 variable at full precision), right after writing the run file: the process start, the imports
-and the Numba cache are paid once per batch, not once for the runs and once for the tables.
+and the Numba cache are paid once per batch, not once for the runs and once for the tables. The
+table also carries its point's summary numbers (attributes ``summary_*``), so that the summary
+of the study reads the small tables only.
 """
 
 from __future__ import annotations
@@ -37,19 +39,28 @@ def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = 
     xarray.Dataset
         The impact table with ``F_max_zoom``, ``contact_time_zoom`` and ``dt_zoom`` where
         ``analysis.zoom_top`` > 0, attribute ``failed`` (0 or 1); for a failed run an empty
-        table carrying the run's ``error``.
+        table carrying the run's ``error``. Where ``settings`` has ``settle`` and
+        ``force_levels``, also the point's summary numbers as attributes ``summary_*``
+        (:func:`analysis.summary.point_numbers`), which :func:`analysis.summary.summarize`
+        reads instead of the run file.
     """
     import simcore.io
 
     from .impacts import extract_impacts
+    from .summary import point_numbers
 
     coords = simcore.io.parameter_coords(point, length_one=False)  # with units
+    summarised = "settle" in settings and "force_levels" in settings
     if int(run_ds.attrs.get("failed", 0)):
-        return xr.Dataset(coords=coords, attrs={
+        table = xr.Dataset(coords=coords, attrs={
             "Conventions": simcore.io.CONVENTIONS,
             "title": "impacts of a failed run (empty)",
             "history": simcore.io.history_line(f"impact table of the failed run {source}"),
             "failed": 1, "error": run_ds.attrs.get("error", "")})
+        if summarised:
+            table.attrs.update(point_numbers(run_ds, table, settings["settle"],
+                                             settings["force_levels"]))
+        return table
     impacts = extract_impacts(run_ds, zero_tol=settings["zero_tol"],
                               zero_floor=settings["zero_floor"], r_eff=settings["r_eff"],
                               v_min=settings["v_min"])
@@ -61,4 +72,7 @@ def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = 
                                                                  STEPS_PER_CONTACT))
     impacts = impacts.assign_coords(coords)
     impacts.attrs.setdefault("failed", 0)
+    if summarised:  # the point's summary numbers: the summary then reads no run file
+        impacts.attrs.update(point_numbers(run_ds, impacts, settings["settle"],
+                                           settings["force_levels"]))
     return impacts
