@@ -12,12 +12,15 @@ of the study reads the small tables only.
 
 from __future__ import annotations
 
+import time
+
 import xarray as xr
 
 __all__ = ["impact_table"]
 
 
-def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = "") -> xr.Dataset:
+def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = "",
+                 timings: dict | None = None) -> xr.Dataset:
     """Impact table of one run of a study.
 
     Parameters
@@ -33,6 +36,9 @@ def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = 
         ``e_N`` [-]), stored as scalar coordinates with units.
     source : str
         The run file's path, for the history of a failed run's table.
+    timings : dict, optional
+        If given, the seconds spent are added to its keys ``extract`` (filter and Flores forces)
+        and ``zoom`` (the compliant zooms) [s].
 
     Returns
     -------
@@ -61,15 +67,20 @@ def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = 
             table.attrs.update(point_numbers(run_ds, table, settings["settle"],
                                              settings["force_levels"]))
         return table
+    timings = {} if timings is None else timings
+    start = time.perf_counter()
     impacts = extract_impacts(run_ds, zero_tol=settings["zero_tol"],
                               zero_floor=settings["zero_floor"], r_eff=settings["r_eff"],
                               v_min=settings["v_min"])
+    extracted = time.perf_counter()
+    timings["extract"] = timings.get("extract", 0.0) + extracted - start
     if settings.get("zoom_top", 0) > 0:
         from .zoom import STEPS_PER_CONTACT, add_zoom_forces
 
         impacts = add_zoom_forces(run_ds, impacts, zoom_top=settings["zoom_top"],
                                   steps_per_contact=settings.get("zoom_steps_per_contact",
                                                                  STEPS_PER_CONTACT))
+    timings["zoom"] = timings.get("zoom", 0.0) + time.perf_counter() - extracted
     impacts = impacts.assign_coords(coords)
     impacts.attrs.setdefault("failed", 0)
     if summarised:  # the point's summary numbers: the summary then reads no run file

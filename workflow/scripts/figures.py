@@ -7,13 +7,17 @@ pieces) first, then the study's heat maps one quantity at a time, so that the pr
 together.
 """
 
-import multiprocessing
-import os
-import shutil
-import tempfile
-from pathlib import Path
+import time
 
-from _job import job_log, label, remove_stale
+script_start = time.time()
+
+import multiprocessing  # noqa: E402
+import os  # noqa: E402
+import shutil  # noqa: E402
+import tempfile  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from _job import job_log, label, process_start_time, remove_stale, timing_line  # noqa: E402
 
 sm = snakemake  # noqa: F821  (injected by Snakemake)
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -46,6 +50,8 @@ with job_log(sm.log[0]):
     from analysis.figures import plot_reference, plot_run, plot_study
     from analysis.summary import summary_table
 
+    imported = time.time()
+
     target = Path(sm.output[0])
     target.parent.mkdir(parents=True, exist_ok=True)
     remove_stale([target])
@@ -71,6 +77,8 @@ with job_log(sm.log[0]):
             written = [p for task in tasks for p in draw(task)]
         summary_table(summary).to_csv(tmp / "summary_table.csv", index=False)
         print("figures:", ", ".join(Path(p).name for p in written), flush=True)
+        print(timing_line(process_start=process_start_time(), script_start=script_start,
+                          imported=imported, end=time.time()), flush=True)
         if target.exists():
             shutil.rmtree(target)
         os.replace(tmp, target)
