@@ -21,7 +21,7 @@ rule figures:
     params:
         analysis=config["analysis"],
         reference=REFERENCE,
-    threads: 2  # the study's heat maps drawn by two processes (workflow/scripts/figures.py)
+    threads: 2  # the figures shared by two processes (workflow/scripts/figures.py)
     resources:
         runtime=10,
         mem_mb=2000,
