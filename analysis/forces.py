@@ -41,7 +41,6 @@ from functools import lru_cache
 
 import numpy as np
 from numba import njit
-from scipy.integrate import solve_ivp
 
 from .filtering import _check_nonneg
 
@@ -436,7 +435,12 @@ def _scaled_impact(e_N: float, f_s: float):
 
 
 def _scaled_impact_lsoda(e_N: float, f_s: float):
-    """The scaled impact with solve_ivp (LSODA, stiff-capable): the fallback of _scaled_impact."""
+    """The scaled impact with solve_ivp (LSODA, stiff-capable): the fallback of _scaled_impact.
+
+    SciPy's integrators are imported here, for the rare stiff case: importing them with this
+    module cost every study job about 0.4 s."""
+    from scipy.integrate import solve_ivp
+
     c = 8.0 * (1.0 - e_N) / (5.0 * e_N)
     x0 = f_s ** (2.0 / 3.0)
 
