@@ -14,7 +14,9 @@ of the run, so that the summary shows this point as missing; its impact table is
 attribute ``failed = 1``.
 
 The terminal gets one line per batch; the details of every run go to the job's simulate log,
-those of every impact table to its impacts log.
+those of every impact table to its impacts log. The simulate log ends with a ``TIMING`` line
+(process start, imports, Numba load, integration, files, extraction, zooms), which
+``benchmarks/bench_study.py`` sums into the study's breakdown.
 """
 
 import time
