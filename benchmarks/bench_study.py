@@ -26,8 +26,8 @@ every figure is a warm one. Printed:
 * where the wall time went, from the ``TIMING`` lines the job scripts write into their logs:
   Snakemake's start until the first job, the simulate jobs' time summed by stage (process
   start, imports, Numba load, integration, run files, impact extraction, zooms, tables), the
-  core time left idle during the simulate stage, then summarize and figures (the critical path
-  after the last simulate job);
+  core time left idle during the simulate stage (the reference run's figures are drawn in it),
+  then summarize and figures (the critical path after the last simulate job);
 * the same overhead measured directly: a fresh process that imports simcore and runs one step;
 * the machine's load average before and after (the numbers are only comparable on an idle
   machine).
@@ -106,6 +106,7 @@ def breakdown(results: Path, started: float, wall: float, cores: int = 2) -> lis
     jobs = [t for t in (_timing(p) for p in sorted((logs / "simulate").glob("*.log")))
             if t is not None]
     summ, figs = _timing(logs / "summarize.log"), _timing(logs / "figures.log")
+    ref = _timing(logs / "reference_figures.log")  # drawn during the simulate stage
     if not jobs:
         return ["(no TIMING lines in the simulate logs: a tool older than this benchmark)"]
     keys = ["numba_load", "integration", "run_other", "write_runs", "extract", "zoom",
@@ -117,6 +118,9 @@ def breakdown(results: Path, started: float, wall: float, cores: int = 2) -> lis
     first = min(j["process_start"] for j in jobs)
     last = max(j["end"] for j in jobs)
     n_runs = sum(int(j["runs"]) for j in jobs)
+    ref_busy = 0.0
+    if ref is not None:  # the part of the reference figures' job inside the simulate stage
+        ref_busy = max(0.0, min(ref["end"], last) - max(ref["process_start"], first))
     lines = [
         f"snakemake start (parse, DAG, warm-up check) until the first job: {first - started:.1f} s",
         f"simulate: {len(jobs)} jobs, {n_runs} runs, {busy:.1f} s of job time summed: "
@@ -127,9 +131,13 @@ def breakdown(results: Path, started: float, wall: float, cores: int = 2) -> lis
         f"{total['extract']:.1f} s, zooms {total['zoom']:.1f} s "
         f"({total['zoom'] / max(n_runs, 1):.2f} s a run), tables {total['write_tables']:.1f} s, "
         f"other {total['table_other']:.1f} s",
-        f"simulate stage: {last - first:.1f} s wall; {cores * (last - first) - busy:.1f} core-s "
-        f"idle ({100 * (1 - busy / (cores * (last - first))):.0f} % of {cores} cores)",
+        f"simulate stage: {last - first:.1f} s wall; "
+        f"{cores * (last - first) - busy - ref_busy:.1f} core-s idle "
+        f"({100 * (1 - (busy + ref_busy) / (cores * (last - first))):.0f} % of {cores} cores)",
     ]
+    if ref is not None:
+        lines.append(f"reference figures: {ref['end'] - ref['process_start']:.1f} s, "
+                     f"{ref_busy:.1f} s of it during the simulate stage")
     end = last
     for name, t in (("summarize", summ), ("figures", figs)):
         if t is None:

@@ -119,6 +119,9 @@ LOGS = Path("logs", "_".join(Path(RES).relative_to(Path(RES).anchor).parts)).as_
 
 SUMMARY_NC = f"{RES}/summary.nc"
 FIGURES = f"{RES}/figures"
+# the reference run's figures until the figures job moves them into FIGURES (a temporary,
+# hidden folder: Snakemake removes it once the figures are done)
+REFERENCE_FIGURES = f"{RES}/.reference_figures"
 
 ALL_RUNS = expand(f"{RES}/runs/{{p}}.nc", p=list(paramspace.instance_patterns))
 ALL_IMPACTS = expand(f"{RES}/impacts/{{p}}.nc", p=list(paramspace.instance_patterns))
