@@ -696,7 +696,8 @@ def _heat_panel(ax, da, x, y, norm, cmap, failed):
                 rgba = cmap(norm(val))
                 light = 0.299 * rgba[0] + 0.587 * rgba[1] + 0.114 * rgba[2]
                 colour = "k" if light > 0.5 else "w"
-            ax.text(xx, yy, txt, ha="center", va="center", fontsize=8, color=colour)
+            ax.text(xx, yy, txt, ha="center", va="center", fontsize=8, color=colour,
+                    in_layout=False)
     return mesh
 
 

@@ -28,7 +28,7 @@ import xarray as xr
 
 from .contact_stress import contact_modulus, elliptical_contact, groove_radii, hertz_circular
 from .filtering import impact_masks, split_impulses, zero_threshold
-from .forces import _positive, effective_radius, hertz_stiffness, peak_force
+from .forces import _positive, effective_radius, hertz_stiffness, peak_forces
 
 __all__ = ["extract_impacts", "top_forces", "run_geometry", "series_stiffness", "STUDY_PARAMETERS",
            "race_name", "kind_name", "stiffness",
@@ -301,9 +301,10 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
     n = ci.size
 
     # kinds from the data
-    balls_loaded = np.zeros(nt, dtype=np.int64)
-    for k in range(nt):
-        balls_loaded[k] = np.unique(balls[loaded[:, k]]).size
+    ball_ids, ball_of_contact = np.unique(balls, return_inverse=True)
+    ball_loaded = np.zeros((ball_ids.size, nt), dtype=bool)  # a contact of the ball is loaded
+    np.logical_or.at(ball_loaded, ball_of_contact.ravel(), loaded)
+    balls_loaded = ball_loaded.sum(axis=0)
     kind = np.where(is_simple, KIND["simple"], KIND["persistent"]).astype(np.int8)
     pc = partner[ci]
     # a pinch: the other contact of the ball is loaded within one step, and the impulse is more
@@ -311,11 +312,12 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
     # over (so that a light ball rattling between two closing races, which alternates small
     # impulses between its contacts step after step, stays a single-ball impact)
     ball_bound = _BALL_FACTOR * (1.0 + e_N) * m_ball * np.abs(vn[ci, ti])
-    is_pinch = np.zeros(n, bool)
-    for j in range(n):
-        if pc[j] >= 0 and lam[ci[j], ti[j]] > ball_bound[j]:
-            lo, hi = max(ti[j] - 1, 0), min(ti[j] + 2, nt)
-            is_pinch[j] = bool(loaded[pc[j], lo:hi].any())
+    pcs = np.maximum(pc, 0)  # (rows without a partner are masked out below)
+    before, after = ti - 1, ti + 1
+    partner_near = (loaded[pcs, ti]
+                    | ((before >= 0) & loaded[pcs, np.maximum(before, 0)])
+                    | ((after < nt) & loaded[pcs, np.minimum(after, nt - 1)]))
+    is_pinch = (pc >= 0) & (lam[ci, ti] > ball_bound) & partner_near
     is_multi = ~is_pinch & (balls_loaded[ti] >= 2)
     kind[is_multi] = KIND["multi"]
     kind[is_pinch] = KIND["pinch"]
@@ -325,20 +327,27 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
     # a pinched ball transmits a static force only where both of its contacts carry it: the
     # static force is the part common to the two contacts in the neighbouring steps (a rattle
     # loads them in turn, never together), and the pinch impulse is what exceeds it
-    for j in np.flatnonzero(is_pinch):
-        c, p, k = ci[j], pc[j], ti[j]
-        common = [min(lam[c, i], lam[p, i]) for i in (k - 1, k + 1) if 0 <= i < nt]
-        fs_h = max(float(np.mean(common)), 0.0) if common else 0.0
-        F_static[j] = fs_h / h
-        impulse[j] = lam[c, k] - fs_h
+    pj = np.flatnonzero(is_pinch)
+    if pj.size:
+        c, p, k = ci[pj], pc[pj], ti[pj]
+        total = np.zeros(pj.size)
+        count = np.zeros(pj.size)
+        for i, valid in ((k - 1, k - 1 >= 0), (k + 1, k + 1 < nt)):
+            i = np.clip(i, 0, nt - 1)
+            total += np.where(valid, np.minimum(lam[c, i], lam[p, i]), 0.0)
+            count += valid
+        with np.errstate(invalid="ignore", divide="ignore"):
+            fs_h = np.where(count > 0, np.maximum(total / np.maximum(count, 1), 0.0), 0.0)
+        F_static[pj] = fs_h / h
+        impulse[pj] = lam[c, k] - fs_h
     v_pre = -vn[ci, ti]
     # a pinch approaches at the races' relative speed along the ball, taken in the step of the
     # row if the other contact is loaded in it too, else in the earlier step of the pair (the
     # later one already sees the races separating)
-    for j in np.flatnonzero(is_pinch):
-        c, p, k = ci[j], pc[j], ti[j]
-        k0 = k if loaded[p, k] else (k - 1 if k > 0 and loaded[p, k - 1] else k)
-        v_pre[j] = -(vn[c, k0] + vn[p, k0])
+    if pj.size:
+        earlier = (k > 0) & loaded[p, np.maximum(k - 1, 0)]
+        k0 = np.where(loaded[p, k] | ~earlier, k, k - 1)
+        v_pre[pj] = -(vn[c, k0] + vn[p, k0])
     race = races[ci]
     K = np.where(race == RACE["outer"], geo["K_outer"], geo["K_inner"]).astype(float)
     K[is_pinch] = geo["K_pinch"]
@@ -356,13 +365,14 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
     F_max = np.full(n, np.nan)
     contact_time = np.full(n, np.nan)
     v_rebound = np.full(n, np.nan)
-    for k in np.flatnonzero(approach & flores & has_impulse):
-        res = peak_force(impulse[k], v_pre[k], e_N, K[k], F_static=max(F_static[k], 0.0), h=h,
-                         details=True)
-        m_eff[k] = res.m_eff
-        F_max[k] = res.F_max
-        contact_time[k] = res.contact_time
-        v_rebound[k] = res.v_rebound
+    rows = np.flatnonzero(approach & flores & has_impulse)
+    if rows.size:  # every impact's Flores force in one compiled loop (analysis.forces)
+        res = peak_forces(impulse[rows], v_pre[rows], e_N, K[rows],
+                          F_static=np.maximum(F_static[rows], 0.0), h=h)
+        m_eff[rows] = res["m_eff"]
+        F_max[rows] = res["F_max"]
+        contact_time[rows] = res["contact_time"]
+        v_rebound[rows] = res["v_rebound"]
     steps = contact_time / h
     # an impact that never ends (on a heavily preloaded contact, see analysis.forces) is long too
     long_ = np.isfinite(F_max) & ~(steps <= contact_long_ratio)

@@ -7,6 +7,11 @@ the data are still lazy), turns the scalar coordinates into length-1 dimensions 
 ``combine="by_coords"`` assemble the grid. Only those reductions are ever computed, on the local
 threads or on a dask distributed cluster.
 
+A study's impact tables also carry their point's numbers as attributes (``summary_*``,
+:func:`point_numbers`, computed by the simulate job from the run in memory); when every table
+has them for the requested settings, :func:`summarize` assembles the grid from those attributes
+and opens no run file (seconds instead of a quarter of a minute for the 81-run study).
+
 Steady operation
 ----------------
 The first ``settle`` crank revolutions of a run are its start-up: their impacts give
@@ -43,7 +48,7 @@ import numpy as np
 import xarray as xr
 
 __all__ = ["summarize", "summary_table", "steady_window", "category_codes", "impact_numbers",
-           "SWEPT", "STAGES", "RACES", "KINDS", "N_TOP"]
+           "point_numbers", "SWEPT", "STAGES", "RACES", "KINDS", "N_TOP"]
 
 #: Swept parameters, in the order of the summary's dimensions.
 SWEPT = ("clearance", "mu", "omega0", "e_N")
@@ -395,6 +400,150 @@ def _reduce_impacts(ds: xr.Dataset, windows: xr.Dataset, levels: np.ndarray) -> 
     return _as_grid(xr.Dataset(data, coords=coords), point)
 
 
+# --- numbers stored in a study's impact tables (no run file read) ----------------------------
+
+#: Prefix of the attributes in which a study impact table carries its point's summary numbers.
+STORED = "summary_"
+_RUN_SPEC = {"settle_time": (), "revolutions": (), "max_Lambda_N": (),
+             "iter_max": (("stage",), (len(STAGES),)), "iter_mean": (("stage",), (len(STAGES),)),
+             "converged_fraction": (), "wall_time_s": (), "failed": ()}
+
+
+def _run_numbers(run_ds: xr.Dataset, settle: float) -> dict:
+    """The numbers of :func:`_reduce_run` from a run in memory (plain arrays)."""
+    steps = slice(1, None)  # t = 0 is the initial state, not a step
+    iterations = np.asarray(run_ds["iterations"].values[steps], dtype="f8")
+    if "crank_angle" in run_ds:
+        settle_time, revolutions = steady_window(run_ds["time"].values,
+                                                 run_ds["crank_angle"].values, settle)
+    else:
+        settle_time, revolutions = float(run_ds["time"].values[0]), np.nan
+    return {
+        "settle_time": np.float64(settle_time),
+        "revolutions": np.float64(revolutions),
+        "max_Lambda_N": np.float64(np.max(run_ds["Lambda_N"].values)),
+        "iter_max": np.max(iterations, axis=0),
+        "iter_mean": np.mean(iterations, axis=0),
+        "converged_fraction": np.mean(np.asarray(run_ds["converged"].values[steps], "f8")),
+        "wall_time_s": np.float64(run_ds.attrs.get("wall_time_s", np.nan)),
+        "failed": np.float64(0.0),
+    }
+
+
+def point_numbers(run_ds: xr.Dataset, impacts_ds: xr.Dataset, settle: float,
+                  force_levels: Sequence[float]) -> dict:
+    """The summary numbers of one grid point, as attributes for its impact table.
+
+    A study's simulate job calls this with the run and its impact table still in memory and
+    stores the result in the table's attributes; :func:`summarize` then takes the numbers from
+    there and opens no run file. The numbers are those :func:`summarize` computes from the
+    files (the run's variables it reads are written at full precision).
+
+    Parameters
+    ----------
+    run_ds : xarray.Dataset
+        The run (or the marker dataset of a failed run, attribute ``failed = 1``).
+    impacts_ds : xarray.Dataset
+        Its impact table (:func:`analysis.study_tables.impact_table`).
+    settle : float
+        Start-up [crank revolutions] (``analysis.settle``).
+    force_levels : sequence of float
+        Absolute force levels [N] (``analysis.force_levels``).
+
+    Returns
+    -------
+    dict
+        ``summary_settle`` [revolutions] and ``summary_force_levels`` [N] (the settings they
+        were made with), ``summary_failed``, and for a run that did not fail
+        ``summary_<name>`` for every variable of the summary but ``zero_threshold`` (float64,
+        arrays flattened in C order over the dimensions of :func:`summarize`).
+    """
+    levels = np.asarray(sorted(float(v) for v in force_levels), dtype=float)
+    out = {f"{STORED}settle": float(settle), f"{STORED}force_levels": levels}
+    if _failed(run_ds):
+        out[f"{STORED}failed"] = 1.0
+        return out
+    numbers = _run_numbers(run_ds, float(settle))
+    settle_time, revolutions = float(numbers["settle_time"]), float(numbers["revolutions"])
+    if np.isnan(settle_time):
+        settle_time = -np.inf
+
+    def column(name):
+        if name in impacts_ds.variables and impacts_ds[name].dims == ("impact",):
+            return impacts_ds[name].values
+        return None
+
+    def meanings(name):
+        return impacts_ds[name].attrs.get("flag_meanings") if name in impacts_ds.variables \
+            else None
+
+    f_max = column("F_max")
+    if f_max is None:
+        f_max = np.full(impacts_ds.sizes.get("impact", 0), np.nan)
+    numbers.update(_impact_table_numbers(
+        column("time"), column("race"), meanings("race"), column("kind"), meanings("kind"),
+        f_max, column("p_max"), column("flags"), settle_time, revolutions, levels))
+    for name, value in numbers.items():
+        value = np.asarray(value, dtype="f8")
+        out[f"{STORED}{name}"] = value.ravel() if value.ndim else float(value)
+    return out
+
+
+def _read_stored(path, settle: float, levels: np.ndarray):
+    """(point, attributes) of an impact table that carries its summary numbers for these
+    settings, else None."""
+    import netCDF4
+
+    with netCDF4.Dataset(str(path)) as nc:
+        attrs = {key: nc.getncattr(key) for key in nc.ncattrs()}
+        if f"{STORED}failed" not in attrs:
+            return None
+        stored_levels = np.atleast_1d(np.asarray(attrs.get(f"{STORED}force_levels", []), float))
+        if (float(attrs.get(f"{STORED}settle", np.nan)) != settle
+                or stored_levels.shape != levels.shape or not np.all(stored_levels == levels)):
+            return None
+        try:
+            point = {key: float(np.asarray(nc.variables[key][...]).item()) for key in SWEPT}
+        except KeyError as exc:
+            raise ValueError(f"{path}: scalar coordinate {exc.args[0]} is missing") from None
+    return point, attrs
+
+
+def _grid_from_stored(stored: list, levels: np.ndarray) -> tuple[xr.Dataset, xr.Dataset]:
+    """The run and impact parts of the summary (as :func:`summarize` assembles them from the
+    files) from the numbers stored in the impact tables."""
+    axes = {key: np.array(sorted({p[key] for p, _ in stored}), dtype=float) for key in SWEPT}
+    shape = tuple(axes[key].size for key in SWEPT)
+    impact_spec = dict(_impact_spec(levels.size), zero_threshold=((), ()))
+    specs = {name: (spec if spec else ((), ())) for name, spec in _RUN_SPEC.items()}
+    arrays = {name: np.full(shape + tuple(dims_shape[1]), np.nan)
+              for name, dims_shape in {**specs, **impact_spec}.items()}
+    for point, attrs in stored:
+        at = tuple(int(np.searchsorted(axes[key], point[key])) for key in SWEPT)
+        failed = bool(float(attrs[f"{STORED}failed"]))
+        arrays["failed"][at] = 1.0 if failed else 0.0
+        if failed:
+            continue
+        for name in arrays:
+            if name == "failed":
+                continue
+            if name == "zero_threshold":
+                arrays[name][at] = float(attrs.get("zero_threshold", np.nan))
+                continue
+            value = np.asarray(attrs[f"{STORED}{name}"], dtype="f8")
+            arrays[name][at] = value.reshape(arrays[name].shape[len(SWEPT):])
+    swept = list(SWEPT)
+    runs = xr.Dataset(
+        {name: (swept + list(specs[name][0]), arrays[name]) for name in _RUN_SPEC},
+        coords={"stage": np.arange(len(STAGES), dtype=np.int8), **axes})
+    impacts = xr.Dataset(
+        {name: (swept + list(impact_spec[name][0]), arrays[name]) for name in impact_spec},
+        coords={"rank": np.arange(1, N_TOP + 1), "level": levels,
+                "race": np.arange(len(RACES), dtype=np.int8),
+                "kind": np.arange(len(KINDS), dtype=np.int8), **axes})
+    return runs, impacts
+
+
 def _open(files: Sequence[str], reducer) -> xr.Dataset:
     # parallel=False: opening netCDF files from several threads at once crashed netCDF4 1.7.5
     # here (segmentation fault, "NetCDF: HDF error"). The files are opened one after the other
@@ -445,6 +594,19 @@ def _describe(summary: xr.Dataset) -> xr.Dataset:
     return summary
 
 
+def _from_files(run_files, impact_files, scheduler, num_workers, settle, levels):
+    """The run and impact parts of the summary, reduced from the files on dask."""
+    context, compute_kw = _scheduler(scheduler, num_workers)
+    with context:
+        with _open(run_files, partial(_reduce_run, settle=settle)) as lazy_runs:
+            runs = lazy_runs.compute(**compute_kw)
+        windows = runs[["settle_time", "revolutions"]]
+        with _open(impact_files, partial(_reduce_impacts, windows=windows,
+                                         levels=levels)) as lazy_impacts:
+            impacts = lazy_impacts.compute(**compute_kw)
+    return runs, impacts
+
+
 def summarize(run_files: Sequence[str], impact_files: Sequence[str], scheduler=None,
               num_workers: int | None = None, settle: float = 0.0,
               force_levels: Sequence[float] = (100.0, 1000.0),
@@ -480,6 +642,14 @@ def summarize(run_files: Sequence[str], impact_files: Sequence[str], scheduler=N
         Dimensions ``clearance``, ``mu``, ``omega0``, ``e_N`` plus ``race``, ``kind``,
         ``level``, ``rank`` and ``stage``, in memory, every variable with ``units`` and
         ``long_name`` (see the module docstring).
+
+    Notes
+    -----
+    When every impact table carries its point's numbers for these ``settle`` and
+    ``force_levels`` (attributes ``summary_*`` of :func:`point_numbers`, which the study's
+    simulate jobs store), the summary is assembled from those attributes: no run file and no
+    table column is read, and ``scheduler`` is not used; a table marked failed there makes its
+    point missing. Otherwise every file is reduced as described in the module docstring.
     """
     if not run_files or not impact_files:
         raise ValueError("summarize: no run or impact files given")
@@ -489,14 +659,18 @@ def summarize(run_files: Sequence[str], impact_files: Sequence[str], scheduler=N
     levels = np.asarray(sorted(float(v) for v in force_levels), dtype=float)
     if levels.size == 0 or not np.all(np.isfinite(levels) & (levels > 0)):
         raise ValueError(f"summarize: force_levels must be numbers > 0 [N], got {force_levels}")
-    context, compute_kw = _scheduler(scheduler, num_workers)
-    with context:
-        with _open(run_files, partial(_reduce_run, settle=settle)) as lazy_runs:
-            runs = lazy_runs.compute(**compute_kw)
-        windows = runs[["settle_time", "revolutions"]]
-        with _open(impact_files, partial(_reduce_impacts, windows=windows,
-                                         levels=levels)) as lazy_impacts:
-            impacts = lazy_impacts.compute(**compute_kw)
+    stored = []
+    for path in impact_files:  # the numbers the study's jobs stored in the impact tables
+        found = _read_stored(path, settle, levels)
+        if found is None:
+            stored = None
+            break
+        stored.append(found)
+    if stored:
+        runs, impacts = _grid_from_stored(stored, levels)
+    else:
+        runs, impacts = _from_files(run_files, impact_files, scheduler, num_workers, settle,
+                                    levels)
     summary = xr.merge([runs, impacts], join="outer", compat="no_conflicts",
                        combine_attrs="drop")
     # A point whose run file says "failed" is missing everywhere, whatever the impact file says.

@@ -6,6 +6,8 @@
                                                        3 times (median)
     python benchmarks/bench_study.py --smoke           the smoke study instead of the 24 runs
     python benchmarks/bench_study.py --jobs 2          only -j2
+    python benchmarks/bench_study.py --default 1 --only-default
+                                                       only the default study, once
 
 Each study runs from scratch (``--forceall``) into a temporary results folder, so ``results/``
 is left alone; the Numba caches are warmed first (one run and one zoom in a fresh process), so
@@ -21,6 +23,11 @@ every figure is a warm one. Printed:
   (settle + revolutions) turns at their own speed, so slow points dominate);
 * bytes per run file with the default ``study.keep``: median over the study's runs, and the
   paper's case (``python -m simcore run`` without arguments, 3,000 steps);
+* where the wall time went, from the ``TIMING`` lines the job scripts write into their logs:
+  Snakemake's start until the first job, the simulate jobs' time summed by stage (process
+  start, imports, Numba load, integration, run files, impact extraction, zooms, tables), the
+  core time left idle during the simulate stage (the reference run's figures are drawn in it),
+  then summarize and figures (the critical path after the last simulate job);
 * the same overhead measured directly: a fresh process that imports simcore and runs one step;
 * the machine's load average before and after (the numbers are only comparable on an idle
   machine).
@@ -30,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import os
 import re
 import shutil
@@ -59,18 +67,87 @@ print(t1 - t0, t2 - t1, t4 - t3)
 """
 
 
-def run_study(configfile: str | None, jobs: int, results: Path) -> float:
-    """Run one study from scratch; return its wall time [s]."""
+def run_study(configfile: str | None, jobs: int, results: Path) -> tuple[float, float]:
+    """Run one study from scratch; return its wall time [s] and its start [s since the
+    epoch]."""
     cmd = [sys.executable, "-m", "snakemake", f"-j{jobs}", "--forceall", "--nolock", "--quiet"]
     if configfile:
         cmd += ["--configfile", configfile]
     cmd += ["--config", f"study={{'results_dir': '{results}'}}"]
+    started = time.time()
     start = time.perf_counter()
     proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
     wall = time.perf_counter() - start
     if proc.returncode != 0:
         sys.exit(f"study failed ({' '.join(cmd)}):\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
-    return wall
+    return wall, started
+
+
+def _timing(log: Path) -> dict | None:
+    """The ``TIMING {json}`` line a job script wrote into its log (workflow/scripts/_job.py)."""
+    if not log.exists():
+        return None
+    for line in log.read_text(errors="replace").splitlines():
+        if line.startswith("TIMING "):
+            return json.loads(line[len("TIMING "):])
+    return None
+
+
+def breakdown(results: Path, started: float, wall: float, cores: int = 2) -> list[str]:
+    """Where a study's wall time went, from the TIMING lines of its jobs' logs.
+
+    Lines: Snakemake's own start (from the command to the first job's process), the simulate
+    jobs summed (process start, imports, Numba load, integration, the rest of a run, writing
+    the run files, impact extraction, zooms, writing the tables), the span of the simulate
+    stage and the core time left idle in it, then summarize, figures and the gaps between
+    them (the critical path after the last simulate job).
+    """
+    logs = ROOT / "logs" / "_".join(results.relative_to(results.anchor).parts)
+    jobs = [t for t in (_timing(p) for p in sorted((logs / "simulate").glob("*.log")))
+            if t is not None]
+    summ, figs = _timing(logs / "summarize.log"), _timing(logs / "figures.log")
+    ref = _timing(logs / "reference_figures.log")  # drawn during the simulate stage
+    if not jobs:
+        return ["(no TIMING lines in the simulate logs: a tool older than this benchmark)"]
+    keys = ["numba_load", "integration", "run_other", "write_runs", "extract", "zoom",
+            "write_tables", "table_other"]
+    total = {k: sum(j[k] for j in jobs) for k in keys}
+    start_cost = sum(j["script_start"] - j["process_start"] for j in jobs)
+    imports = sum(j["imported"] - j["script_start"] for j in jobs)
+    busy = sum(j["end"] - j["process_start"] for j in jobs)
+    first = min(j["process_start"] for j in jobs)
+    last = max(j["end"] for j in jobs)
+    n_runs = sum(int(j["runs"]) for j in jobs)
+    ref_busy = 0.0
+    if ref is not None:  # the part of the reference figures' job inside the simulate stage
+        ref_busy = max(0.0, min(ref["end"], last) - max(ref["process_start"], first))
+    lines = [
+        f"snakemake start (parse, DAG, warm-up check) until the first job: {first - started:.1f} s",
+        f"simulate: {len(jobs)} jobs, {n_runs} runs, {busy:.1f} s of job time summed: "
+        f"process start {start_cost:.1f} s, imports {imports:.1f} s, Numba load "
+        f"{total['numba_load']:.1f} s, integration {total['integration']:.1f} s "
+        f"({total['integration'] / max(n_runs, 1):.2f} s a run), rest of simcore.run "
+        f"{total['run_other']:.1f} s, run files {total['write_runs']:.1f} s, impact extraction "
+        f"{total['extract']:.1f} s, zooms {total['zoom']:.1f} s "
+        f"({total['zoom'] / max(n_runs, 1):.2f} s a run), tables {total['write_tables']:.1f} s, "
+        f"other {total['table_other']:.1f} s",
+        f"simulate stage: {last - first:.1f} s wall; "
+        f"{cores * (last - first) - busy - ref_busy:.1f} core-s idle "
+        f"({100 * (1 - (busy + ref_busy) / (cores * (last - first))):.0f} % of {cores} cores)",
+    ]
+    if ref is not None:
+        lines.append(f"reference figures: {ref['end'] - ref['process_start']:.1f} s, "
+                     f"{ref_busy:.1f} s of it during the simulate stage")
+    end = last
+    for name, t in (("summarize", summ), ("figures", figs)):
+        if t is None:
+            continue
+        lines.append(f"{name}: starts {t['process_start'] - end:.1f} s after the previous "
+                     f"stage, {t['end'] - t['process_start']:.1f} s (process start and imports "
+                     f"{t['imported'] - t['process_start']:.1f} s)")
+        end = t["end"]
+    lines.append(f"end of the last job to the end of snakemake: {started + wall - end:.1f} s")
+    return lines
 
 
 def job_costs(results: Path) -> tuple[list[float], list[list[float]], int]:
@@ -166,11 +243,14 @@ def main() -> None:
     parser.add_argument("--jobs", default="1,2", help="comma-separated -j values (default 1,2)")
     parser.add_argument("--default", type=int, default=0, metavar="N",
                         help="also run the default 81-run study N times at -j2 (median)")
+    parser.add_argument("--only-default", action="store_true",
+                        help="with --default: leave out the small study")
     args = parser.parse_args()
     job_counts = [int(j) for j in args.jobs.split(",")]
     print("load average before (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
-    studies = [("smoke", "config/smoke.yaml", job_counts, 1) if args.smoke else
-               ("study24", "benchmarks/study24.yaml", job_counts, 1)]
+    studies = [] if (args.only_default and args.default) else [
+        ("smoke", "config/smoke.yaml", job_counts, 1) if args.smoke else
+        ("study24", "benchmarks/study24.yaml", job_counts, 1)]
     if args.default:
         studies.append(("default", None, [2], args.default))
 
@@ -191,7 +271,8 @@ def main() -> None:
                 for rep in range(repeat):
                     results = tmp / f"{name}-j{jobs}-{rep}"
                     made.append(results)
-                    times.append(run_study(configfile, jobs, results))
+                    wall, started = run_study(configfile, jobs, results)
+                    times.append(wall)
                     load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
                     job_wall, run_wall, n_runs = job_costs(results)
                     n_jobs = max(len(job_wall), 1)
@@ -205,6 +286,8 @@ def main() -> None:
                     print(f"{name:8s} -j{jobs}: per rule (summed over jobs): " + ", ".join(
                         f"{rule} {sec:.1f} s" for rule, sec in sorted(rule_costs(results).items()))
                         + f"; simulated time {simulated_time(results):.2f} s", flush=True)
+                    for line in breakdown(results, started, wall, cores=jobs):
+                        print(f"{name:8s} -j{jobs}:   {line}", flush=True)
                 walls[jobs] = statistics.median(times)
                 sizes = file_sizes(results)
                 if repeat > 1:

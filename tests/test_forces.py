@@ -186,3 +186,27 @@ def test_stiff_impact_goes_to_the_implicit_integrator():
     assert not ok  # the explicit budget runs out ...
     f_max, x_max, tau_end, u_end, _ = _scaled_impact(0.5, 1e4)
     assert np.isfinite(tau_end) and f_max >= 1e4  # ... and LSODA finishes the impact
+
+
+def test_peak_forces_of_a_table_match_peak_force_impact_by_impact():
+    """The batched Flores forces (one compiled loop, one integration per distinct scaled static
+    force) against the scalar path, simple and persistent impacts mixed, repeated values too."""
+    from analysis.forces import peak_forces
+
+    rng = np.random.default_rng(3)
+    n = 40
+    impulse = rng.uniform(1e-4, 1e-2, n)
+    v_pre = rng.uniform(0.01, 1.0, n)
+    K = np.where(rng.random(n) < 0.5, K_IN, 2.0 * K_IN)
+    F_static = np.where(rng.random(n) < 0.4, 0.0, rng.uniform(0.1, 500.0, n))
+    impulse[5:8], v_pre[5:8], K[5:8], F_static[5:8] = impulse[4], v_pre[4], K[4], F_static[4]
+    got = peak_forces(impulse, v_pre, 0.8, K, F_static=F_static, h=1e-4)
+    for i in range(n):
+        one = peak_force(impulse[i], v_pre[i], 0.8, K[i], F_static=F_static[i], h=1e-4,
+                         details=True)
+        for name, value in one.as_dict().items():
+            assert got[name][i] == pytest.approx(value, rel=1e-10, nan_ok=True), (name, i)
+    with pytest.raises(ValueError, match="v_pre"):
+        peak_forces(impulse, -v_pre, 0.8, K)
+    with pytest.raises(ValueError, match="F_static"):
+        peak_forces(impulse, v_pre, 0.8, K, F_static=-F_static - 1.0)

@@ -63,3 +63,41 @@ def test_zoom_step_setting_reaches_the_table(run_ds):
     assert steps[20] == pytest.approx(2.0 * steps[40])
     with pytest.raises(simcore.ConfigError, match="analysis.zoom_steps_per_contact"):
         load_config(overrides=["analysis.zoom_steps_per_contact=2"])
+
+
+def test_summary_from_the_numbers_stored_in_the_tables_equals_the_one_from_the_files(
+        run_ds, tmp_path):
+    """The simulate job stores each point's summary numbers in its impact table; the summary
+    assembled from them is the one reduced from the run files and table columns."""
+    import xarray as xr
+
+    from analysis.summary import summarize
+
+    settings = dict(SETTINGS, zoom_top=0, settle=0.01, force_levels=[100.0, 1000.0])
+    keep = simcore.validate_config({})["study"]["keep"]
+    failed_point = dict(POINT, clearance=1e-4)
+    failed_cfg = load_config(overrides=["model.clearance=1e-4"])
+    runs, stored, plain = [], [], []
+    for point, ds in ((POINT, run_ds),
+                      (failed_point, failed_run_dataset(failed_cfg, "run failed: boom"))):
+        name = f"{point['clearance']:g}.nc"
+        simcore.write_netcdf(ds, tmp_path / f"run{name}", keep=keep)
+        table = impact_table(ds, settings, point)
+        assert table.attrs["summary_failed"] == (0.0 if ds is run_ds else 1.0)
+        simcore.write_netcdf(table, tmp_path / f"stored{name}")
+        table.attrs = {k: v for k, v in table.attrs.items() if not k.startswith("summary_")}
+        simcore.write_netcdf(table, tmp_path / f"plain{name}")
+        runs.append(tmp_path / f"run{name}")
+        stored.append(tmp_path / f"stored{name}")
+        plain.append(tmp_path / f"plain{name}")
+    kw = {"scheduler": "synchronous", "settle": 0.01, "force_levels": [1000.0, 100.0]}
+    from_files = summarize(runs, plain, **kw)
+    from_tables = summarize([tmp_path / "missing.nc"] * 2, stored, **kw)  # no run file read
+    for ds in (from_files, from_tables):
+        ds.attrs.pop("history")
+    xr.testing.assert_identical(from_files, from_tables)
+    assert int(from_tables["failed"].sum()) == 1
+    assert np.isfinite(from_tables["max_Lambda_N"].sel(clearance=4e-4)).all()
+    # other settings than the stored ones: the files are read again
+    other = summarize(runs, stored, **dict(kw, settle=0.0))
+    assert float(other["settle_time"].sel(clearance=4e-4).item()) == 0.0

@@ -119,6 +119,9 @@ LOGS = Path("logs", "_".join(Path(RES).relative_to(Path(RES).anchor).parts)).as_
 
 SUMMARY_NC = f"{RES}/summary.nc"
 FIGURES = f"{RES}/figures"
+# the reference run's figures until the figures job moves them into FIGURES (a temporary,
+# hidden folder: Snakemake removes it once the figures are done)
+REFERENCE_FIGURES = f"{RES}/.reference_figures"
 
 ALL_RUNS = expand(f"{RES}/runs/{{p}}.nc", p=list(paramspace.instance_patterns))
 ALL_IMPACTS = expand(f"{RES}/impacts/{{p}}.nc", p=list(paramspace.instance_patterns))
@@ -204,6 +207,14 @@ def run_config(point):
     cfg["model"].update(point)
     cfg["solver"]["t_end"] = run_length(point["omega0"])
     return cfg
+
+
+def batch_priority(wildcards):
+    """Scheduling priority of a simulate job: the time steps of its runs, in thousands. Batches
+    of unequal cost (say one speed each) then start longest first, so that the cheapest ones
+    come last and the cores finish together; batches of equal cost are left in any order."""
+    steps = sum(run_length(p["omega0"]) / config["solver"]["dt"] for p in batch_points(wildcards))
+    return round(steps / 1000.0, 3)
 
 
 def batch_configs(wildcards):

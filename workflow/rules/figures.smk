@@ -1,10 +1,37 @@
 # Figures of the reference run (the grid point nearest to the model section) and of the study.
+#
+# The reference run's figures are drawn by a job of their own as soon as its batch is simulated,
+# while the other batches still run (they need no summary): the figures job at the end, on the
+# critical path, then only draws the study's heat maps and moves the reference figures in.
+
+
+rule reference_figures:
+    input:
+        run=f"{RES}/runs/{REFERENCE_NAME}.nc",
+        impacts=f"{RES}/impacts/{REFERENCE_NAME}.nc",
+    output:
+        temp(directory(REFERENCE_FIGURES)),
+    log:
+        f"{LOGS}/reference_figures.log",
+    benchmark:
+        f"{LOGS}/reference_figures.benchmark.tsv"
+    params:
+        analysis=config["analysis"],
+        reference=REFERENCE,
+    threads: 1
+    priority: 1000  # right after its batch, before the remaining simulate jobs
+    resources:
+        runtime=10,
+        mem_mb=2000,
+    conda:
+        "../envs/sim.yaml"
+    script:
+        "../scripts/reference_figures.py"
 
 
 rule figures:
     input:
-        run=f"{RES}/runs/{REFERENCE_NAME}.nc",
-        impacts=f"{RES}/impacts/{REFERENCE_NAME}.nc",
+        reference=REFERENCE_FIGURES,
         summary=SUMMARY_NC,
     output:
         report(
@@ -21,7 +48,7 @@ rule figures:
     params:
         analysis=config["analysis"],
         reference=REFERENCE,
-    threads: 2  # the study's heat maps drawn by two processes (workflow/scripts/figures.py)
+    threads: 2  # the study's heat maps shared by two processes (workflow/scripts/figures.py)
     resources:
         runtime=10,
         mem_mb=2000,

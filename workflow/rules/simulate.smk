@@ -21,6 +21,7 @@ rule simulate:
         keep=config["study"]["keep"],
         analysis=config["analysis"],
     threads: 1
+    priority: batch_priority  # longest batches first (workflow/rules/common.smk)
     resources:
         runtime=30,
         mem_mb=1000,

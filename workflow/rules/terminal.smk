@@ -7,12 +7,24 @@ def warm_numba_cache():
     """Compile (or load) the Numba kernels once, in one process, and say so on the terminal.
 
     Called by the Snakefile's onstart: not in dry runs, and only when there is a job to run.
+    Skipped when the warm-up already succeeded for these kernel sources (its stamp file,
+    workflow/scripts/warm_cache.py): loading a warm cache in a process of its own took 2-3 s
+    before the first job could start.
     """
     import subprocess
     import time
 
     log = Path(LOGS, "warm_cache.log")
     log.parent.mkdir(parents=True, exist_ok=True)
+    sys.path.insert(0, str(Path(workflow.basedir, "workflow", "scripts")))
+    try:
+        from warm_cache import warm_stamp
+    finally:
+        sys.path.pop(0)
+    if warm_stamp().exists():
+        log.write_text(f"kernels already compiled for these sources ({warm_stamp()})\n")
+        print("Numba: kernels cached", file=sys.stderr, flush=True)
+        return
     print("Numba: compiling the kernels once before the jobs start (1-3 min after an install "
           "or an update of simcore, a few seconds when cached) ...", file=sys.stderr, flush=True)
     start = time.perf_counter()

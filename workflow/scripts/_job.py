@@ -81,3 +81,26 @@ def batch_label(wildcards):
     """``clearance=0.0004, mu=0.01`` for the batch of a job (``all runs`` without wildcards)."""
     items = [(key, value) for key, value in wildcards.items() if key in SWEPT]
     return ", ".join(f"{key}={value}" for key, value in items) or "all runs"
+
+
+def process_start_time():
+    """Wall-clock time at which this process started [s since the epoch] (Linux; NaN
+    elsewhere): from its start in clock ticks after boot and the machine's uptime."""
+    import time
+
+    try:
+        with open("/proc/self/stat") as fh:
+            ticks = int(fh.read().rsplit(")", 1)[1].split()[19])
+        with open("/proc/uptime") as fh:
+            uptime = float(fh.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return float("nan")
+    return time.time() - (uptime - ticks / os.sysconf("SC_CLK_TCK"))
+
+
+def timing_line(**numbers):
+    """One line ``TIMING {json}`` for the job's log: where the job's time went, read by
+    benchmarks/bench_study.py (times [s since the epoch], durations [s])."""
+    import json
+
+    return "TIMING " + json.dumps({key: round(float(value), 4) for key, value in numbers.items()})

@@ -1,27 +1,42 @@
-"""Job of rule ``figures``: figures of the reference run and of the study -> results/figures/.
+"""Job of rule ``figures``: the study's figures, with the reference run's figures (drawn earlier
+by rule ``reference_figures``) moved in -> results/figures/.
 
 The figures are drawn into a hidden folder next to the target and renamed into place at the
-end, so that results/figures/ never holds a half-drawn set.
+end, so that results/figures/ never holds a half-drawn set. With two or more threads the
+study's heat maps are shared by forked processes, one quantity at a time.
 """
 
-import multiprocessing
-import os
-import shutil
-import tempfile
-from pathlib import Path
+import time
 
-from _job import job_log, label, remove_stale
+script_start = time.time()
+
+import multiprocessing  # noqa: E402
+import os  # noqa: E402
+import shutil  # noqa: E402
+import tempfile  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from _job import job_log, process_start_time, remove_stale, timing_line  # noqa: E402
 
 sm = snakemake  # noqa: F821  (injected by Snakemake)
 os.environ.setdefault("MPLBACKEND", "Agg")
 
+#: the study's heat maps are drawn in this many parts (one quantity each with the defaults)
+STUDY_PARTS = 8
+
+
+def draw(part):
+    """Draw one part of the study's heat maps into the hidden folder; return the paths."""
+    return list(plot_study(summary, tmp, (part, STUDY_PARTS)))
+
+
 with job_log(sm.log[0]):
     import xarray as xr
 
-    from analysis.figures import plot_reference, plot_run, plot_study
+    from analysis.figures import plot_study
     from analysis.summary import summary_table
 
-    settings = sm.params.analysis
+    imported = time.time()
     target = Path(sm.output[0])
     target.parent.mkdir(parents=True, exist_ok=True)
     remove_stale([target])
@@ -30,38 +45,23 @@ with job_log(sm.log[0]):
     try:
         with xr.open_dataset(sm.input.summary) as summary:
             summary = summary.load()
-        # the study's heat maps take most of the time: with two threads, a forked process
-        # draws every other quantity while this one draws the rest and the run figures
         workers = max(1, int(sm.threads))
-        pool = multiprocessing.get_context("fork").Pool(workers - 1) if workers > 1 else None
-        try:
-            shares = [pool.apply_async(plot_study, (summary, tmp, (i, workers)))
-                      for i in range(1, workers)] if pool is not None else []
-            written = list(plot_study(summary, tmp, (0, workers)))
-            summary_table(summary).to_csv(tmp / "summary_table.csv", index=False)
-            with xr.open_dataset(sm.input.run) as run, \
-                    xr.open_dataset(sm.input.impacts) as imp:
-                if int(run.attrs.get("failed", 0)):
-                    print(f"reference run {label(sm.params.reference)} failed: no run figures")
-                else:
-                    run, imp = run.load(), imp.load()
-                    written += plot_run(run, imp, tmp, settings["zero_tol"],
-                                        settings["zero_floor"], prefix="reference")
-                    written += plot_reference(run, imp, tmp, settle=settings["settle"],
-                                              force_levels=settings["force_levels"],
-                                              zero_tol=settings["zero_tol"],
-                                              zero_floor=settings["zero_floor"],
-                                              prefix="reference")
-            for share in shares:
-                written += share.get()
-        finally:
-            if pool is not None:
-                pool.close()
-                pool.join()
+        if workers > 1:
+            with multiprocessing.get_context("fork").Pool(workers) as pool:
+                written = [p for paths in pool.map(draw, range(STUDY_PARTS), chunksize=1)
+                           for p in paths]
+        else:
+            written = [p for part in range(STUDY_PARTS) for p in draw(part)]
+        summary_table(summary).to_csv(tmp / "summary_table.csv", index=False)
+        for png in sorted(Path(sm.input.reference).glob("*.png")):  # the reference run's
+            shutil.copy2(png, tmp / png.name)
+            written.append(tmp / png.name)
         print("figures:", ", ".join(Path(p).name for p in written), flush=True)
         if target.exists():
             shutil.rmtree(target)
         os.replace(tmp, target)
+        print(timing_line(process_start=process_start_time(), script_start=script_start,
+                          imported=imported, end=time.time()), flush=True)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

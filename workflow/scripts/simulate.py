@@ -14,12 +14,24 @@ of the run, so that the summary shows this point as missing; its impact table is
 attribute ``failed = 1``.
 
 The terminal gets one line per batch; the details of every run go to the job's simulate log,
-those of every impact table to its impacts log.
+those of every impact table to its impacts log. The simulate log ends with a ``TIMING`` line
+(process start, imports, Numba load, integration, files, extraction, zooms), which
+``benchmarks/bench_study.py`` sums into the study's breakdown.
 """
 
 import time
 
-from _job import batch_label, job_log, label, remove_stale, set_threads
+script_start = time.time()
+
+from _job import (  # noqa: E402
+    batch_label,
+    job_log,
+    label,
+    process_start_time,
+    remove_stale,
+    set_threads,
+    timing_line,
+)
 
 sm = snakemake  # noqa: F821  (injected by Snakemake)
 
@@ -34,7 +46,9 @@ with job_log(sm.log.simulate) as terminal:
     from analysis.study_tables import impact_table
     from simcore.io import failed_run_dataset
 
-    simulated = loading = tabulating = 0.0
+    imported = time.time()
+    simulated = loading = tabulating = writing_runs = writing_tables = 0.0
+    stages = {"extract": 0.0, "zoom": 0.0}
     n_failed = 0
     for point, raw, path, table_path in zip(sm.params.points, sm.params.configs,
                                             sm.output.runs, sm.output.impacts, strict=True):
@@ -50,21 +64,34 @@ with job_log(sm.log.simulate) as terminal:
             print(f"WARNING: {message} -> recorded as missing in {path}", file=terminal)
             ds = failed_run_dataset(cfg, message)
             n_failed += 1
+        written = time.perf_counter()
         simcore.write_netcdf(ds, path, keep=sm.params.keep)  # study.keep
+        writing_runs += time.perf_counter() - written
         print(f"{label(point)}: {time.perf_counter() - start:.2f} s "
               f"(numba threads: {n_threads}) -> {path}", flush=True)
         with job_log(sm.log.impacts, mode="a"):
             start = time.perf_counter()
-            impacts = impact_table(ds, sm.params.analysis, point, source=path)
+            impacts = impact_table(ds, sm.params.analysis, point, source=path, timings=stages)
             if impacts.attrs["failed"]:
                 print(f"{label(point)}: failed run, empty impact table", flush=True)
             else:
                 print(f"{label(point)}: {impacts.sizes.get('impact', 0)} impacts, "
                       f"{time.perf_counter() - start:.2f} s -> {table_path}", flush=True)
+            written = time.perf_counter()
             simcore.write_netcdf(impacts, table_path)
+            writing_tables += time.perf_counter() - written
             tabulating += time.perf_counter() - start
     total = time.perf_counter() - batch_start
     failed = f", {n_failed} FAILED" if n_failed else ""
     print(f"impact tables (filter, forces, zooms): {tabulating:.1f} s", flush=True)
+    print(timing_line(process_start=process_start_time(), script_start=script_start,
+                      imported=imported, end=time.time(), runs=len(sm.output.runs),
+                      numba_load=loading, integration=simulated,
+                      run_other=total - (imported - script_start) - loading - simulated
+                      - writing_runs - tabulating,
+                      extract=stages["extract"], zoom=stages["zoom"],
+                      write_runs=writing_runs, write_tables=writing_tables,
+                      table_other=tabulating - writing_tables - sum(stages.values())),
+          flush=True)
     print(f"simulated {batch_label(sm.wildcards)}: {len(sm.output.runs)} run(s) in {total:.1f} s "
           f"(integration {simulated:.1f} s, Numba load {loading:.1f} s){failed}", file=terminal)

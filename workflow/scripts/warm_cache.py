@@ -7,21 +7,57 @@ Numba keeps the compiled code in ``__pycache__`` next to the sources, where ever
 finds it. A few steps of the paper's case (an impact at 1.5 ms) go through the simulation and
 through the impact analysis, which has kernels of its own, and one short compliant zoom of that
 impact (the kernels of the compliant model, which the simulate jobs use for ``F_max_zoom``).
+
+After a success it leaves a stamp file in the Numba cache folder (:func:`warm_stamp`); while the
+stamp matches the kernel sources, the next study skips the warm-up (which otherwise costs 2-3 s
+of a new process loading the cache before the first job starts).
 """
 
+import hashlib
+import os
 import sys
 import time
+from pathlib import Path
 
-start = time.perf_counter()
-import analysis  # noqa: E402
-import simcore  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
+#: the files that define Numba kernels: Numba checks a cached kernel against its file's
+#: modification time and size, so the stamp does too (and the cache folder of
+#: simcore.numba_cache is named after the kernel sources' contents)
+KERNEL_SOURCES = ("simcore/kernels/*.py", "analysis/forces.py", "analysis/filtering.py")
 
-cfg = simcore.load_config(overrides=["solver.t_end=0.003"])
-run = simcore.run(cfg)
-impacts = analysis.extract_impacts(run)
-zoom_start = time.perf_counter()
-simcore.zoom(run, 1.5e-3, window=2e-5, dt=1e-6)
-print(f"simulation kernels: {run.attrs['compile_time_s']:.1f} s; "
-      f"compliant zoom kernels: {time.perf_counter() - zoom_start:.1f} s; "
-      f"analysis of {impacts.sizes.get('impact', 0)} impact(s) included; "
-      f"total {time.perf_counter() - start:.1f} s (python {sys.version.split()[0]})")
+
+def warm_stamp() -> Path:
+    """The file whose existence says that the warm-up succeeded for the kernel sources as they
+    are (names, sizes, modification times), this Python and this Numba; it lives in the Numba
+    cache folder, so that clearing the cache clears it too."""
+    from importlib.metadata import version
+
+    from simcore.numba_cache import cache_dir_for
+
+    digest = hashlib.sha1(f"{sys.version} numba {version('numba')}".encode())
+    for pattern in KERNEL_SOURCES:
+        for path in sorted(ROOT.glob(pattern)):
+            stat = path.stat()
+            digest.update(f"{path.relative_to(ROOT)} {stat.st_size} {stat.st_mtime_ns}".encode())
+    folder = os.environ.get("NUMBA_CACHE_DIR") or str(cache_dir_for())
+    return Path(folder) / f"study-warm-{digest.hexdigest()[:16]}"
+
+
+if __name__ == "__main__":
+    start = time.perf_counter()
+    import analysis
+    import simcore
+
+    cfg = simcore.load_config(overrides=["solver.t_end=0.003"])
+    run = simcore.run(cfg)
+    impacts = analysis.extract_impacts(run)
+    zoom_start = time.perf_counter()
+    simcore.zoom(run, 1.5e-3, window=2e-5, dt=1e-6)
+    print(f"simulation kernels: {run.attrs['compile_time_s']:.1f} s; "
+          f"compliant zoom kernels: {time.perf_counter() - zoom_start:.1f} s; "
+          f"analysis of {impacts.sizes.get('impact', 0)} impact(s) included; "
+          f"total {time.perf_counter() - start:.1f} s (python {sys.version.split()[0]})")
+    stamp = warm_stamp()
+    for old in stamp.parent.glob("study-warm-*"):
+        old.unlink(missing_ok=True)
+    stamp.write_text("the study's warm-up compiled or loaded every kernel of these sources\n")
