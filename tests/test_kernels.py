@@ -143,6 +143,11 @@ def test_smooth_forces_tangents_match_finite_differences(bearing):
     scaled = np.full((n, n), 7.0)
     nb.scale_pair_blocks(scaled, Ks, 0.5, arr.sp_body)
     np.testing.assert_array_equal(scaled, np.where(mask, 0.5 * Ks, 7.0))
+    newton = np.full((n, n), 7.0)
+    h, gam, beta, ca = 1e-4, 1.5, 1.0, 0.5
+    nb.fill_pair_blocks(newton, C, K, h, gam, beta, ca, arr.sp_body, 2)
+    np.testing.assert_allclose(newton, np.where(mask, (C * h * gam + K * h * h * beta) * ca, 7.0),
+                               rtol=1e-15, atol=0.0)
     # a second evaluation into the filled matrices gives the same tangents
     K2, C2, Ks2 = K.copy(), C.copy(), Ks.copy()
     nb.smooth_forces(q, v, arr, np.zeros(n), K2, C2, Ks2, True)

@@ -144,12 +144,22 @@ def support_dot(G, r, cols, c, m, x):
     return s
 
 
+#: Operations of :func:`fill_pair_blocks`.
+BLOCKS_CLEAR = 0
+BLOCKS_SCALE = 1
+BLOCKS_NEWTON = 2
+
+
 @step_kernel
-def clear_pair_blocks(A, pair_body):
-    """Zero the entries of the n x n matrix A that couple the two bodies of each pair
+def fill_pair_blocks(dst, A, B, x, y, z, w, pair_body, op):
+    """Write the entries of the n x n matrix ``dst`` that couple the two bodies of each pair
     (``pair_body`` (m, 2), -1 the ground), diagonal blocks included: all that an element between
-    those bodies writes. Clearing these blocks instead of the whole matrix keeps a tangent
-    matrix's cost at that of its elements."""
+    those bodies writes, so that a tangent matrix costs what its elements cost, not n^2.
+
+    ``op``: :data:`BLOCKS_CLEAR` dst = 0; :data:`BLOCKS_SCALE` dst = x A; :data:`BLOCKS_NEWTON`
+    dst = (A x y + B x x z) w (the smooth stage's Newton matrix from C = A and K = B, with
+    x = h, y = gamma, z = beta, w = (1 - alpha_f)/(1 - alpha_m)). The rest of ``dst`` is left as
+    it is."""
     for k in range(pair_body.shape[0]):
         for s in range(2):
             ba = pair_body[k, s]
@@ -160,24 +170,25 @@ def clear_pair_blocks(A, pair_body):
                 if bc < 0:
                     continue
                 for a in range(3):
+                    i = 3 * ba + a
                     for c in range(3):
-                        A[3 * ba + a, 3 * bc + c] = 0.0
+                        j = 3 * bc + c
+                        if op == BLOCKS_CLEAR:
+                            dst[i, j] = 0.0
+                        elif op == BLOCKS_SCALE:
+                            dst[i, j] = x * A[i, j]
+                        else:
+                            dst[i, j] = (A[i, j] * x * y + B[i, j] * x * x * z) * w
+
+
+@step_kernel
+def clear_pair_blocks(A, pair_body):
+    """Zero the body-pair blocks of A (:func:`fill_pair_blocks`)."""
+    fill_pair_blocks(A, A, A, 0.0, 0.0, 0.0, 0.0, pair_body, BLOCKS_CLEAR)
 
 
 @step_kernel
 def scale_pair_blocks(dst, src, alpha, pair_body):
-    """dst = alpha * src on the body-pair blocks of ``pair_body`` (see
-    :func:`clear_pair_blocks`), for a ``src`` that is zero elsewhere; the rest of ``dst`` is left
-    as it is."""
-    for k in range(pair_body.shape[0]):
-        for s in range(2):
-            ba = pair_body[k, s]
-            if ba < 0:
-                continue
-            for t in range(2):
-                bc = pair_body[k, t]
-                if bc < 0:
-                    continue
-                for a in range(3):
-                    for c in range(3):
-                        dst[3 * ba + a, 3 * bc + c] = alpha * src[3 * ba + a, 3 * bc + c]
+    """dst = alpha * src on the body-pair blocks (:func:`fill_pair_blocks`), for a ``src`` that
+    is zero elsewhere; the rest of ``dst`` is left as it is."""
+    fill_pair_blocks(dst, src, src, alpha, 0.0, 0.0, 0.0, pair_body, BLOCKS_SCALE)

@@ -8,7 +8,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .bodies import clear_pair_blocks
+from .bodies import BLOCKS_NEWTON, clear_pair_blocks, fill_pair_blocks
 from .hertz import contact_forces
 from .jit import kernel, step_kernel
 from .joints import bilateral, joint_row_count
@@ -196,9 +196,9 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
         # diagonal but for the bodies joined by springs, so only that block is factorised
         # K_t and C_t are zero outside the springs' (and the compliant contacts') body-pair
         # blocks, and so is J but for its diagonal, from the start
-        _newton_matrix_blocks(J, C_t, K_t, h, gam, beta, ca, ma.sp_body)
+        fill_pair_blocks(J, C_t, K_t, h, gam, beta, ca, ma.sp_body, BLOCKS_NEWTON)
         if cwork is not None:
-            _newton_matrix_blocks(J, C_t, K_t, h, gam, beta, ca, ma.ct_body)
+            fill_pair_blocks(J, C_t, K_t, h, gam, beta, ca, ma.ct_body, BLOCKS_NEWTON)
         for i in range(n):
             J[i, i] = (C_t[i, i] * h * gam + K_t[i, i] * h * h * beta) * ca + mdiag[i]
         if cwork is not None:
@@ -220,26 +220,6 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             for i in range(n):
                 vdot1[i] += rhs[i]
     return iters, converged
-
-
-@step_kernel
-def _newton_matrix_blocks(J, C_t, K_t, h, gam, beta, ca, pair_body):
-    """J = (h gamma C + h^2 beta K) ca on the body-pair blocks of ``pair_body`` (see
-    :func:`~.bodies.clear_pair_blocks`)."""
-    for k in range(pair_body.shape[0]):
-        for s in range(2):
-            ba = pair_body[k, s]
-            if ba < 0:
-                continue
-            for t in range(2):
-                bc = pair_body[k, t]
-                if bc < 0:
-                    continue
-                for a in range(3):
-                    i = 3 * ba + a
-                    for c in range(3):
-                        j = 3 * bc + c
-                        J[i, j] = (C_t[i, j] * h * gam + K_t[i, j] * h * h * beta) * ca
 
 
 @kernel

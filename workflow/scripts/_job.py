@@ -46,6 +46,30 @@ def job_log(path, mode="w"):
             terminal.close()
 
 
+@contextmanager
+def folder_in_place(target):
+    """A hidden folder next to the folder ``target`` to write into; when the block ends without
+    an error it replaces ``target``, otherwise it is removed: ``target`` never holds a
+    half-written set of files (nor does a killed earlier attempt's folder stay behind)."""
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    target = Path(target)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale([target])
+    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
+    tmp.chmod(0o755)
+    try:
+        yield tmp
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    if target.exists():
+        shutil.rmtree(target)
+    os.replace(tmp, target)
+
+
 def remove_stale(paths):
     """Remove temporary files left by a killed earlier attempt at writing ``paths``.
 

@@ -13,10 +13,9 @@ script_start = time.time()
 import multiprocessing  # noqa: E402
 import os  # noqa: E402
 import shutil  # noqa: E402
-import tempfile  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from _job import job_log, process_start_time, remove_stale, timing_line  # noqa: E402
+from _job import folder_in_place, job_log, process_start_time, timing_line  # noqa: E402
 
 sm = snakemake  # noqa: F821  (injected by Snakemake)
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -37,12 +36,7 @@ with job_log(sm.log[0]):
     from analysis.summary import summary_table
 
     imported = time.time()
-    target = Path(sm.output[0])
-    target.parent.mkdir(parents=True, exist_ok=True)
-    remove_stale([target])
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
-    tmp.chmod(0o755)
-    try:
+    with folder_in_place(sm.output[0]) as tmp:
         with xr.open_dataset(sm.input.summary) as summary:
             summary = summary.load()
         workers = max(1, int(sm.threads))
@@ -57,11 +51,5 @@ with job_log(sm.log[0]):
             shutil.copy2(png, tmp / png.name)
             written.append(tmp / png.name)
         print("figures:", ", ".join(Path(p).name for p in written), flush=True)
-        if target.exists():
-            shutil.rmtree(target)
-        os.replace(tmp, target)
-        print(timing_line(process_start=process_start_time(), script_start=script_start,
-                          imported=imported, end=time.time()), flush=True)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+    print(timing_line(process_start=process_start_time(), script_start=script_start,
+                      imported=imported, end=time.time()), flush=True)

@@ -12,11 +12,9 @@ import time
 script_start = time.time()
 
 import os  # noqa: E402
-import shutil  # noqa: E402
-import tempfile  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from _job import job_log, label, process_start_time, remove_stale, timing_line  # noqa: E402
+from _job import folder_in_place, job_log, label, process_start_time, timing_line  # noqa: E402
 
 sm = snakemake  # noqa: F821  (injected by Snakemake)
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -28,12 +26,7 @@ with job_log(sm.log[0]):
 
     imported = time.time()
     settings = sm.params.analysis
-    target = Path(sm.output[0])
-    target.parent.mkdir(parents=True, exist_ok=True)
-    remove_stale([target])
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
-    tmp.chmod(0o755)
-    try:
+    with folder_in_place(sm.output[0]) as tmp:
         written = []
         with xr.open_dataset(sm.input.run) as run, xr.open_dataset(sm.input.impacts) as imp:
             if int(run.attrs.get("failed", 0)):
@@ -47,11 +40,5 @@ with job_log(sm.log[0]):
                                           zero_tol=settings["zero_tol"],
                                           zero_floor=settings["zero_floor"], prefix="reference")
         print("reference figures:", ", ".join(Path(p).name for p in written), flush=True)
-        if target.exists():
-            shutil.rmtree(target)
-        os.replace(tmp, target)
-        print(timing_line(process_start=process_start_time(), script_start=script_start,
-                          imported=imported, end=time.time()), flush=True)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+    print(timing_line(process_start=process_start_time(), script_start=script_start,
+                      imported=imported, end=time.time()), flush=True)
