@@ -548,26 +548,37 @@ def peak_force(impulse, v_pre, e_N, K, F_static=0.0, h=None, details=False):
     F_static = _check_nonneg("F_static", F_static)
     if h is not None:
         h = _positive("h", h)
+    scales = _impact_scales(impulse, v_pre, e_N, K)
+    scaled = _scaled_impact(e_N, F_static / scales[2])
+    if not details:
+        return scaled[0] * scales[2]
+    return PeakForce(**_unscaled(scaled, scales, v_pre, K, F_static, h))
+
+
+def _impact_scales(impulse, v_pre, e_N, K):
+    """The scales of an impact (module docstring), for numbers or arrays alike: effective mass
+    m_eff = impulse / ((1 + e_N) v_pre) [kg], indentation d* [m], force F* [N], time t* [s]."""
     m_eff = impulse / ((1.0 + e_N) * v_pre)
     d_star = (5.0 * m_eff * v_pre**2 / (4.0 * K)) ** 0.4
-    f_star = K * d_star**1.5
-    t_star = d_star / v_pre
-    f_s = F_static / f_star
-    f_max, x_max, tau_end, u_end, tau_peak = _scaled_impact(e_N, f_s)
-    F_max = f_max * f_star
-    if not details:
-        return F_max
+    return m_eff, d_star, K * d_star**1.5, d_star / v_pre
+
+
+def _unscaled(scaled, scales, v_pre, K, F_static, h):
+    """The fields of :class:`PeakForce` from the scaled impact (f_max, x_max, tau_end, u_end,
+    tau_peak) and :func:`_impact_scales`, for numbers or arrays alike."""
+    f_max, x_max, tau_end, u_end, tau_peak = scaled
+    m_eff, d_star, f_star, t_star = scales
     contact_time = tau_end * t_star
-    return PeakForce(
-        F_max=F_max,
-        delta_max=x_max * d_star,
-        contact_time=contact_time,
-        v_rebound=-u_end * v_pre,
-        m_eff=m_eff,
-        delta_static=(F_static / K) ** (2.0 / 3.0),
-        t_peak=tau_peak * t_star,
-        contact_steps=contact_time / h if h is not None else math.nan,
-    )
+    return {
+        "F_max": f_max * f_star,
+        "delta_max": x_max * d_star,
+        "contact_time": contact_time,
+        "v_rebound": -u_end * v_pre,
+        "m_eff": m_eff,
+        "delta_static": (F_static / K) ** (2.0 / 3.0),
+        "t_peak": tau_peak * t_star,
+        "contact_steps": contact_time / h if h is not None else contact_time * math.nan,
+    }
 
 
 def peak_forces(impulse, v_pre, e_N, K, F_static=None, h=None) -> dict:
@@ -614,27 +625,12 @@ def peak_forces(impulse, v_pre, e_N, K, F_static=None, h=None) -> dict:
     bad = ~(np.isfinite(F_static) & (F_static >= 0))
     if bad.any():
         _check_nonneg("F_static", F_static[np.flatnonzero(bad)[0]])
-    # the scalar arithmetic of peak_force, element by element
-    m_eff = impulse / ((1.0 + e_N) * v_pre)
-    d_star = (5.0 * m_eff * v_pre**2 / (4.0 * K)) ** 0.4
-    f_star = K * d_star**1.5
-    t_star = d_star / v_pre
-    f_s = F_static / f_star
-    distinct, where = np.unique(f_s, return_inverse=True)
+    # the arithmetic of peak_force, element by element
+    scales = _impact_scales(impulse, v_pre, e_N, K)
+    distinct, where = np.unique(F_static / scales[2], return_inverse=True)
     c = 8.0 * (1.0 - e_N) / (5.0 * e_N)
     scaled, ok = scaled_impacts_kernel(c, distinct, _RTOL, _ATOL, _TAU_MAX,
                                        _MAX_EXPLICIT_STEPS)
     for i in np.flatnonzero(~ok):  # stiff: LSODA, as _scaled_impact does
         scaled[i] = _scaled_impact_lsoda(e_N, float(distinct[i]))
-    f_max, x_max, tau_end, u_end, tau_peak = scaled[where.ravel()].T
-    contact_time = tau_end * t_star
-    return {
-        "F_max": f_max * f_star,
-        "delta_max": x_max * d_star,
-        "contact_time": contact_time,
-        "v_rebound": -u_end * v_pre,
-        "m_eff": m_eff,
-        "delta_static": (F_static / K) ** (2.0 / 3.0),
-        "t_peak": tau_peak * t_star,
-        "contact_steps": contact_time / h if h is not None else np.full(impulse.size, np.nan),
-    }
+    return _unscaled(scaled[where.ravel()].T, scales, v_pre, K, F_static, h)
