@@ -190,8 +190,8 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
                 continue
             halvings = 0
             merit_prev = merit
-            vdot_prev[:] = vdot1
-            lam_prev[:] = lam
+            copy_vector(vdot_prev, vdot1, n)
+            copy_vector(lam_prev, lam, m)
         # Newton step on [J, -G^T; c G, 0] by the Schur complement of the joints: J is
         # diagonal but for the bodies joined by springs, so only that block is factorised
         # K_t and C_t are zero outside the springs' (and the compliant contacts') body-pair

@@ -13,8 +13,10 @@ arrays, so one work array serves problems of any size up to its own.
   columns coupled by off-diagonal entries (the bearing: only the ball centres joined by the
   cage springs, plus the races of the contacts carrying a geometric stiffness), factorised on
   its coupled block only (Cholesky, LU if the block is not positive definite);
-- :func:`solve_dense`, :func:`block_inverse`: allocating conveniences for code outside the
-  time loop and for the smooth stage.
+- :func:`block_gram`, :func:`block_gram_rows`, :func:`block_gram_entry`: Delassus matrices
+  G A^-1 G^T from such a factor and the rows' supports;
+- :func:`saddle_point_solve`, :func:`block_inverse`: allocating conveniences for code outside
+  the time loop.
 
 A singular matrix raises ``numpy.linalg.LinAlgError`` like ``np.linalg.solve`` does.
 """
@@ -326,15 +328,6 @@ def block_gram_rows(fac, G, rows, m, Y, first, have, D, cols, ncols):
 
 
 @step_kernel
-def block_gram_diagonal(fac, G, m, Y, d, cols, ncols):
-    """d[:m] = the diagonal of G[:m] A^-1 G[:m]^T (see :func:`block_gram`; ``Y``: work
-    array of at least 1 x k)."""
-    row0 = np.int64(0)  # not a literal 0, which would compile a second specialisation
-    for r in range(m):
-        d[r] = block_gram_entry(fac, G, r, Y, row0, cols, r, ncols[r])
-
-
-@step_kernel
 def block_gram_entry(fac, G, r, Y, yr, cols, c, m):
     """G_r A^-1 G_r^T for row r of G (see :func:`block_gram`), whose support is
     ``cols[c, :m]``; ``Y[yr]`` is the work row of the substitution."""
@@ -353,20 +346,6 @@ def block_gram_entry(fac, G, r, Y, yr, cols, c, m):
         i = cols[c, t]
         s += G[r, i] * G[r, i] * dinv[i]
     return s
-
-
-@step_kernel
-def dense_support(G, m, cols, ncols):
-    """The support of each of the rows ``G[:m]`` (its non-zero columns) into ``cols[r]``,
-    ``ncols[r]``: for rows whose support is not known from their bodies (tests, callers with
-    general rows); ``cols`` needs as many columns as the densest row has non-zeros."""
-    for r in range(m):
-        c = 0
-        for i in range(G.shape[1]):
-            if G[r, i] != 0.0:
-                cols[r, c] = i
-                c += 1
-        ncols[r] = c
 
 
 @kernel
@@ -419,18 +398,6 @@ def saddle_point_solve_into(J, G, c, rhs, fac, JG, S, piv):
         for r in range(m):
             s += JG[r, i] * y[r]
         x[i] = s
-
-
-@kernel
-def solve_dense(A, b):
-    """x = A^-1 b for a small square matrix (LU with partial pivoting; A and b untouched)."""
-    n = A.shape[0]
-    LU = A.copy()
-    piv = np.zeros(n, dtype=np.int64)
-    lu_factor(LU, n, piv)
-    x = b.copy()
-    lu_solve(LU, n, piv, x)
-    return x
 
 
 @kernel
