@@ -212,10 +212,11 @@ def _main(argv=None) -> int:
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    from .io import write_netcdf
     from .model import SolverError
-    from .simulate import run
+    from .simulate import load_in_background, run
 
+    # what the file's writing imports (xarray's netCDF4 writer asks for dask), meanwhile
+    load_in_background(("simcore.io", "netCDF4", "dask.array"))
     start = time.perf_counter()
     try:
         ds = run(cfg, progress=not args.quiet)
@@ -229,6 +230,8 @@ def _main(argv=None) -> int:
         print("error: out of memory during the run; lower solver.max_memory_gb below the "
               "machine's free memory, or shorten solver.t_end", file=sys.stderr)
         return 3
+    from .io import write_netcdf
+
     try:
         write_netcdf(ds, args.out, keep=cfg["study"]["keep"])  # study.keep
     except OSError as exc:

@@ -8,6 +8,9 @@ took is recorded apart, as ``compile_time_s``.
 
 from __future__ import annotations
 
+import importlib
+import sys
+import threading
 import time
 import warnings
 
@@ -17,6 +20,40 @@ from .mechanism import crank_slider
 from .model import SolverError  # noqa: F401  (re-exported)
 
 _warm: set[str] = set()  # contact models whose kernels this process has compiled or loaded
+_requested: set[str] = set()  # modules handed to load_in_background
+
+
+def load_in_background(modules=("simcore.io",)) -> threading.Thread | None:
+    """Import ``modules`` in a daemon thread, while this thread loads the kernels and runs.
+
+    A new process's first run spends about 0.3 s importing xarray (with pandas) for its
+    dataset, and the command another 0.3 s importing what xarray's netCDF writer asks for
+    (netCDF4, dask). Imports hold Python's global interpreter lock, but loading the kernels'
+    machine code and the time loop (compiled ``nogil``) do not: started first, the imports
+    proceed meanwhile. Whoever needs a module later simply imports it; Python's import lock
+    waits for the thread if it is still at it. A module that fails to import here is left for
+    that later import to report. Returns the thread, or None when every module is loaded.
+
+    Parameters
+    ----------
+    modules : sequence of str
+        Module names, imported in order.
+    """
+    missing = [name for name in modules if name not in sys.modules and name not in _requested]
+    if not missing:
+        return None
+    _requested.update(missing)
+
+    def load():
+        for name in missing:
+            try:
+                importlib.import_module(name)
+            except Exception:  # noqa: BLE001  (the main thread's own import reports it)
+                return
+
+    thread = threading.Thread(target=load, name="simcore-background-imports", daemon=True)
+    thread.start()
+    return thread
 
 
 def _simulate(model, cfg: dict, t_end: float | None = None, on_nonconvergence=None,
@@ -35,7 +72,31 @@ def _simulate(model, cfg: dict, t_end: float | None = None, on_nonconvergence=No
                           output_every=output_every(cfg), energy_tol=solver["energy_tol"])
 
 
-def warm_up(config: dict | None = None) -> float:
+#: seconds after which a warm-up still at work says on stderr that it compiles
+COMPILE_NOTICE_AFTER = 3.0
+
+
+def _compile_notice(stream) -> threading.Timer:
+    """A started timer that tells ``stream``, after :data:`COMPILE_NOTICE_AFTER` seconds, that
+    the kernels are being compiled (a cache load takes well under a second; a compilation
+    30-60 s in which nothing else would be printed)."""
+    def say():
+        from .numba_cache import configured_cache_dir
+
+        timer.said = True
+        stream.write("simcore: compiling the simulation kernels (first run after an install or "
+                     "an edit of the kernels; 30-60 s, then cached in "
+                     f"{configured_cache_dir()}) ...\n")
+        stream.flush()
+
+    timer = threading.Timer(COMPILE_NOTICE_AFTER, say)
+    timer.said = False
+    timer.daemon = True
+    timer.start()
+    return timer
+
+
+def warm_up(config: dict | None = None, notify=None) -> float:
     """Compile (or load from Numba's cache) every kernel of a run, once per process.
 
     Runs two time steps of the crank-slider of ``config`` (default: the paper's case). A
@@ -46,6 +107,10 @@ def warm_up(config: dict | None = None) -> float:
     ----------
     config : dict, optional
         A configuration; only its ``model`` section and ``solver.dt`` are used.
+    notify : file-like, optional
+        Where to say that the kernels are being compiled, when loading them takes longer than
+        :data:`COMPILE_NOTICE_AFTER` seconds, and how long it took (e.g. ``sys.stderr``);
+        None: silent.
 
     Returns
     -------
@@ -57,15 +122,26 @@ def warm_up(config: dict | None = None) -> float:
     if kind in _warm:
         return 0.0
     start = time.perf_counter()
+    notice = _compile_notice(notify) if notify is not None else None
     model, _ = crank_slider(cfg["model"])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            _simulate(model, cfg, t_end=2 * float(cfg["solver"]["dt"]), on_nonconvergence="warn")
-        except SolverError:
-            pass  # the kernels are compiled all the same; the real run reports the failure
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                _simulate(model, cfg, t_end=2 * float(cfg["solver"]["dt"]),
+                          on_nonconvergence="warn")
+            except SolverError:
+                pass  # the kernels are compiled all the same; the real run reports the failure
+    finally:
+        if notice is not None:
+            notice.cancel()
+            notice.join()  # a notice being written is finished before the next line
+    seconds = time.perf_counter() - start
+    if notice is not None and notice.said:
+        notify.write(f"simcore: kernels compiled in {seconds:.0f} s\n")
+        notify.flush()
     _warm.add(kind)
-    return time.perf_counter() - start
+    return seconds
 
 
 def run(config: dict, progress: bool = False):
@@ -102,6 +178,8 @@ def run(config: dict, progress: bool = False):
     cfg = validate_config(config)
     model, layout = crank_slider(cfg["model"])
     check_run(cfg, model)  # limits before any work
-    compile_time_s = warm_up(cfg)
+    if cfg["model"]["contact_model"] not in _warm:  # a first run: xarray loads meanwhile
+        load_in_background()
+    compile_time_s = warm_up(cfg, notify=sys.stderr if progress else None)
     traj = _simulate(model, cfg, progress=progress)
     return trajectory_dataset(traj, model, layout, cfg, compile_time_s=compile_time_s)

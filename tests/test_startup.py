@@ -223,3 +223,65 @@ def test_collector_runs_again_after_the_first_run_and_the_command(tmp_path):
         assert not gc.isenabled()
     finally:
         gc.enable()
+
+
+def test_background_imports_load_the_modules_and_leave_failures_to_the_caller(tmp_path,
+                                                                               monkeypatch):
+    import importlib
+
+    from simcore import simulate
+
+    (tmp_path / "bg_probe_module.py").write_text("VALUE = 42\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(simulate, "_requested", set())
+    thread = simulate.load_in_background(("bg_probe_module", "bg_probe_missing_module"))
+    assert thread is not None
+    thread.join(timeout=60)
+    assert not thread.is_alive()
+    assert sys.modules["bg_probe_module"].VALUE == 42
+    # a module that cannot be imported is not hidden: the caller's own import reports it
+    with pytest.raises(ModuleNotFoundError):
+        importlib.import_module("bg_probe_missing_module")
+    # nothing left to load (loaded, or already handed to a thread): no new thread
+    assert simulate.load_in_background(("bg_probe_module", "bg_probe_missing_module")) is None
+    assert simulate.load_in_background(("numpy",)) is None
+
+
+def test_every_kernel_releases_the_interpreter_lock():
+    # the first run's background imports proceed only while the kernels run without the lock
+    from numba.core.registry import CPUDispatcher
+
+    kernels = [obj for obj in vars(nb).values() if isinstance(obj, CPUDispatcher)]
+    assert len(kernels) > 20
+    held = [k.py_func.__name__ for k in kernels if not k.targetoptions.get("nogil")]
+    assert not held, f"kernels compiled without nogil: {held}"
+
+
+def test_a_long_warm_up_says_that_it_compiles(monkeypatch):
+    import io
+    import time
+
+    from simcore import simulate
+
+    def slow(model, cfg, **kwargs):  # stands for a compilation
+        time.sleep(0.5)
+
+    monkeypatch.setattr(simulate, "_simulate", slow)
+    monkeypatch.setattr(simulate, "COMPILE_NOTICE_AFTER", 0.05)
+    monkeypatch.setattr(simulate, "_warm", set())
+    stream = io.StringIO()
+    seconds = simulate.warm_up(notify=stream)
+    lines = stream.getvalue().splitlines()
+    assert seconds >= 0.5
+    assert len(lines) == 2, lines
+    assert lines[0].startswith("simcore: compiling the simulation kernels")
+    assert lines[1] == f"simcore: kernels compiled in {seconds:.0f} s"
+    # a quick load (the cache) says nothing; and without a stream nothing is said at all
+    monkeypatch.setattr(simulate, "COMPILE_NOTICE_AFTER", 5.0)
+    monkeypatch.setattr(simulate, "_warm", set())
+    stream = io.StringIO()
+    simulate.warm_up(notify=stream)
+    assert stream.getvalue() == ""
+    monkeypatch.setattr(simulate, "COMPILE_NOTICE_AFTER", 0.05)
+    monkeypatch.setattr(simulate, "_warm", set())
+    assert simulate.warm_up() >= 0.5

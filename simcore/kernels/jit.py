@@ -8,6 +8,10 @@ a function (each member of a bundle too) and every row view gets two atomic upda
 count, some 15 % of a step's time in the bearing's small functions. Such a kernel must not
 create an array (``np.zeros``, ``.copy()``), nor keep one a callee returns: it would never be
 freed. Views (``a[i]``, ``a[:n]``) are fine, they borrow the parent's memory.
+
+Both release Python's global interpreter lock while they run (``nogil``): a new process's first
+run imports xarray in a second thread (:func:`simcore.simulate.load_in_background`) while the
+kernels load and integrate.
 """
 
 from __future__ import annotations
@@ -16,7 +20,8 @@ from numba import njit
 
 #: Kernels that may allocate arrays. (Reference counting is asked for explicitly: a callee
 #: inherits the caller's setting otherwise, and a step kernel calls some of these.)
-kernel = njit(cache=True, error_model="numpy", _nrt=True, no_cfunc_wrapper=True)
+kernel = njit(cache=True, error_model="numpy", _nrt=True, no_cfunc_wrapper=True, nogil=True)
 
 #: Kernels that allocate nothing (see the module docstring).
-step_kernel = njit(cache=True, error_model="numpy", _nrt=False, no_cfunc_wrapper=True)
+step_kernel = njit(cache=True, error_model="numpy", _nrt=False, no_cfunc_wrapper=True,
+                   nogil=True)
