@@ -664,9 +664,35 @@ def _norm(values):
     return matplotlib.colors.Normalize(vmin=lo, vmax=hi)
 
 
-def _colorbar(fig, mesh, axes, label):
-    """Colour bar with plain-number ticks (1, 2, 5 per decade on a log scale)."""
-    bar = fig.colorbar(mesh, ax=axes, label=label, shrink=0.9)
+def _panel_grid(nrow, ncol, panel_w, panel_h, wgap, hgap, *, left=0.85, right=1.3,
+                bottom=0.65, top=0.95, **subplot_kw):
+    """Figure of ``nrow`` x ``ncol`` panels of ``panel_w`` x ``panel_h`` inches, ``wgap`` and
+    ``hgap`` inches apart, with margins fixed in inches (``left`` for the tick labels and the
+    axis label, ``bottom`` likewise, ``top`` for the titles, ``right`` for the colour bar), and
+    the colour bar's axes. Returns ``(fig, axes, cax)``.
+
+    A layout engine that measures every text to place the panels (matplotlib's constrained
+    layout) took some 40 % of the time of drawing a study figure, and the study's figures are
+    the last job of the study; its panels and labels have known sizes, so fixed margins do.
+    """
+    width = left + ncol * panel_w + (ncol - 1) * wgap + right
+    height = bottom + nrow * panel_h + (nrow - 1) * hgap + top
+    fig, axes = plt.subplots(nrow, ncol, figsize=(width, height), squeeze=False,
+                             gridspec_kw={"left": left / width, "right": 1 - right / width,
+                                          "bottom": bottom / height, "top": 1 - top / height,
+                                          "wspace": wgap / panel_w, "hspace": hgap / panel_h},
+                             **subplot_kw)
+    span = nrow * panel_h + (nrow - 1) * hgap
+    cax = fig.add_axes((1 - (right - 0.25) / width, (bottom + 0.05 * span) / height,
+                        0.22 / width, 0.9 * span / height))
+    return fig, axes, cax
+
+
+def _colorbar(fig, mesh, axes, label, cax=None):
+    """Colour bar with plain-number ticks (1, 2, 5 per decade on a log scale), in ``cax`` if
+    given, else beside ``axes``."""
+    bar = (fig.colorbar(mesh, cax=cax, label=label) if cax is not None
+           else fig.colorbar(mesh, ax=axes, label=label, shrink=0.9))
     if isinstance(mesh.norm, matplotlib.colors.LogNorm):
         bar.ax.yaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
         bar.ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
@@ -711,8 +737,7 @@ def _facet_figure(da, swept, path, label, failed, title):
     nrow = da.sizes[row] if row else 1
     norm = _norm(da.values)
     cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
-    fig, axes = plt.subplots(nrow, ncol, figsize=(3.4 * ncol + 1.6, 2.9 * nrow + 1.3),
-                             squeeze=False, sharex=True, sharey=True, layout="constrained")
+    fig, axes, cax = _panel_grid(nrow, ncol, 3.1, 2.4, 0.15, 0.35, sharex=True, sharey=True)
     mesh = None
     for i in range(nrow):
         for j in range(ncol):
@@ -737,7 +762,7 @@ def _facet_figure(da, swept, path, label, failed, title):
                 _ticks(ax, "x", x, da[x].values)
             if j == 0 and y is not None:
                 _ticks(ax, "y", y, da[y].values)
-    _colorbar(fig, mesh, axes, label)
+    _colorbar(fig, mesh, axes, label, cax)
     fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -758,8 +783,7 @@ def _pairs_figure(da, swept, path, label, how, failed, title):
         reduced[(a, b)] = red
     norm = _norm(np.concatenate([np.ravel(r.values) for r in reduced.values()]))
     cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol + 1.4, 3.5 * nrow + 1.2),
-                             squeeze=False, layout="constrained")
+    fig, axes, cax = _panel_grid(nrow, ncol, 3.4, 2.7, 0.95, 0.8)
     mesh = None
     for ax, (a, b) in zip(axes.ravel(), pairs, strict=False):
         xdim, ydim = (b, a) if a != "clearance" and b == "clearance" else (a, b)
@@ -770,7 +794,7 @@ def _pairs_figure(da, swept, path, label, how, failed, title):
         ax.set_title(f"{how} over {', '.join(rest)}" if rest else "", fontsize=9)
     for ax in axes.ravel()[len(pairs):]:
         ax.set_axis_off()
-    _colorbar(fig, mesh, axes, label)
+    _colorbar(fig, mesh, axes, label, cax)
     fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=100)
     plt.close(fig)
