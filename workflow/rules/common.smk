@@ -259,13 +259,19 @@ REFERENCE_NAME = "_".join(f"{key}~{REFERENCE[key]}" for key in SWEPT)
 
 
 def failed_points(summary_path):
-    """Lines naming the failed runs recorded in a summary file (empty if none)."""
-    import xarray as xr
+    """Lines naming the failed runs recorded in a summary file (empty if none).
+
+    Read with netCDF4 alone: Snakemake's process runs this at the end of the study, where
+    importing xarray (with pandas and dask) would take longer than the rest of it."""
+    import netCDF4
+    import numpy as np
 
     if not Path(summary_path).exists():
         return []
-    with xr.open_dataset(summary_path) as ds:
-        failed = ds["failed"].load()
-    stacked = failed.stack(point=list(SWEPT))
-    bad = stacked.where(stacked > 0, drop=True)
-    return [", ".join(f"{key}={float(bad[key][i])}" for key in SWEPT) for i in range(bad.size)]
+    with netCDF4.Dataset(summary_path) as nc:
+        failed = nc.variables["failed"]
+        order = [failed.dimensions.index(key) for key in SWEPT]
+        flags = np.ma.filled(failed[:], 0.0).transpose(order)
+        values = {key: np.asarray(nc.variables[key][:], dtype=float) for key in SWEPT}
+    return [", ".join(f"{key}={float(values[key][i])}" for key, i in zip(SWEPT, point))
+            for point in np.argwhere(flags > 0)]
