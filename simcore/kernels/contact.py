@@ -101,13 +101,19 @@ def contact_rows_cached(q, k, ct_type, ct_body, ct_geom, wN, wT, trig):
 
 @kernel
 def contact_hessian(q, k, ma, H):
+    """:func:`contact_hessian_into` with a work array of its own."""
+    contact_hessian_into(q, k, ma, H, np.empty((2, 6)))
+
+
+@step_kernel
+def contact_hessian_into(q, k, ma, H, P):
     """Second derivative of the gap of contact ``k`` with respect to (q_a, q_b), 6 x 6.
 
     For the sphere elements g = s |c_b - c_a| + const (s = +1 outside, -1 inside):
     H = s [P^T (I - n n^T) P / L + n . d2(c_b - c_a)]. It is the contact's geometric stiffness
     in the position correction: a pinched ball carries multipliers large enough for it to
     matter against the ball's mass. Left zero for the plane element (exact for a plane on the
-    ground and a sphere centred on its body)."""
+    ground and a sphere centred on its body). ``P`` (2 x 6): work rows."""
     ct_type = ma.ct_type
     ct_body = ma.ct_body
     ct_geom = ma.ct_geom
@@ -125,8 +131,8 @@ def contact_hessian(q, k, ma, H):
     if dist <= 1e-300:
         return
     sign = 1.0 if kind == CONTACT_OUTSIDE else -1.0
-    Px = np.empty(6)
-    Py = np.empty(6)
+    Px = P[0]
+    Py = P[1]
     px_t, py_t = pair_point_jacobians(aax, aay, abx, aby)
     store6(Px, px_t)
     store6(Py, py_t)

@@ -17,7 +17,7 @@ from .bodies import (
     support_dot,
     trig_cache,
 )
-from .contact import contact_hessian, contact_rows_cached, contact_velocities_into
+from .contact import contact_hessian_into, contact_rows_cached, contact_velocities_into
 from .generalized_alpha import alpha_coefficients, smooth_step, smooth_work, step_work
 from .jit import step_kernel
 from .joints import bilateral_cached, joint_support
@@ -33,7 +33,7 @@ from .linalg import (
     lu_factor,
     lu_solve,
 )
-from .springs import smooth_forces, spring_damping, total_energy
+from .springs import smooth_forces_into, spring_damping_into, total_energy
 
 # layout of the per-step statistics written by integrate_chunk
 STAGE_SMOOTH = 0
@@ -45,13 +45,14 @@ PositionWork = namedtuple("PositionWork", ["Ap", "facA", "Hm", "facH", "U", "U_n
     "q_try", "HAU", "eq", "nu_b", "nub_new", "nub_try", "gb", "Gb", "gb_try", "Gb_try", "gm",
     "dgdt", "r_c", "GN0", "ys", "nuc_new", "nuc_try", "gap_try", "GN", "GN_try", "active",
     "Hloc", "wN", "wT", "Gall", "ball", "Y", "AU", "first", "have", "x", "Dall", "rows", "Dbuf",
-    "sol", "piv", "cols", "ncols", "AU_try", "trig"])
+    "sol", "piv", "cols", "ncols", "AU_try", "trig", "P"])
 
 #: Work arrays of the velocity jump (:func:`velocity_work`).
 VelocityWork = namedtuple("VelocityWork", ["f1", "C1", "Av", "fac", "b", "Ab",
     "tmp", "wN", "wT", "gb", "gm", "dgdt", "Gb", "closed", "row_of", "G",
     "off", "kind", "mu_row", "pair", "lam", "Y", "first", "D", "c", "Dbb", "pivb",
-    "colb", "X", "Dc", "cc", "lam_c", "pair_c", "cols", "ncols", "solver", "trig"])
+    "colb", "X", "Dc", "cc", "lam_c", "pair_c", "cols", "ncols", "solver", "trig", "fw",
+    "iw"])
 
 #: Work arrays of the velocity problem's Newton solver.
 VelocitySolverWork = namedtuple("VelocitySolverWork", ["r", "F", "F_try", "xi", "xi_try",
@@ -87,7 +88,8 @@ def position_work(n, nbil, nc, trig=None):
         Dall=np.zeros((mt, mt)), rows=np.zeros(mt, dtype=np.int64), Dbuf=np.zeros((mt, mt)),
         sol=np.zeros(mt), piv=np.zeros(mt, dtype=np.int64),
         cols=np.zeros((mt, 6), dtype=np.int64), ncols=np.zeros(mt, dtype=np.int64),
-        AU_try=np.zeros(n), trig=trig_cache(n // 3) if trig is None else trig)
+        AU_try=np.zeros(n), trig=trig_cache(n // 3) if trig is None else trig,
+        P=np.zeros((2, 6)))
 
 
 @step_kernel
@@ -267,7 +269,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             copy_matrix(Hm, Ap, n, n)
             for k in range(nc):
                 if nu_c[k] > 0.0:
-                    contact_hessian(q1, k, ma, Hloc)
+                    contact_hessian_into(q1, k, ma, Hloc, wk.P)
                     for a in range(6):
                         ba = ct_body[k, 0] if a < 3 else ct_body[k, 1]
                         if ba < 0:
@@ -444,7 +446,8 @@ def velocity_work(n, nbil, nc, trig=None):
         X=np.zeros((nbil, mv + 1)), Dc=np.zeros((mv, mv)), cc=np.zeros(mv),
         lam_c=np.zeros(mv), pair_c=np.zeros(mv, dtype=np.int64),
         cols=np.zeros((mv, 6), dtype=np.int64), ncols=np.zeros(mv, dtype=np.int64),
-        solver=velocity_solver_work(mv), trig=trig_cache(n // 3) if trig is None else trig)
+        solver=velocity_solver_work(mv), trig=trig_cache(n // 3) if trig is None else trig,
+        fw=np.zeros((3, 6)), iw=np.zeros((2, 6), dtype=np.int64))
 
 
 def velocity_solver_work(m):
@@ -709,8 +712,8 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     f1 = wk.f1
     C1 = wk.C1
     # the forces at (q1, v~) and the damping matrix (the stiffness is not needed here)
-    smooth_forces(q1, v_t, ma, f1, C1, C1, C1, False)
-    spring_damping(q1, v_t, ma, C1)
+    smooth_forces_into(q1, v_t, ma, f1, C1, C1, C1, False, wk.fw, wk.iw)
+    spring_damping_into(q1, v_t, ma, C1, wk.fw, wk.iw)
     Av = wk.Av
     b = wk.b
     # Av = M + h C, on the springs' blocks and the diagonal (see position_step)
