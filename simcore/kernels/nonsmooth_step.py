@@ -14,7 +14,6 @@ from .bodies import (
     place_row,
     scale_pair_blocks,
     scatter_row,
-    support_dot,
     trig_cache,
 )
 from .contact import contact_hessian_into, contact_rows_cached, contact_velocities_into
@@ -353,8 +352,13 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                 if flip >= 0 and k >= flip:
                     break
                 if not active[k]:
-                    lin_gap = -ball[nbil + k] + support_dot(Gall, nbil + k, cols, nbil + k,
-                                                            ncols[nbil + k], x)
+                    # G_k x over the row's support (written out: a call of support_dot costs
+                    # more than its six products)
+                    s = 0.0
+                    for t in range(ncols[nbil + k]):
+                        i = cols[nbil + k, t]
+                        s += Gall[nbil + k, i] * x[i]
+                    lin_gap = -ball[nbil + k] + s
                     if lin_gap < -0.1 * target:
                         flip = k
                         break
@@ -683,15 +687,22 @@ def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, s
                 break
     # the law holds to the tolerance; make the impulses admissible exactly (Lambda_N >= 0,
     # |Lambda_T| <= mu Lambda_N), which moves the velocities by less than tol
+    moved = False
     for i in range(m):
-        if kind[i] == 1:
-            lam[i] = max(lam[i], 0.0)
+        if kind[i] == 1 and lam[i] < 0.0:
+            lam[i] = 0.0
+            moved = True
     for i in range(m):
         if kind[i] == 2:
             bound = mu_row[i] * lam[pair[i]]
-            lam[i] = min(max(lam[i], -bound), bound)
-    _affine(D, lam, c, m, xi)
-    res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
+            clipped = min(max(lam[i], -bound), bound)
+            if clipped != lam[i]:
+                lam[i] = clipped
+                moved = True
+    if moved:
+        # (otherwise xi and the residual are those of these impulses already)
+        _affine(D, lam, c, m, xi)
+        res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
     return iters, res <= tol
 
 
@@ -938,8 +949,16 @@ def integrate_chunk(k0, k1, st, ma, state, out, work):
         it_p, ok_p = position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap,
                                    pwk)
         # normal velocities before the jump, G_N(q1) v~, from the position stage's rows at q1
+        # (written out: a call of support_dot costs more than its six products)
+        GN = pwk.GN
+        pcols = pwk.cols
+        pncols = pwk.ncols
         for j in range(nc):
-            vn_free[j] = support_dot(pwk.GN, j, pwk.cols, nbil + j, pwk.ncols[nbil + j], v_t)
+            s = 0.0
+            for t in range(pncols[nbil + j]):
+                i = pcols[nbil + j, t]
+                s += GN[j, i] * v_t[i]
+            vn_free[j] = s
         it_v, ok_v = velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t,
                                    nu_c, gap, vn_prev, vt_prev, v1, lamN_prev, lamT_prev, lam_b,
                                    vwk)
