@@ -169,7 +169,8 @@ def _profile_kernel():
     """The stage-timing copy of ``integrate_chunk`` (compiled on first use, not cached)."""
     from numba import njit, objmode
 
-    from simcore.kernels import contact_velocities, smooth_step, total_energy
+    from simcore.kernels import smooth_step, total_energy
+    from simcore.kernels.contact import contact_velocities_into
     from simcore.kernels.generalized_alpha import alpha_coefficients
     from simcore.kernels.nonsmooth_step import position_step, velocity_step
 
@@ -190,7 +191,6 @@ def _profile_kernel():
     def profile(n_steps, st, ma, state, work, spent):
         h, tol, max_iter, eta = st.h, st.tol, st.max_iter, st.eta
         q, v, acc, vdot = state.q, state.v, state.acc, state.vdot
-        n = q.shape[0]
         nc = ma.ct_type.shape[0]
         coef = alpha_coefficients(st.rho_inf)
         q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
@@ -199,6 +199,7 @@ def _profile_kernel():
         vnf = np.zeros(nc)
         pwk = work.position
         vwk = work.velocity
+        nbil = pwk.nu_b.shape[0]
         energy = 0.0
         for k in range(n_steps):
             t1 = (k + 1) * h
@@ -210,7 +211,8 @@ def _profile_kernel():
             c2 = clock()
             for j in range(nc):
                 s = 0.0
-                for i in range(n):
+                for t in range(pwk.ncols[nbil + j]):
+                    i = pwk.cols[nbil + j, t]
                     s += pwk.GN[j, i] * v_t[i]
                 vnf[j] = s
             c3 = clock()
@@ -222,7 +224,7 @@ def _profile_kernel():
             v[:] = v1
             acc[:] = acc1
             vdot[:] = vdot1
-            contact_velocities(q, v, ma, gap, vn, vt)
+            contact_velocities_into(q, v, ma, gap, vn, vt, pwk.wN, pwk.wT, pwk.trig)
             state.vn[:] = vn
             state.vt[:] = vt
             energy += total_energy(q, v, ma)

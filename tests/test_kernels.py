@@ -6,6 +6,14 @@ import pytest
 
 from simcore import kernels as nb
 from simcore.config import load_config
+from simcore.kernels.bodies import body_point_cached, trig_cache
+from simcore.kernels.contact import (
+    contact_hessian_into,
+    contact_rows_cached,
+    contact_velocities_into,
+)
+from simcore.kernels.joints import bilateral_cached
+from simcore.kernels.springs import smooth_forces_into, spring_damping_into
 from simcore.mechanism import ball_on_plane, crank_slider, pinched_balls
 
 
@@ -345,3 +353,75 @@ def test_small_dense_solves():
     M[7, 2] = -0.3
     np.testing.assert_allclose(M @ solve_mass_like(M, B.repeat(3, axis=0)[:9]),
                                B.repeat(3, axis=0)[:9], atol=1e-12)
+
+
+def test_cached_sines_and_cosines_give_the_uncached_numbers(bearing):
+    """body_point_cached reuses a body's cos/sin while its angle is the same number and
+    recomputes them when it changes; the cached kernels (joints, contacts, contact
+    velocities) return exactly what the plain ones do, on a cold and on a warm cache."""
+    model, _, arr = bearing
+    q, v = model.initial_state()
+    q = q + 1e-3 * np.sin(np.arange(q.size))
+    v = v + np.cos(np.arange(v.size))
+    n = q.size
+    trig = trig_cache(n // 3)
+    assert np.isnan(trig).all()
+    # the cache is read while the angle matches: a planted value shows it is used
+    qb = np.array([1.0, 2.0, 0.3])
+    plain = nb.body_point(qb, 0, 0.5, 0.2)
+    assert body_point_cached(qb, 0, 0.5, 0.2, trig) == plain
+    assert tuple(trig[0]) == (0.3, np.cos(0.3), np.sin(0.3))
+    trig[0, 1] = 2.0
+    assert body_point_cached(qb, 0, 0.5, 0.0, trig)[2] == 1.0  # 2 cos * 0.5
+    qb[2] = 0.4  # a new angle: computed afresh
+    assert body_point_cached(qb, 0, 0.5, 0.2, trig) == nb.body_point(qb, 0, 0.5, 0.2)
+    # the step's kernels, cold and warm cache
+    trig = trig_cache(n // 3)
+    m = nb.joint_row_count(arr.jt_type)
+    nc = arr.ct_type.size
+    for _ in range(2):
+        ref = [np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)]
+        out = [np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)]
+        nb.bilateral(q, v, 0.1, arr, *ref)
+        bilateral_cached(q, v, 0.1, arr, *out, trig)
+        for a, b in zip(ref, out, strict=True):
+            assert np.array_equal(a, b)
+        for k in range(nc):
+            wN, wT, wN2, wT2 = np.zeros(6), np.zeros(6), np.zeros(6), np.zeros(6)
+            g = nb.contact_rows(q, k, arr.ct_type, arr.ct_body, arr.ct_geom, wN, wT)
+            g2 = contact_rows_cached(q, k, arr.ct_type, arr.ct_body, arr.ct_geom, wN2, wT2,
+                                        trig)
+            assert g == g2 and np.array_equal(wN, wN2) and np.array_equal(wT, wT2)
+        ref = [np.zeros(nc), np.zeros(nc), np.zeros(nc)]
+        out = [np.zeros(nc), np.zeros(nc), np.zeros(nc)]
+        nb.contact_velocities(q, v, arr, *ref)
+        contact_velocities_into(q, v, arr, *out, np.zeros(6), np.zeros(6), trig)
+        for a, b in zip(ref, out, strict=True):
+            assert np.array_equal(a, b)
+
+
+def test_work_array_kernels_give_the_allocating_kernels_numbers(bearing):
+    """smooth_forces_into, spring_damping_into and contact_hessian_into (work rows handed in)
+    return exactly what smooth_forces, spring_damping and contact_hessian return."""
+    model, _, arr = bearing
+    q, v = model.initial_state()
+    q = q + 1e-3 * np.sin(np.arange(q.size))
+    v = v + np.cos(np.arange(v.size))
+    n = q.size
+    fw, iw = np.zeros((3, 6)), np.zeros((2, 6), dtype=np.int64)
+    ref = [np.zeros(n)] + [np.zeros((n, n)) for _ in range(3)]
+    out = [np.zeros(n)] + [np.zeros((n, n)) for _ in range(3)]
+    nb.smooth_forces(q, v, arr, *ref, True)
+    smooth_forces_into(q, v, arr, *out, True, fw, iw)
+    for a, b in zip(ref, out, strict=True):
+        assert np.array_equal(a, b)
+    assert np.abs(ref[1]).max() > 0.0  # the springs have tangents here
+    C, C2 = np.zeros((n, n)), np.zeros((n, n))
+    nb.spring_damping(q, v, arr, C)
+    spring_damping_into(q, v, arr, C2, fw, iw)
+    assert np.array_equal(C, C2) and np.abs(C).max() > 0.0
+    for k in range(arr.ct_type.size):
+        H, H2 = np.zeros((6, 6)), np.zeros((6, 6))
+        nb.contact_hessian(q, k, arr, H)
+        contact_hessian_into(q, k, arr, H2, np.zeros((2, 6)))
+        assert np.array_equal(H, H2) and np.abs(H).max() > 0.0

@@ -33,6 +33,40 @@ def body_point(q, body, px, py):
 
 
 @step_kernel
+def body_point_cached(q, body, px, py, trig):
+    """:func:`body_point` with a cache of each body's (phi, cos phi, sin phi) in ``trig``
+    (nb x 3, made by :func:`trig_cache`), reused while the body's angle is the same number: a
+    contact element's surface point turns with its race, and the sixteen contacts of the
+    bearing share two races, so that one configuration needs two sine/cosine pairs instead of
+    one per contact. The same numbers as :func:`body_point` (the same cos and sin of the same
+    angle); ``trig = None`` is :func:`body_point` itself."""
+    if trig is None:
+        return body_point(q, body, px, py)
+    if body < 0:
+        return px, py, 0.0, 0.0
+    if px == 0.0 and py == 0.0:
+        return q[3 * body], q[3 * body + 1], 0.0, 0.0
+    phi = q[3 * body + 2]
+    if trig[body, 0] == phi:  # (a NaN angle never matches: computed afresh)
+        c = trig[body, 1]
+        s = trig[body, 2]
+    else:
+        c = np.cos(phi)
+        s = np.sin(phi)
+        trig[body, 0] = phi
+        trig[body, 1] = c
+        trig[body, 2] = s
+    ax = c * px - s * py
+    ay = s * px + c * py
+    return q[3 * body] + ax, q[3 * body + 1] + ay, ax, ay
+
+
+def trig_cache(nb):
+    """The cache of :func:`body_point_cached` for nb bodies (NaN angles: nothing cached)."""
+    return np.full((nb, 3), np.nan)
+
+
+@step_kernel
 def body_omega(v, body):
     """Angular velocity of a body [rad/s] (0 for the ground)."""
     if body < 0:

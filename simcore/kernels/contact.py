@@ -13,6 +13,7 @@ import numpy as np
 
 from .bodies import (
     body_point,
+    body_point_cached,
     pair_point_jacobians,
     point_pair_row,
     row_dot,
@@ -30,6 +31,12 @@ CONTACT_INSIDE = 2
 
 @step_kernel
 def contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT):
+    """:func:`contact_rows_cached` without a cache of the bodies' sines and cosines."""
+    return contact_rows_cached(q, k, ct_type, ct_body, ct_geom, wN, wT, None)
+
+
+@step_kernel
+def contact_rows_cached(q, k, ct_type, ct_body, ct_geom, wN, wT, trig):
     """Gap ``g_N`` [m] of contact ``k`` and its normal / tangential Jacobian entries.
 
     ``wN[0:3]``, ``wT[0:3]`` belong to body a (surface), ``wN[3:6]``, ``wT[3:6]`` to body b
@@ -41,14 +48,15 @@ def contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT):
 
     The tangent is t = e_z x n; the slip is the velocity of the sphere's material point at the
     contact minus that of body a's material point there (taken at the race radius r_a).
+    ``trig``: the bodies' sines and cosines (:func:`~.bodies.body_point_cached`) or None.
     """
     ia = ct_body[k, 0]
     ib = ct_body[k, 1]
     # scalars, not a row view (a view costs two atomic reference-count updates)
     p0, p1, p2 = ct_geom[k, 0], ct_geom[k, 1], ct_geom[k, 2]
     p3, p4, p5 = ct_geom[k, 3], ct_geom[k, 4], ct_geom[k, 5]
-    cax, cay, aax, aay = body_point(q, ia, p0, p1)
-    cbx, cby, abx, aby = body_point(q, ib, p2, p3)
+    cax, cay, aax, aay = body_point_cached(q, ia, p0, p1, trig)
+    cbx, cby, abx, aby = body_point_cached(q, ib, p2, p3, trig)
     rb = p5
     dx = cbx - cax
     dy = cby - cay
@@ -93,13 +101,19 @@ def contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT):
 
 @kernel
 def contact_hessian(q, k, ma, H):
+    """:func:`contact_hessian_into` with a work array of its own."""
+    contact_hessian_into(q, k, ma, H, np.empty((2, 6)))
+
+
+@step_kernel
+def contact_hessian_into(q, k, ma, H, P):
     """Second derivative of the gap of contact ``k`` with respect to (q_a, q_b), 6 x 6.
 
     For the sphere elements g = s |c_b - c_a| + const (s = +1 outside, -1 inside):
     H = s [P^T (I - n n^T) P / L + n . d2(c_b - c_a)]. It is the contact's geometric stiffness
     in the position correction: a pinched ball carries multipliers large enough for it to
     matter against the ball's mass. Left zero for the plane element (exact for a plane on the
-    ground and a sphere centred on its body)."""
+    ground and a sphere centred on its body). ``P`` (2 x 6): work rows."""
     ct_type = ma.ct_type
     ct_body = ma.ct_body
     ct_geom = ma.ct_geom
@@ -117,8 +131,8 @@ def contact_hessian(q, k, ma, H):
     if dist <= 1e-300:
         return
     sign = 1.0 if kind == CONTACT_OUTSIDE else -1.0
-    Px = np.empty(6)
-    Py = np.empty(6)
+    Px = P[0]
+    Py = P[1]
     px_t, py_t = pair_point_jacobians(aax, aay, abx, aby)
     store6(Px, px_t)
     store6(Py, py_t)
@@ -139,11 +153,17 @@ def contact_hessian(q, k, ma, H):
 @kernel
 def contact_velocities(q, v, ma, gap, vn, vt):
     """Gaps [m], normal and tangential relative velocities [m/s] of every contact."""
+    contact_velocities_into(q, v, ma, gap, vn, vt, np.zeros(6), np.zeros(6), None)
+
+
+@step_kernel
+def contact_velocities_into(q, v, ma, gap, vn, vt, wN, wT, trig):
+    """:func:`contact_velocities` on work rows ``wN``, ``wT`` (6 entries each) and with the
+    bodies' sines and cosines cached in ``trig`` (:func:`~.bodies.body_point_cached`, or
+    None)."""
     ct_type = ma.ct_type
     ct_body = ma.ct_body
-    wN = np.zeros(6)
-    wT = np.zeros(6)
     for k in range(ct_type.shape[0]):
-        gap[k] = contact_rows(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT)
+        gap[k] = contact_rows_cached(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT, trig)
         vn[k] = row_dot(wN, ct_body[k, 0], ct_body[k, 1], v)
         vt[k] = row_dot(wT, ct_body[k, 0], ct_body[k, 1], v)

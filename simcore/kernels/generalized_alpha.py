@@ -20,14 +20,15 @@ from .linalg import (
     saddle_point_solve_into,
     solve_mass_like,
 )
-from .springs import smooth_forces
+from .springs import smooth_forces, smooth_forces_into
 
 #: Work arrays of :func:`smooth_step` (made by :func:`smooth_work`, once per run):
 #: the joint rows g, G, their velocity terms gm, dgdt, the Newton matrix J and right-hand side
 #: rhs, the factor of J and the Schur-complement arrays JG, S, piv, and the compliant stage's
-#: previous iterate (vdot_prev, lam_prev) for its backtracking and its Newton step (sol).
+#: previous iterate (vdot_prev, lam_prev) for its backtracking and its Newton step (sol), and
+#: the spring forces' work rows fw, iw (:func:`~.springs.smooth_forces_into`).
 SmoothWork = namedtuple("SmoothWork", ["g", "G", "gm", "dgdt", "J", "rhs", "fac", "JG", "S",
-                                       "piv", "vdot_prev", "lam_prev", "sol"])
+                                       "piv", "vdot_prev", "lam_prev", "sol", "fw", "iw"])
 
 
 def step_work(n):
@@ -44,7 +45,8 @@ def smooth_work(n, m):
     return SmoothWork(g=np.zeros(m), G=np.zeros((m, n)), gm=np.zeros(m), dgdt=np.zeros(m),
                       J=np.zeros((n, n)), rhs=np.zeros(n + m), fac=block_factor_work(n),
                       JG=np.zeros((m, n)), S=np.zeros((m, m)), piv=np.zeros(m, dtype=np.int64),
-                      vdot_prev=np.zeros(n), lam_prev=np.zeros(m), sol=np.zeros(n + m))
+                      vdot_prev=np.zeros(n), lam_prev=np.zeros(m), sol=np.zeros(n + m),
+                      fw=np.zeros((3, 6)), iw=np.zeros((2, 6), dtype=np.int64))
 
 
 @step_kernel
@@ -144,7 +146,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             # (smooth_forces clears the springs' own)
             clear_pair_blocks(K_t, ma.ct_body)
             clear_pair_blocks(C_t, ma.ct_body)
-        smooth_forces(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, True)
+        smooth_forces_into(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, True, sw.fw, sw.iw)
         if cwork is not None:
             contact_forces(q_t, v_t, ma, v_pre, v_reg, f_t, K_t, C_t, True, cwork[0], cwork[1],
                            cwork[2], cwork[3], cwork[4], cwork[5:11])

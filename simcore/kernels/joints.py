@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .bodies import body_omega, body_point, pair_support
+from .bodies import body_omega, body_point_cached, pair_support
 from .jit import step_kernel
 
 JOINT_REVOLUTE = 0
@@ -48,6 +48,13 @@ def bilateral(q, v, t, ma, g, G, gamma, dgdt):
     (the velocity-squared term of the acceleration constraint, G a + gamma = 0) and ``dgdt``
     (explicit time derivative, rheonomic joints) in place. ``ma``: :class:`ModelArrays`.
     """
+    bilateral_cached(q, v, t, ma, g, G, gamma, dgdt, None)
+
+
+@step_kernel
+def bilateral_cached(q, v, t, ma, g, G, gamma, dgdt, trig):
+    """:func:`bilateral` with the bodies' sines and cosines cached in ``trig``
+    (:func:`~.bodies.body_point_cached`; None: no cache)."""
     jt_type = ma.jt_type
     jt_body = ma.jt_body
     jt_geom = ma.jt_geom
@@ -61,8 +68,8 @@ def bilateral(q, v, t, ma, g, G, gamma, dgdt):
         p3, p4, p5 = jt_geom[j, 3], jt_geom[j, 4], jt_geom[j, 5]
         kind = jt_type[j]
         if kind == JOINT_REVOLUTE:
-            xi, yi, aix, aiy = body_point(q, bi, p0, p1)
-            xj, yj, ajx, ajy = body_point(q, bj, p2, p3)
+            xi, yi, aix, aiy = body_point_cached(q, bi, p0, p1, trig)
+            xj, yj, ajx, ajy = body_point_cached(q, bj, p2, p3, trig)
             wi = body_omega(v, bi)
             wj = body_omega(v, bj)
             g[row] = xi - xj
@@ -85,7 +92,7 @@ def bilateral(q, v, t, ma, g, G, gamma, dgdt):
         elif kind == JOINT_PRISMATIC:
             # body bi slides along the ground axis through (p2, p3) at angle p4;
             # its rotation is locked at p5
-            xi, yi, aix, aiy = body_point(q, bi, p0, p1)
+            xi, yi, aix, aiy = body_point_cached(q, bi, p0, p1, trig)
             nx = -np.sin(p4)
             ny = np.cos(p4)
             wi = body_omega(v, bi)

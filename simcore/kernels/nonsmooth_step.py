@@ -9,11 +9,17 @@ from collections import namedtuple
 
 import numpy as np
 
-from .bodies import pair_support, place_row, scale_pair_blocks, scatter_row, support_dot
-from .contact import contact_hessian, contact_rows, contact_velocities
+from .bodies import (
+    pair_support,
+    place_row,
+    scale_pair_blocks,
+    scatter_row,
+    trig_cache,
+)
+from .contact import contact_hessian_into, contact_rows_cached, contact_velocities_into
 from .generalized_alpha import alpha_coefficients, smooth_step, smooth_work, step_work
 from .jit import step_kernel
-from .joints import bilateral, joint_support
+from .joints import bilateral_cached, joint_support
 from .linalg import (
     block_factor,
     block_factor_work,
@@ -26,7 +32,7 @@ from .linalg import (
     lu_factor,
     lu_solve,
 )
-from .springs import smooth_forces, spring_damping, total_energy
+from .springs import smooth_forces_into, spring_damping_into, total_energy
 
 # layout of the per-step statistics written by integrate_chunk
 STAGE_SMOOTH = 0
@@ -38,17 +44,18 @@ PositionWork = namedtuple("PositionWork", ["Ap", "facA", "Hm", "facH", "U", "U_n
     "q_try", "HAU", "eq", "nu_b", "nub_new", "nub_try", "gb", "Gb", "gb_try", "Gb_try", "gm",
     "dgdt", "r_c", "GN0", "ys", "nuc_new", "nuc_try", "gap_try", "GN", "GN_try", "active",
     "Hloc", "wN", "wT", "Gall", "ball", "Y", "AU", "first", "have", "x", "Dall", "rows", "Dbuf",
-    "sol", "piv", "cols", "ncols"])
+    "sol", "piv", "cols", "ncols", "AU_try", "trig", "P"])
 
 #: Work arrays of the velocity jump (:func:`velocity_work`).
 VelocityWork = namedtuple("VelocityWork", ["f1", "C1", "Av", "fac", "b", "Ab",
     "tmp", "wN", "wT", "gb", "gm", "dgdt", "Gb", "closed", "row_of", "G",
     "off", "kind", "mu_row", "pair", "lam", "Y", "first", "D", "c", "Dbb", "pivb",
-    "colb", "X", "Dc", "cc", "lam_c", "pair_c", "cols", "ncols", "solver"])
+    "colb", "X", "Dc", "cc", "lam_c", "pair_c", "cols", "ncols", "solver", "trig", "fw",
+    "iw"])
 
 #: Work arrays of the velocity problem's Newton solver.
 VelocitySolverWork = namedtuple("VelocitySolverWork", ["r", "F", "F_try", "xi", "xi_try",
-    "lam_try", "dl", "J", "piv"])
+    "lam_try", "dl", "J", "piv", "branch"])
 
 #: All work arrays of :func:`integrate_chunk` (:func:`nonsmooth_work`): the step's
 #: (:func:`~.generalized_alpha.step_work`), the smooth stage's, the position correction's,
@@ -58,9 +65,10 @@ NonsmoothWork = namedtuple("NonsmoothWork", ["step", "smooth", "position", "velo
                                              "contact"])
 
 
-def position_work(n, nbil, nc):
+def position_work(n, nbil, nc, trig=None):
     """Work arrays of :func:`position_step` (made once per run, in Python: allocating them in
-    a kernel would compile some forty array constructors into every time loop)."""
+    a kernel would compile some forty array constructors into every time loop). ``trig``: the
+    bodies' sine/cosine cache (:func:`~.bodies.trig_cache`), shared with the velocity jump."""
     mt = nbil + nc
     return PositionWork(
         Ap=np.zeros((n, n)), facA=block_factor_work(n), Hm=np.zeros((n, n)),
@@ -78,20 +86,22 @@ def position_work(n, nbil, nc):
         first=np.zeros(mt, dtype=np.int64), have=np.zeros(mt, dtype=np.bool_), x=np.zeros(n),
         Dall=np.zeros((mt, mt)), rows=np.zeros(mt, dtype=np.int64), Dbuf=np.zeros((mt, mt)),
         sol=np.zeros(mt), piv=np.zeros(mt, dtype=np.int64),
-        cols=np.zeros((mt, 6), dtype=np.int64), ncols=np.zeros(mt, dtype=np.int64))
+        cols=np.zeros((mt, 6), dtype=np.int64), ncols=np.zeros(mt, dtype=np.int64),
+        AU_try=np.zeros(n), trig=trig_cache(n // 3) if trig is None else trig,
+        P=np.zeros((2, 6)))
 
 
 @step_kernel
-def _position_rows(q_t, U, t1, ma, q1, gb, Gb, gm, dgdt, gap, GN, wN, wT):
+def _position_rows(q_t, U, t1, ma, q1, gb, Gb, gm, dgdt, gap, GN, wN, wT, trig):
     """Joint and contact rows at q1 = q_t + U: joint residuals gb, Jacobian Gb, gaps and
     normal rows GN (only the six entries of each contact's bodies are written: the others are
-    zero from the start and stay so)."""
+    zero from the start and stay so). ``trig``: :func:`~.bodies.body_point_cached`."""
     ct_body = ma.ct_body
     for i in range(q_t.shape[0]):
         q1[i] = q_t[i] + U[i]
-    bilateral(q1, U, t1, ma, gb, Gb, gm, dgdt)
+    bilateral_cached(q1, U, t1, ma, gb, Gb, gm, dgdt, trig)
     for k in range(gap.shape[0]):
-        gap[k] = contact_rows(q1, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT)
+        gap[k] = contact_rows_cached(q1, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT, trig)
         place_row(GN, k, wN, ct_body[k, 0], ct_body[k, 1])
 
 
@@ -125,13 +135,13 @@ def _contact_scale(k, r_c, facA, GN0, ys, cols, nbil, ncols):
 
 @step_kernel
 def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, facA, gb, Gb, gap, GN, eq, cols,
-                       ncols, GN0, ys):
+                       ncols, GN0, ys, AU):
     """Scaled residual [m] of the position problem at (U, nu) from the rows at q_t + U
     (:func:`_position_rows`): joints, complementarity in the augmented-Lagrangian form
     (nu - max(0, nu - r g))/r, and equilibrium M^-1 (Ap U - G^T nu). ``facA``: the
     factorisation of Ap, whose coupled indices are the only ones with off-diagonal entries;
     ``cols``/``ncols``: the supports of the joint rows, then of the contact rows; ``GN0``,
-    ``ys``: for :func:`_contact_scale`."""
+    ``ys``: for :func:`_contact_scale`; ``AU`` receives Ap U (the Newton step needs it)."""
     n = U.shape[0]
     nbil = gb.shape[0]
     res = 0.0
@@ -143,7 +153,9 @@ def _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, facA, gb, Gb, gap, GN, eq,
         rk = _contact_scale(k, r_c, facA, GN0, ys, cols, nbil, ncols)
         val = nu_c[k] - max(0.0, nu_c[k] - rk * gap[k])
         res = max(res, abs(val) / rk)
-    _metric_product(Ap, facA, U, eq)
+    _metric_product(Ap, facA, U, AU)
+    for i in range(n):
+        eq[i] = AU[i]
     for r in range(nbil):
         if nu_b[r] != 0.0:
             for t in range(ncols[r]):
@@ -199,7 +211,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     nu_c[:] = 0.0
     # the rows at the predicted configuration; the Delassus scaling r_k of a contact comes
     # from them, on first need (_contact_scale)
-    _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT)
+    _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT, wk.trig)
     GN0 = wk.GN0
     ys = wk.ys
     for k in range(nc):
@@ -207,8 +219,10 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
         for t in range(ncols[nbil + k]):
             i = cols[nbil + k, t]
             GN0[k, i] = GN[k, i]
+    AU = wk.AU  # Ap U at the current iterate, from its residual
+    AU_try = wk.AU_try
     res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, wk.facA, gb, Gb, gap, GN,
-                             wk.eq, cols, ncols, GN0, ys)
+                             wk.eq, cols, ncols, GN0, ys, AU)
     target = tol * h
     iters = 0
     converged = res <= target
@@ -254,7 +268,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             copy_matrix(Hm, Ap, n, n)
             for k in range(nc):
                 if nu_c[k] > 0.0:
-                    contact_hessian(q1, k, ma, Hloc)
+                    contact_hessian_into(q1, k, ma, Hloc, wk.P)
                     for a in range(6):
                         ba = ct_body[k, 0] if a < 3 else ct_body[k, 1]
                         if ba < 0:
@@ -268,8 +282,6 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             fac = wk.facH
         # the linearised problem of this iterate, for all rows: joints first, then contacts;
         # row i of the new iterate reads (D nu)_i = b_i (+ proximal term on contacts)
-        AU = wk.AU
-        _metric_product(Ap, wk.facA, U, AU)
         copy_vector(HAU, AU, n)
         block_solve(fac, n, HAU)
         # (Gall is zero outside the rows' supports from the start)
@@ -340,8 +352,13 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                 if flip >= 0 and k >= flip:
                     break
                 if not active[k]:
-                    lin_gap = -ball[nbil + k] + support_dot(Gall, nbil + k, cols, nbil + k,
-                                                            ncols[nbil + k], x)
+                    # G_k x over the row's support (written out: a call of support_dot costs
+                    # more than its six products)
+                    s = 0.0
+                    for t in range(ncols[nbil + k]):
+                        i = cols[nbil + k, t]
+                        s += Gall[nbil + k, i] * x[i]
+                    lin_gap = -ball[nbil + k] + s
                     if lin_gap < -0.1 * target:
                         flip = k
                         break
@@ -369,10 +386,10 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             for k in range(nc):
                 nuc_try[k] = nu_c[k] + theta * (nuc_new[k] - nu_c[k])
             _position_rows(q_t, U_try, t1, ma, q_try, gb_try, Gb_try, wk.gm, wk.dgdt,
-                           gap_try, GN_try, wk.wN, wk.wT)
+                           gap_try, GN_try, wk.wN, wk.wT, wk.trig)
             res_try = _position_residual(U_try, nub_try, nuc_try, r_c, mdiag, Ap, wk.facA,
                                          gb_try, Gb_try, gap_try, GN_try, wk.eq, cols, ncols,
-                                         GN0, ys)
+                                         GN0, ys, AU_try)
             if best < 0.0 or res_try < best:
                 best = res_try
                 best_theta = theta
@@ -398,6 +415,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
             copy_matrix(Gb, Gb_try, nbil, n)
             copy_vector(gap, gap_try, nc)
             copy_matrix(GN, GN_try, nc, n)
+            copy_vector(AU, AU_try, n)
             res = best_res
         else:
             for i in range(n):
@@ -406,15 +424,17 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                 nu_b[r] += theta * (nub_new[r] - nu_b[r])
             for k in range(nc):
                 nu_c[k] += theta * (nuc_new[k] - nu_c[k])
-            _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT)
+            _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT,
+                           wk.trig)
             res = _position_residual(U, nu_b, nu_c, r_c, mdiag, Ap, wk.facA, gb, Gb, gap, GN,
-                                     wk.eq, cols, ncols, GN0, ys)
+                                     wk.eq, cols, ncols, GN0, ys, AU)
         converged = res <= target
     return iters, converged
 
 
-def velocity_work(n, nbil, nc):
-    """Work arrays of :func:`velocity_step` (made once per run, in Python)."""
+def velocity_work(n, nbil, nc, trig=None):
+    """Work arrays of :func:`velocity_step` (made once per run, in Python); ``trig``: see
+    :func:`position_work`."""
     mv = nbil + 2 * nc
     return VelocityWork(
         f1=np.zeros(n), C1=np.zeros((n, n)),
@@ -430,14 +450,16 @@ def velocity_work(n, nbil, nc):
         X=np.zeros((nbil, mv + 1)), Dc=np.zeros((mv, mv)), cc=np.zeros(mv),
         lam_c=np.zeros(mv), pair_c=np.zeros(mv, dtype=np.int64),
         cols=np.zeros((mv, 6), dtype=np.int64), ncols=np.zeros(mv, dtype=np.int64),
-        solver=velocity_solver_work(mv))
+        solver=velocity_solver_work(mv), trig=trig_cache(n // 3) if trig is None else trig,
+        fw=np.zeros((3, 6)), iw=np.zeros((2, 6), dtype=np.int64))
 
 
 def velocity_solver_work(m):
     """Work arrays of the semismooth Newton solver of the velocity problem (m rows at most)."""
     return VelocitySolverWork(r=np.zeros(m), F=np.zeros(m), F_try=np.zeros(m), xi=np.zeros(m),
                               xi_try=np.zeros(m), lam_try=np.zeros(m), dl=np.zeros(m),
-                              J=np.zeros((m, m)), piv=np.zeros(m, dtype=np.int64))
+                              J=np.zeros((m, m)), piv=np.zeros(m, dtype=np.int64),
+                              branch=np.zeros(m, dtype=np.int64))
 
 
 @step_kernel
@@ -514,10 +536,12 @@ def _local_frictional_contact(D, c, lam, i, mu):
 
 def nonsmooth_work(n, nbil, nc):
     """Every work array of :func:`integrate_chunk` for n coordinates, nbil joint rows and nc
-    contacts, made once per run."""
+    contacts, made once per run (the position correction and the velocity jump share one
+    sine/cosine cache: the jump's rows are at the position correction's last configuration)."""
+    trig = trig_cache(n // 3)
     return NonsmoothWork(step=step_work(n), smooth=smooth_work(n, nbil),
-                         position=position_work(n, nbil, nc),
-                         velocity=velocity_work(n, nbil, nc),
+                         position=position_work(n, nbil, nc, trig),
+                         velocity=velocity_work(n, nbil, nc, trig),
                          contact=(np.zeros(nc), np.zeros(nc), np.zeros(nc), np.zeros(nc),
                                   np.zeros(nc)))
 
@@ -558,34 +582,48 @@ def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, s
     # errors of order tol that show up as force chatter in persistent contact (tol m / h)
     # iterate to half the tolerance: the admissibility projection at exit may move the
     # residual by a comparable amount
+    branch = sw.branch
     while (res > 0.5 * tol or iters == 0) and iters < max_iter and m > 0:
         iters += 1
-        for i in range(m):
-            for j in range(m):
-                J[i, j] = 0.0
+        # the branch of each row's law at this iterate: 0 a row of D (joint, closed contact,
+        # sticking), 1 an open contact, 2 a slip without a normal impulse, 3/4 a slip in the
+        # positive/negative direction. The Newton matrix depends on D, r, eta and these alone:
+        # where no row changed branch since the last iteration, its factors are reused.
+        same = iters > 1
         for i in range(m):
             if kind[i] == 0:
-                copy_vector(J[i], D[i], m)
+                b = 0
             elif kind[i] == 1:
-                if lam[i] - r[i] * xi[i] > 0.0:
-                    copy_vector(J[i], D[i], m)
-                    J[i, i] += eta * D[i, i]
-                else:
-                    J[i, i] = 1.0 / r[i]
+                b = 0 if lam[i] - r[i] * xi[i] > 0.0 else 1
             else:
                 bound = mu_row[i] * max(lam[pair[i]], 0.0)
                 z = lam[i] - r[i] * xi[i]
                 if abs(z) < bound:
+                    b = 0
+                elif lam[pair[i]] > 0.0:
+                    b = 3 if z > 0.0 else 4
+                else:
+                    b = 2
+            same = same and branch[i] == b
+            branch[i] = b
+        if not same:
+            for i in range(m):
+                for j in range(m):
+                    J[i, j] = 0.0
+            for i in range(m):
+                b = branch[i]
+                if b == 0:
                     copy_vector(J[i], D[i], m)
-                    J[i, i] += eta * D[i, i]
+                    if kind[i] != 0:
+                        J[i, i] += eta * D[i, i]
                 else:
                     J[i, i] = 1.0 / r[i]
-                    if lam[pair[i]] > 0.0:
-                        s = 1.0 if z > 0.0 else -1.0
+                    if b >= 3:
+                        s = 1.0 if b == 3 else -1.0
                         J[i, pair[i]] = -mu_row[i] * s / r[i]
+            lu_factor(J, m, sw.piv)
         for i in range(m):
             dl[i] = -F[i]
-        lu_factor(J, m, sw.piv)
         lu_solve(J, m, sw.piv, dl)
         # backtracking on the squared 2-norm of the residual (the max-norm stalls)
         merit = 0.0
@@ -649,15 +687,22 @@ def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, s
                 break
     # the law holds to the tolerance; make the impulses admissible exactly (Lambda_N >= 0,
     # |Lambda_T| <= mu Lambda_N), which moves the velocities by less than tol
+    moved = False
     for i in range(m):
-        if kind[i] == 1:
-            lam[i] = max(lam[i], 0.0)
+        if kind[i] == 1 and lam[i] < 0.0:
+            lam[i] = 0.0
+            moved = True
     for i in range(m):
         if kind[i] == 2:
             bound = mu_row[i] * lam[pair[i]]
-            lam[i] = min(max(lam[i], -bound), bound)
-    _affine(D, lam, c, m, xi)
-    res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
+            clipped = min(max(lam[i], -bound), bound)
+            if clipped != lam[i]:
+                lam[i] = clipped
+                moved = True
+    if moved:
+        # (otherwise xi and the residual are those of these impulses already)
+        _affine(D, lam, c, m, xi)
+        res = _velocity_residual(lam, xi, kind, r, mu_row, pair, F)
     return iters, res <= tol
 
 
@@ -678,8 +723,8 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     f1 = wk.f1
     C1 = wk.C1
     # the forces at (q1, v~) and the damping matrix (the stiffness is not needed here)
-    smooth_forces(q1, v_t, ma, f1, C1, C1, C1, False)
-    spring_damping(q1, v_t, ma, C1)
+    smooth_forces_into(q1, v_t, ma, f1, C1, C1, C1, False, wk.fw, wk.iw)
+    spring_damping_into(q1, v_t, ma, C1, wk.fw, wk.iw)
     Av = wk.Av
     b = wk.b
     # Av = M + h C, on the springs' blocks and the diagonal (see position_step)
@@ -694,7 +739,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     block_solve(fac, n, Ab)
     Gb = wk.Gb
     dgdt = wk.dgdt
-    bilateral(q1, v_t, t1, ma, wk.gb, Gb, wk.gm, dgdt)
+    bilateral_cached(q1, v_t, t1, ma, wk.gb, Gb, wk.gm, dgdt, wk.trig)
     closed = wk.closed
     n_rows = nbil
     for k in range(nc):
@@ -730,7 +775,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
         lamT[k] = 0.0
         if not closed[k]:
             continue
-        contact_rows(q1, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT)
+        contact_rows_cached(q1, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT, wk.trig)
         scatter_row(G[row], wN, ct_body[k, 0], ct_body[k, 1])
         ncols[row] = pair_support(ct_body[k, 0], ct_body[k, 1], cols, row)
         # Newton's law as docs/model.md states it, with the start-of-step velocity also where
@@ -904,8 +949,16 @@ def integrate_chunk(k0, k1, st, ma, state, out, work):
         it_p, ok_p = position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap,
                                    pwk)
         # normal velocities before the jump, G_N(q1) v~, from the position stage's rows at q1
+        # (written out: a call of support_dot costs more than its six products)
+        GN = pwk.GN
+        pcols = pwk.cols
+        pncols = pwk.ncols
         for j in range(nc):
-            vn_free[j] = support_dot(pwk.GN, j, pwk.cols, nbil + j, pwk.ncols[nbil + j], v_t)
+            s = 0.0
+            for t in range(pncols[nbil + j]):
+                i = pcols[nbil + j, t]
+                s += GN[j, i] * v_t[i]
+            vn_free[j] = s
         it_v, ok_v = velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t,
                                    nu_c, gap, vn_prev, vt_prev, v1, lamN_prev, lamT_prev, lam_b,
                                    vwk)
@@ -915,7 +968,7 @@ def integrate_chunk(k0, k1, st, ma, state, out, work):
             v[i] = v1[i]
             acc[i] = acc1[i]
             vdot[i] = vdot1[i]
-        contact_velocities(q, v, ma, gap, vn, vt)
+        contact_velocities_into(q, v, ma, gap, vn, vt, pwk.wN, pwk.wT, pwk.trig)
         copy_vector(out.q[k + 1], q, n)
         copy_vector(out.v[k + 1], v, n)
         for j in range(nc):

@@ -48,6 +48,13 @@ def spring_state(q, v, k, sp_body, sp_geom):
 
 @kernel
 def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
+    """:func:`smooth_forces_into` with work arrays of its own."""
+    smooth_forces_into(q, v, ma, f, K, C, Ks, tangent, np.empty((3, 6)),
+                       np.empty((2, 6), dtype=np.int64))
+
+
+@step_kernel
+def smooth_forces_into(q, v, ma, f, K, C, Ks, tangent, fw, iw):
     """Gravity plus spring-damper forces ``f`` [N, N m]; with ``tangent`` also the stiffness
     ``K = -df/dq`` and damping ``C = -df/dv`` matrices. K is exact for springs between body
     origins (the cage); for off-centre points the lever arms' second derivative is left out
@@ -57,7 +64,8 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
 
     The tangents are written in the blocks of the springs' body pairs only (cleared first,
     :func:`~.bodies.clear_pair_blocks`): elsewhere K, C and Ks keep what they held, zero in
-    every caller."""
+    every caller. ``fw`` (3 x 6) and ``iw`` (2 x 6, integers): work rows (made once per run by
+    the time loops, so that a step allocates nothing here)."""
     mass = ma.mass
     gvec = ma.gvec
     sp_body = ma.sp_body
@@ -71,11 +79,11 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
         clear_pair_blocks(K, sp_body)
         clear_pair_blocks(C, sp_body)
         clear_pair_blocks(Ks, sp_body)
-    w = np.empty(6)
-    Px = np.empty(6)
-    Py = np.empty(6)
-    idx = np.empty(6, dtype=np.int64)
-    loc = np.empty(6, dtype=np.int64)
+    w = fw[0]
+    Px = fw[1]
+    Py = fw[2]
+    idx = iw[0]
+    loc = iw[1]
     for k in range(sp_body.shape[0]):
         bi = sp_body[k, 0]
         bj = sp_body[k, 1]
@@ -127,15 +135,21 @@ def smooth_forces(q, v, ma, f, K, C, Ks, tangent):
 
 @kernel
 def spring_damping(q, v, ma, C):
+    """:func:`spring_damping_into` with work arrays of its own."""
+    spring_damping_into(q, v, ma, C, np.empty((3, 6)), np.empty((2, 6), dtype=np.int64))
+
+
+@step_kernel
+def spring_damping_into(q, v, ma, C, fw, iw):
     """The damping matrix C = -df/dv of the spring-dampers alone (what the velocity jump
     needs of the smooth forces' tangents; :func:`smooth_forces` with ``tangent`` also fills
     the stiffness matrices). Written in the springs' blocks only, as :func:`smooth_forces`
-    does."""
+    does; ``fw``, ``iw``: work rows as there."""
     sp_body = ma.sp_body
     sp_geom = ma.sp_geom
     clear_pair_blocks(C, sp_body)
-    w = np.empty(6)
-    idx = np.empty(6, dtype=np.int64)
+    w = fw[0]
+    idx = iw[0]
     for k in range(sp_body.shape[0]):
         bi = sp_body[k, 0]
         bj = sp_body[k, 1]
