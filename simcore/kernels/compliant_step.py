@@ -39,8 +39,10 @@ ProjectionWork = namedtuple("ProjectionWork", ["g", "G", "gm", "dgdt", "MG", "S"
 
 #: Work arrays of the Newton solve (:func:`newton_solve`) and the friction branches
 #: (:func:`compliant_smooth_step`): the modified Newton matrix and residual, each contact's
-#: branch in the tangent and as assumed, and a copy of the residual (n).
-BranchWork = namedtuple("BranchWork", ["J2", "r2", "current", "assumed", "r0"])
+#: branch in the tangent and as assumed, a copy of the residual (n), the joint rows' half
+#: solves W, Z (m x n) and where each starts (m).
+BranchWork = namedtuple("BranchWork", ["J2", "r2", "current", "assumed", "r0", "W", "Z",
+                                       "first_w", "first_z"])
 
 
 def projection_work(n, m):
@@ -59,7 +61,10 @@ def compliant_work(n, nbil, nc):
                          branches=BranchWork(J2=np.zeros((n, n)), r2=np.zeros(n + nbil),
                                              current=np.zeros(nc, dtype=np.int64),
                                              assumed=np.zeros(nc, dtype=np.int64),
-                                             r0=np.zeros(n)))
+                                             r0=np.zeros(n), W=np.zeros((nbil, n)),
+                                             Z=np.zeros((nbil, n)),
+                                             first_w=np.zeros(nbil, dtype=np.int64),
+                                             first_z=np.zeros(nbil, dtype=np.int64)))
 
 
 COMPLIANT_STAGE_SMOOTH = 0
@@ -258,7 +263,7 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
         for i in range(n):
             J[i, i] = (C_t[i, i] * h * gam + K_t[i, i] * h * h * beta) * ca + mdiag[i]
         copy_vector(sol, rhs, n + m)
-        newton_solve(J, G, h * gam * ca, sol, sw.fac, sw.JG, sw.S, sw.piv, bw.r0)
+        newton_solve(J, G, h * gam * ca, sol, sw.fac, sw.S, sw.piv, bw)
         _friction_branches(J, rhs, G, h * gam * ca, sol, ma, v_reg, cwork, sw, bw)
         for r in range(m):
             lam[r] += sol[n + r]
@@ -268,21 +273,21 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
 
 
 @step_kernel
-def newton_solve(J, G, c, rhs, fac, Z, S, piv, r0):
+def newton_solve(J, G, c, rhs, fac, S, piv, bw):
     """Solve [J, -G^T; c G, 0] [x; y] = rhs in place (``rhs[:n]`` becomes x, ``rhs[n:]`` y)
     by the Schur complement S = c G J^-1 G^T of the m joint rows, J factorised on its coupled
-    block (:func:`~.linalg.block_factor`, LU).
+    block (:func:`~.linalg.block_factor`, LU: P J_c = L U).
 
-    The same solution as :func:`~.linalg.saddle_point_solve_into`, for the compliant Newton
-    matrix's structure: the joint rows touch the crank and the rod, the hubs that the loaded
-    contacts couple to every ball, which the factor orders last (most coupled). For S only the
-    joint rows' own entries of J^-1 G^T are needed: each row's forward substitution starts at
-    its first non-zero and the back substitution stops at the first entry a joint row reads
-    (a few hub entries instead of the whole coupled block). x is then J^-1 (r + G^T y), one
-    more full solve, instead of x + (J^-1 G^T) y, which would need every row in full.
-    ``Z`` (m x n), ``S`` (m x m), ``piv`` (m), ``r0`` (n): work arrays."""
+    The same solution as :func:`~.linalg.saddle_point_solve_into` with less work: that one
+    solves J for each joint row in full (J^-1 G^T, m solves) to form S and to update x. Here
+    S's coupled part is g_a^T J_c^-1 g_b = (U^-T g_a) . (L^-1 P g_b), two forward
+    substitutions per row that each start at the row's first non-zero (the joint rows touch
+    the crank and the rod, which the loaded contacts couple to every ball and the factor
+    orders last), and x = J^-1 (r + G^T y), a second full solve. ``S`` (m x m), ``piv`` (m),
+    ``bw``: :data:`BranchWork` (r0, W, Z, first_w, first_z)."""
     n = J.shape[0]
     m = G.shape[0]
+    r0 = bw.r0
     block_factor(J, n, fac, False)
     for i in range(n):
         r0[i] = rhs[i]
@@ -291,44 +296,51 @@ def newton_solve(J, G, c, rhs, fac, Z, S, piv, r0):
     if m == 0:
         return
     k = fac.info[0]
+    if fac.info[1] != 1 and k > 0:  # (block_factor gives LU for an unsymmetric J)
+        raise np.linalg.LinAlgError("newton_solve needs an LU factor")
     idx = fac.idx
     B = fac.B
     fp = fac.piv
     dinv = fac.dinv
-    # the coupled columns of each joint row, in the factor's order (before and after the row
-    # swaps of the LU pivots); start = the first entry any of them needs
-    start = k
+    W = bw.W
+    Z = bw.Z
+    first_w = bw.first_w
+    first_z = bw.first_z
     for a in range(m):
+        # W[a] = U^-T g_a (U^T is lower triangular, diagonal U[i, i])
+        fw = k
+        for p in range(k):
+            W[a, p] = G[a, idx[p]]
+            if fw == k and W[a, p] != 0.0:
+                fw = p
+        for i in range(fw, k):
+            s = W[a, i]
+            for p in range(fw, i):
+                s -= B[p, i] * W[a, p]
+            W[a, i] = s / B[i, i]
+        first_w[a] = fw
+        # Z[a] = L^-1 P g_a (L unit lower triangular)
         for p in range(k):
             Z[a, p] = G[a, idx[p]]
-            if Z[a, p] != 0.0 and p < start:
-                start = p
         for j in range(k):
             t = fp[j]
             if t != j:
                 tmp = Z[a, j]
                 Z[a, j] = Z[a, t]
                 Z[a, t] = tmp
-        for p in range(start):
+        fz = k
+        for p in range(k):
             if Z[a, p] != 0.0:
-                start = p
+                fz = p
                 break
-    if fac.info[1] != 1 and k > 0:  # (block_factor gives LU for an unsymmetric J)
-        raise np.linalg.LinAlgError("newton_solve needs an LU factor")
-    for a in range(m):
-        # L (unit lower) from start: the entries before it are zero
-        for i in range(start, k):
+        for i in range(fz, k):
             s = Z[a, i]
-            for p in range(start, i):
+            for p in range(fz, i):
                 s -= B[i, p] * Z[a, p]
             Z[a, i] = s
-        # U from the last entry down to start (entries below start are not read)
-        for i in range(k - 1, start - 1, -1):
-            s = Z[a, i]
-            for p in range(i + 1, k):
-                s -= B[i, p] * Z[a, p]
-            Z[a, i] = s / B[i, i]
-    # S = c G J^-1 G^T: coupled entries from Z, the others from the inverse diagonal
+        first_z[a] = fz
+    # S = c G J^-1 G^T (coupled part from W, Z; the others from the inverse diagonal, zero
+    # on the coupled indices) and the Schur right-hand side y = r_m - c G x
     y = rhs[n:]
     for a in range(m):
         gx = 0.0
@@ -337,10 +349,11 @@ def newton_solve(J, G, c, rhs, fac, Z, S, piv, r0):
         y[a] -= c * gx
         for b in range(m):
             s = 0.0
-            for p in range(start, k):
-                s += G[a, idx[p]] * Z[b, p]
+            for p in range(max(first_w[a], first_z[b]), k):
+                s += W[a, p] * Z[b, p]
             for i in range(n):
-                s += G[a, i] * dinv[i] * G[b, i]
+                if G[a, i] != 0.0:
+                    s += G[a, i] * dinv[i] * G[b, i]
             S[a, b] = c * s
     lu_factor(S, m, piv)
     lu_solve(S, m, piv, y)
@@ -418,7 +431,7 @@ def _friction_branches(J, rhs, G, cv, sol, ma, v_reg, cwork, sw, bw):
                         continue
                     J2[ra, 3 * bc + c % 3] += coeff * cwork[5 + a, k] * cwork[5 + c, k]
         copy_vector(sol, r2, n + m)
-        newton_solve(J2, G, cv, sol, sw.fac, sw.JG, sw.S, sw.piv, bw.r0)
+        newton_solve(J2, G, cv, sol, sw.fac, sw.S, sw.piv, bw)
 
 
 @step_kernel
