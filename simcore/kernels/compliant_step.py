@@ -20,7 +20,7 @@ from .bodies import BLOCKS_NEWTON, clear_pair_blocks, fill_pair_blocks
 from .generalized_alpha import alpha_coefficients, smooth_work, step_work
 from .hertz import contact_forces_into, elastic_energy_into, hertz_work
 from .jit import kernel, step_kernel
-from .joints import bilateral, joint_row_count
+from .joints import bilateral, joint_row_count, joint_support
 from .linalg import block_factor, block_solve, copy_matrix, copy_vector, lu_factor, lu_solve
 from .springs import smooth_forces, total_energy
 
@@ -33,9 +33,10 @@ CompliantWork = namedtuple("CompliantWork", ["step", "smooth", "contacts", "hert
                                              "projection", "branches"])
 
 #: Work arrays of :func:`project_joints_into`: joint rows g, G (m x n), their velocity terms,
-#: M^-1 G^T (n x m), S = G M^-1 G^T and its LU pivots, a right-hand side (m).
-ProjectionWork = namedtuple("ProjectionWork", ["g", "G", "gm", "dgdt", "MG", "S", "rhs",
-                                               "piv"])
+#: the rows' supports (cols (m x 6), ncols), S = G M^-1 G^T and its LU pivots, a right-hand
+#: side (m).
+ProjectionWork = namedtuple("ProjectionWork", ["g", "G", "gm", "dgdt", "cols", "ncols", "S",
+                                               "rhs", "piv"])
 
 #: Work arrays of the Newton solve (:func:`newton_solve`) and the friction branches
 #: (:func:`compliant_smooth_step`): the modified Newton matrix and residual, each contact's
@@ -48,8 +49,9 @@ BranchWork = namedtuple("BranchWork", ["J2", "r2", "current", "assumed", "r0", "
 def projection_work(n, m):
     """:data:`ProjectionWork` for n coordinates and m joint rows."""
     return ProjectionWork(g=np.zeros(m), G=np.zeros((m, n)), gm=np.zeros(m), dgdt=np.zeros(m),
-                          MG=np.zeros((n, m)), S=np.zeros((m, m)), rhs=np.zeros(m),
-                          piv=np.zeros(m, dtype=np.int64))
+                          cols=np.zeros((m, 6), dtype=np.int64),
+                          ncols=np.zeros(m, dtype=np.int64), S=np.zeros((m, m)),
+                          rhs=np.zeros(m), piv=np.zeros(m, dtype=np.int64))
 
 
 def compliant_work(n, nbil, nc):
@@ -79,8 +81,8 @@ def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
     n = q_t.shape[0]
     m = joint_row_count(ma.jt_type)
     pw = ProjectionWork(np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m),
-                        np.zeros((n, m)), np.zeros((m, m)), np.zeros(m),
-                        np.zeros(m, dtype=np.int64))
+                        np.zeros((m, 6), dtype=np.int64), np.zeros(m, dtype=np.int64),
+                        np.zeros((m, m)), np.zeros(m), np.zeros(m, dtype=np.int64))
     return project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw)
 
 
@@ -101,10 +103,14 @@ def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw):
     G = pw.G
     gm = pw.gm
     dgdt = pw.dgdt
-    MG = pw.MG
+    cols = pw.cols
+    ncols = pw.ncols
     S = pw.S
     rhs = pw.rhs
     piv = pw.piv
+    mdiag = ma.mdiag
+    # each joint row touches its two bodies' columns only (G is zero elsewhere)
+    joint_support(ma.jt_type, ma.jt_body, cols, ncols)
     target = tol * h
     iters = 0
     ok = False
@@ -113,14 +119,12 @@ def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw):
         res = 0.0
         for r in range(m):
             res = max(res, abs(g[r]))
-        for i in range(n):
-            for r in range(m):
-                MG[i, r] = G[r, i] / ma.mdiag[i]
         for r in range(m):
             for c in range(m):
                 s = 0.0
-                for i in range(n):
-                    s += G[r, i] * MG[i, c]
+                for t in range(ncols[r]):
+                    i = cols[r, t]
+                    s += G[r, i] * G[c, i] / mdiag[i]
                 S[r, c] = s
         lu_factor(S, m, piv)
         if res <= target:
@@ -132,19 +136,22 @@ def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw):
         for r in range(m):
             rhs[r] = -g[r]
         lu_solve(S, m, piv, rhs)
-        for i in range(n):
-            for r in range(m):
-                q1[i] += MG[i, r] * rhs[r]
+        for r in range(m):
+            for t in range(ncols[r]):
+                i = cols[r, t]
+                q1[i] += G[r, i] / mdiag[i] * rhs[r]
     # velocities, with the rows at q1 (those of the last evaluation, S factorised above)
     for r in range(m):
         c = dgdt[r]
-        for i in range(n):
+        for t in range(ncols[r]):
+            i = cols[r, t]
             c += G[r, i] * v_t[i]
         rhs[r] = -c
     lu_solve(S, m, piv, rhs)
-    for i in range(n):
-        for r in range(m):
-            v1[i] += MG[i, r] * rhs[r]
+    for r in range(m):
+        for t in range(ncols[r]):
+            i = cols[r, t]
+            v1[i] += G[r, i] / mdiag[i] * rhs[r]
     return iters, ok
 
 
