@@ -5,13 +5,21 @@ For each of the ``zoom_top`` largest impacts (by impulse) the whole mechanism is
 the run's state just before the impact with compliant (Hertz) contacts and a small step
 (:func:`simcore.zoom`, its step the shortest Hertz contact time it must resolve over
 :data:`STEPS_PER_CONTACT`) for a window of three Flores contact times of the impact (at least
-0.5 ms, at most 20 ms), or until every contact that closed has opened again. The
-impact table gains ``F_max_zoom`` [N], the largest contact force of the impact's ball in the
-zoom (for a ball pinched between both races that is the larger of its two contacts; NaN when
+0.5 ms, at most 20 ms), or until the ball of every impact it serves is free again. The
+impact table gains ``F_max_zoom`` [N], the largest contact force of the impact's ball during
+the impact: over the ball's contact episode that contains the first force of the impact's own
+contact (for a ball pinched between both races that is the larger of its two contacts; NaN when
 that force still rises at the end of the zoom), and
 ``contact_time_zoom`` [s], how long the impact's own contact stayed closed in its first contact
 episode (NaN when it was still closed at the end of the zoom: the impact turned into persistent
 contact, as it does for the loaded balls of the bearing).
+
+A zoom stops once, for each impact it serves, the ball's contacts have carried no force at one
+sample after the impact's contact first closed (``watch_contacts`` of :func:`simcore.zoom`,
+checked every 100 steps). Both numbers read only the samples up to that point, so they are
+exactly those of the zoom over its whole window. (Before, ``F_max_zoom`` took the ball's
+largest force over the whole window, so a later, separate contact of the same ball could set
+it; no zoom could then stop before its window's end while that ball was free.)
 """
 
 from __future__ import annotations
@@ -58,6 +66,40 @@ def _first_episode(force: np.ndarray, dt: float) -> float:
         ahead = min(1.0, s[-1] / (s[-2] - s[-1]))
     t_end += ahead
     return float((t_end - t_start) * dt)
+
+
+def _struck(F_contact: np.ndarray) -> np.ndarray:
+    """The force samples of an impact's contact as its episodes are read: a force at the
+    zoom's first sample alone (zero at the second) is dropped. That sample is the nonsmooth
+    run's state, where a contact about to be struck can sit within the solver's tolerance
+    (gaps of -5e-15 m, Hertz forces of 1e-14 N); it is not the impact (the same rule as the
+    onset of :meth:`simcore.model.Model.simulate`'s ``watch_contacts``)."""
+    F = np.asarray(F_contact, dtype=float)
+    if F.size > 1 and F[0] > 0.0 and not F[1] > 0.0:
+        F = F.copy()
+        F[0] = 0.0
+    return F
+
+
+def _episode_peak(F_ball: np.ndarray, F_contact: np.ndarray) -> float:
+    """F_max_zoom of an impact [N]: the largest force of the impact's ball (``F_ball``, the
+    larger of its contacts per sample) over the ball's contact episode that contains the first
+    force of the impact's own contact (``F_contact``): from the sample where the ball's
+    force last rose from zero up to the first later sample where it is zero again. NaN when
+    that force is still rising at the last sample. An impact contact that never closes gets
+    the largest force of the ball over the whole zoom (NaN if still rising at its end).
+
+    Only the samples up to the end of that episode enter, so a zoom stopped there
+    (``watch_contacts``) reports exactly what the zoom over its whole window reports."""
+    first = np.flatnonzero(F_contact > 0.0)
+    start, stop = 0, F_ball.size
+    if first.size:
+        zero = np.flatnonzero(F_ball[:first[0]] <= 0.0)
+        start = int(zero[-1]) + 1 if zero.size else 0
+        later = np.flatnonzero(F_ball[first[0]:] <= 0.0)
+        stop = int(first[0] + later[0]) if later.size else F_ball.size
+    peak = start + int(np.argmax(F_ball[start:stop]))
+    return float(F_ball[peak]) if peak < F_ball.size - 1 else float("nan")
 
 
 def zoom_step(zoom_model: dict, run_dt: float, speeds, steps_per_contact: int) -> float:
@@ -110,7 +152,7 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
     window : float
         Shortest window of a zoom [s]; it is stretched to three Flores contact times of the
         impacts it serves (``contact_time`` of the table), at most ``max_window`` [s]. A zoom
-        stops earlier once its contacts have opened again.
+        stops earlier once the ball of every impact it serves is free again.
     overrides : sequence of str
         ``section.key=value`` settings of the zooms (e.g. another ``model.youngs_modulus``).
     steps_per_contact : int
@@ -164,27 +206,34 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
                      for time in windows}
         else:
             steps = dict.fromkeys(windows, float(dt))
-        zooms: dict[float, xr.Dataset] = {}
+        # each zoom watches, for every impact it serves, the contacts of the impact's ball
+        # (onset: the impact's own contact) and stops once all those episodes have ended
+        ball_of_contact = np.asarray(run_ds["ball"].values)
+        served: dict[float, list[int]] = {}
         for row in order:
-            time = float(out["time"].values[row])
-            if time not in zooms:
-                zooms[time] = simcore.zoom(run_ds, time, window=windows[time], dt=steps[time],
-                                           overrides=overrides)
-            z = zooms[time]
-            contact = int(out["contact"].values[row])
-            ball = int(out["ball"].values[row])
-            same_ball = np.flatnonzero(np.asarray(z["ball"].values) == ball)
-            F_ball = np.asarray(z["F_N"].isel(contact=same_ball).values).max(axis=1)
-            # a force still rising at the end of the zoom is no peak: flagged as NaN
-            peak = int(np.argmax(F_ball))
-            F_zoom[row] = float(F_ball[peak]) if peak < F_ball.size - 1 else np.nan
-            t_zoom[row] = _first_episode(np.asarray(z["F_N"].sel(contact=contact).values),
-                                         float(z.attrs["solver.output_dt"]))
-            dt_zoom[row] = steps[time]
+            served.setdefault(float(out["time"].values[row]), []).append(int(row))
+        for time, rows in served.items():
+            groups = np.zeros((len(rows), ball_of_contact.size), dtype=bool)
+            onset = np.zeros_like(groups)
+            for g, row in enumerate(rows):
+                groups[g] = ball_of_contact == int(out["ball"].values[row])
+                onset[g, int(out["contact"].values[row])] = True
+            z = simcore.zoom(run_ds, time, window=windows[time], dt=steps[time],
+                             overrides=overrides, watch_contacts=groups, watch_onset=onset)
+            F_N = np.asarray(z["F_N"].values)
+            for row in rows:
+                contact = int(out["contact"].values[row])
+                same_ball = np.flatnonzero(np.asarray(z["ball"].values)
+                                           == int(out["ball"].values[row]))
+                F_contact = _struck(F_N[:, contact])
+                F_zoom[row] = _episode_peak(F_N[:, same_ball].max(axis=1), F_contact)
+                t_zoom[row] = _first_episode(F_contact, float(z.attrs["solver.output_dt"]))
+                dt_zoom[row] = steps[time]
     out["F_max_zoom"] = ("impact", F_zoom, {
-        "units": "N", "long_name": "largest contact force of the impact's ball in a compliant "
-        "(Hertz) zoom from the state before the impact (NaN: not zoomed, or the force was "
-        "still rising at the end of the zoom)"})
+        "units": "N", "long_name": "largest contact force of the impact's ball during the "
+        "impact (the ball's contact episode that contains the impact contact's first closing) "
+        "in a compliant (Hertz) zoom from the state before the impact (NaN: not zoomed, or "
+        "the force was still rising at the end of the zoom)"})
     out["contact_time_zoom"] = ("impact", t_zoom, {
         "units": "s", "long_name": "duration of the impact's contact in the compliant zoom "
         "(first contact episode; NaN: not zoomed, or still closed at the end of the zoom)"})

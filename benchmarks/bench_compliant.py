@@ -7,7 +7,10 @@ Prints:
 - Newton iterations per step (smooth stage) and joint projection iterations;
 - where the time goes: one step's parts timed apart in compiled loops (force evaluation with
   tangents, the Newton matrix solve, the joint projection, the energy of an output sample);
-- the cost of one zoom (0.5 ms at dt = 1e-6 s from the largest impact of a nonsmooth run).
+- the cost of one zoom (0.5 ms at dt = 1e-6 s from the largest impact of a nonsmooth run);
+- the cost of a compliant step in the study's setting: a zoom of a steady run of the default
+  study (clearance 1e-4 m, omega0 = 50 rad/s) on its largest impact, 2,000 steps, where the
+  loaded balls stay in contact with both races.
 
 Usage: python benchmarks/bench_compliant.py [--repeats 5] [--t-end 0.05]
 """
@@ -63,38 +66,47 @@ def main() -> None:
     arr = model.arrays()
     from numba import njit
 
+    from simcore.kernels.compliant_step import (
+        compliant_work,
+        newton_solve,
+        project_joints_into,
+        projection_work,
+    )
     from simcore.kernels.generalized_alpha import smooth_work
-    from simcore.kernels.linalg import copy_vector, saddle_point_solve_into
+    from simcore.kernels.hertz import contact_forces_into, elastic_energy_into, hertz_work
+    from simcore.kernels.linalg import copy_vector
+
+    hw = hertz_work()
 
     @njit
-    def loop_forces(q, v, ma, v_pre, reps):
+    def loop_forces(q, v, ma, v_pre, hw, reps):
         n, nc = q.shape[0], ma.ct_type.shape[0]
         f, K, C, Ks = np.zeros(n), np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
         w = np.zeros((11, nc))
         for _ in range(reps):
             nb.smooth_forces(q, v, ma, f, K, C, Ks, True)
-            nb.contact_forces(q, v, ma, v_pre, 1e-4, f, K, C, True, w[0], w[1], w[2], w[3],
-                              w[4], w[5:11])
+            contact_forces_into(q, v, ma, v_pre, 1e-4, f, K, C, True, w[0], w[1], w[2], w[3],
+                                w[4], w[5:11], hw)
         return K, C
 
     @njit
-    def loop_solve(J, rhs, G, sw, reps):
-        # the Newton step as the smooth stage takes it (on a copy of the residual)
+    def loop_solve(J, rhs, G, sw, bw, reps):
+        # the Newton step as the compliant stage takes it (on a copy of the residual)
         for _ in range(reps):
             copy_vector(sw.sol, rhs, rhs.shape[0])
-            saddle_point_solve_into(J, G, 1.5e-6, sw.sol, sw.fac, sw.JG, sw.S, sw.piv)
+            newton_solve(J, G, 1.5e-6, sw.sol, sw.fac, sw.S, sw.piv, bw)
 
     @njit
-    def loop_project(q, v, ma, reps):
+    def loop_project(q, v, ma, pw, reps):
         q1, v1 = np.zeros(q.shape[0]), np.zeros(q.shape[0])
         for _ in range(reps):
-            nb.project_joints(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1)
+            project_joints_into(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1, pw)
 
     @njit
-    def loop_energy(q, v, ma, reps):
+    def loop_energy(q, v, ma, hw, reps):
         e = 0.0
         for _ in range(reps):
-            e += nb.total_energy(q, v, ma) + nb.elastic_energy(q, ma)
+            e += nb.total_energy(q, v, ma) + elastic_energy_into(q, ma, hw.wN, hw.wT)
         return e
 
     def cpu(fn, *a):
@@ -103,18 +115,19 @@ def main() -> None:
         fn(*a, 20000)
         return (time.process_time() - t0) / 20000 * 1e6
 
-    K, C = loop_forces(st.q, st.v, arr, cs.v_pre, 1)
+    K, C = loop_forces(st.q, st.v, arr, cs.v_pre, hw, 1)
     n = st.q.size
     m = nb.joint_row_count(arr.jt_type)
     G = np.zeros((m, n))
     nb.bilateral(st.q, st.v, 0.0, arr, np.zeros(m), G, np.zeros(m), np.zeros(m))
     J = np.diag(arr.mdiag) + 1e-12 * K + 1.5e-6 * C
     rhs = np.ones(n + m)
+    cw = compliant_work(n, m, arr.ct_type.size)
     print(f"parts of a step (CPU us, {int(cs.closed.sum())} contacts closed): forces and tangents "
-          f"{cpu(loop_forces, st.q, st.v, arr, cs.v_pre):.2f} per evaluation, Newton solve "
-          f"{cpu(loop_solve, J, rhs, G, smooth_work(n, m)):.2f}, joint projection "
-          f"{cpu(loop_project, st.q, st.v, arr):.2f}, energy (per output sample) "
-          f"{cpu(loop_energy, st.q, st.v, arr):.2f}")
+          f"{cpu(loop_forces, st.q, st.v, arr, cs.v_pre, hw):.2f} per evaluation, Newton solve "
+          f"{cpu(loop_solve, J, rhs, G, smooth_work(n, m), cw.branches):.2f}, joint projection "
+          f"{cpu(loop_project, st.q, st.v, arr, projection_work(n, m)):.2f}, energy (per "
+          f"output sample) {cpu(loop_energy, st.q, st.v, arr, hw):.2f}")
 
     run = simcore.run(load_config(overrides=["solver.t_end=0.004"]))
     lam = run["Lambda_N"].values
@@ -128,6 +141,30 @@ def main() -> None:
         zooms.append(time.perf_counter() - start)
     print(f"one zoom (0.5 ms at dt = 1e-6 s, 500 steps, incl. model build and Dataset): "
           f"{statistics.median(zooms):.3f} s median of 3")
+
+    # the study's setting: a zoom of a steady run (default study config, clearance 1e-4 m,
+    # omega0 = 50 rad/s) on its largest impact, where the loaded balls stay in contact
+    from analysis.impacts import extract_impacts
+
+    cfg = load_config("config/config.yaml", overrides=["model.clearance=1e-4",
+                                                       "model.omega0=50.0"])
+    run = simcore.run(cfg)
+    a = cfg["analysis"]
+    imp = extract_impacts(run, zero_tol=a["zero_tol"], zero_floor=a["zero_floor"],
+                          r_eff=a["r_eff"], v_min=a["v_min"])
+    t_imp = float(imp["time"].values[int(np.argmax(imp["impulse"].values))])
+    dt_zoom, n_zoom = 3.128e-6, 2000  # the study's zoom step at this point
+    walls, cpus = [], []
+    for _ in range(args.repeats):
+        c0 = time.process_time()
+        z = simcore.zoom(run, t_imp, window=n_zoom * dt_zoom, dt=dt_zoom, until_released=False)
+        cpus.append(time.process_time() - c0)
+        walls.append(z.attrs["wall_time_s"])
+    closed = int((z["F_N"].values[-1] > 0.0).sum())
+    print(f"study zoom (steady run, {closed} contacts loaded, {n_zoom} steps of "
+          f"{dt_zoom:.4g} s), median of {args.repeats}: integration {statistics.median(walls):.3f}"
+          f" s wall -> {1e6 * statistics.median(walls) / n_zoom:.1f} us/step; whole zoom "
+          f"{statistics.median(cpus):.3f} s CPU")
 
 
 if __name__ == "__main__":

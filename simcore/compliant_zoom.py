@@ -55,7 +55,7 @@ def start_index(run_ds, time: float) -> int:
 
 
 def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), output_dt=None,
-         until_released=True, progress=False):
+         until_released=True, progress=False, watch_contacts=None, watch_onset=None):
     """Re-simulate the whole mechanism with compliant contacts from the state of ``run_ds``
     just before ``time``.
 
@@ -74,8 +74,13 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
     output_dt : float, optional
         Output interval [s] (default: every step).
     until_released : bool
-        Stop early once every contact that closed during the zoom is open again (checked
-        every 100 steps).
+        Stop early once every contact that closed during the zoom is open again, or with
+        ``watch_contacts`` once every watched group's contact episode has ended (checked every
+        100 steps).
+    watch_contacts, watch_onset : array of bool, optional
+        Groups of contacts (nc,) or (groups, nc) and their onset contacts: see
+        :meth:`simcore.model.Model.simulate`. :func:`analysis.zoom.add_zoom_forces` watches
+        the contacts of the ball of each impact, with the impact's contact as onset.
 
     Returns
     -------
@@ -113,7 +118,8 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
                           damping_law=m["damping_law"],
                           friction_regularization=m["friction_regularization"],
                           output_every=every, q0=q0, v0=v0, t0=t0,
-                          stop_when_released=until_released)
+                          stop_when_released=until_released, watch_contacts=watch_contacts,
+                          watch_onset=watch_onset)
     ds = trajectory_dataset(traj, model, layout, cfg)
     ds.attrs.update({
         "zoom_time": float(time),

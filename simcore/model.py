@@ -115,6 +115,44 @@ class Trajectory:
     extras: dict = field(default_factory=dict)
 
 
+class _ReleaseWatch:
+    """The early stop of a compliant run on groups of contacts (``simulate(...,
+    watch_contacts=...)``): group g's episode starts at the first output row where one of its
+    onset contacts carries a normal force and ends at the first later row where none of its
+    contacts carries one. Fed the force rows chunk by chunk; says when every episode ended."""
+
+    def __init__(self, groups, onset, nc):
+        groups = np.atleast_2d(np.asarray(groups, dtype=bool))
+        onset = groups if onset is None else np.atleast_2d(np.asarray(onset, dtype=bool))
+        if groups.shape[1] != nc or onset.shape != groups.shape:
+            raise ValueError(f"watch_contacts: shape {groups.shape} is not allowed; allowed: "
+                             f"(nc,) or (groups, nc) booleans with nc = {nc}, watch_onset the "
+                             "same shape")
+        self.groups = groups
+        self.onset = onset
+        self.onset_row = np.full(groups.shape[0], -1)
+        self.done = ~groups.any(axis=1)  # an empty group has nothing to wait for
+
+    def released(self, F_N, row0, row1) -> bool:
+        """Take the rows ``row0 .. row1 - 1`` of ``F_N`` (rows, nc); True once every group's
+        episode has ended."""
+        F = np.asarray(F_N[row0:row1]) > 0.0
+        for g in np.flatnonzero(~self.done):
+            if self.onset_row[g] < 0:
+                on = F[:, self.onset[g]]
+                if row0 == 0 and on.shape[0] > 1:
+                    on[0] &= on[1]  # a force at the first row alone is no onset
+                first = np.flatnonzero(on.any(axis=1))
+                if first.size == 0:
+                    continue
+                self.onset_row[g] = row0 + first[0]
+            start = self.onset_row[g] - row0 + 1  # rows after the onset
+            free = np.flatnonzero(~F[max(start, 0):, self.groups[g]].any(axis=1))
+            if free.size:
+                self.done[g] = True
+        return bool(self.done.all())
+
+
 class Model:
     """Planar rigid bodies (x, y, phi) with joints, spring-dampers and frictional contacts.
 
@@ -333,7 +371,8 @@ class Model:
                  on_nonconvergence="error", progress=False, chunk=500,
                  contact_model="nonsmooth", damping_law="flores", friction_regularization=1e-4,
                  output_every=1, v_pre_min=1e-3, q0=None, v0=None, t0=0.0,
-                 stop_when_released=False, energy_tol=0.005) -> Trajectory:
+                 stop_when_released=False, energy_tol=0.005, watch_contacts=None,
+                 watch_onset=None) -> Trajectory:
         """Integrate with the decoupled nonsmooth generalized-alpha scheme, or with compliant
         (Hertz) contacts in the generalized-alpha smooth step.
 
@@ -375,7 +414,20 @@ class Model:
             Start time [s] (matters for a prescribed rotation).
         stop_when_released : bool
             Compliant: stop at the end of the first chunk where every contact that closed
-            during the run is open again.
+            during the run is open again (or, with ``watch_contacts``, where every watched
+            group's contact episode has ended).
+        watch_contacts : array of bool, optional
+            Compliant, with ``stop_when_released``: groups of contacts to watch, shape (nc,)
+            for one group or (groups, nc) (e.g. the contacts of one ball). A group's episode
+            starts at the first output row where one of its onset contacts (``watch_onset``)
+            carries a force and ends at the first later row where none of the group's contacts
+            carries one; the run stops at the end of the first chunk after which every group's
+            episode has ended. A group whose onset never comes runs the whole window. A force
+            at row 0 alone (none at row 1) is no onset: a zoom starts from a nonsmooth run's
+            state, where a contact about to be struck can sit within the solver's tolerance.
+        watch_onset : array of bool, optional
+            Onset contacts of each group, the shape of ``watch_contacts`` (default: the group's
+            own contacts).
         energy_tol : float
             Energy audit (:mod:`simcore.audit`): a step creating more than this fraction of the
             run's energy scale counts as not converged.
@@ -426,6 +478,9 @@ class Model:
         lamN = np.zeros(nc)
         lamT = np.zeros(nc)
         n_out = n_steps // output_every + 1
+        watch = None
+        if compliant and stop_when_released and watch_contacts is not None:
+            watch = _ReleaseWatch(watch_contacts, watch_onset, nc)
         out = Trajectory(
             time=float(t0) + np.arange(n_out) * dt * output_every,
             q=np.zeros((n_out, ndof)), v=np.zeros((n_out, ndof)),
@@ -533,7 +588,10 @@ class Model:
                 bar = "#" * int(30 * frac)
                 sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f}%  t = {t0 + k * dt:.4f} s")
                 sys.stderr.flush()
-            if compliant and stop_when_released:  # the rows written since the last check
+            if watch is not None:
+                if watch.released(out.F_N, k_prev // output_every, k // output_every + 1):
+                    break
+            elif compliant and stop_when_released:  # the rows written since the last check
                 rows = slice(k_prev // output_every, k // output_every + 1)
                 ever_closed |= (out.F_N[rows] > 0.0).any(axis=0)
                 if ever_closed.any() and not (cstate.closed[ever_closed] > 0).any():

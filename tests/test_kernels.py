@@ -425,3 +425,48 @@ def test_work_array_kernels_give_the_allocating_kernels_numbers(bearing):
         nb.contact_hessian(q, k, arr, H)
         contact_hessian_into(q, k, arr, H2, np.zeros((2, 6)))
         assert np.array_equal(H, H2) and np.abs(H).max() > 0.0
+
+
+def test_compliant_step_kernel_agrees_with_the_shared_smooth_stage():
+    """The compliant time loop's own stage (no allocation, tangents only where a Newton step
+    needs them, block solver in the friction branches) against the shared smooth stage of
+    generalized_alpha with its compliant branches, one step from a state with loaded balls
+    (a compliant zoom of a paper-case run after the first pinch): the same accelerations,
+    multipliers and contact forces to the Newton tolerance."""
+    import simcore
+    from simcore.kernels.compliant_step import compliant_smooth_step, compliant_work
+    from simcore.kernels.generalized_alpha import alpha_coefficients, smooth_step
+    from simcore.mechanism import crank_slider
+
+    run = simcore.run(simcore.load_config(overrides=["solver.t_end=0.002"]))
+    model, _ = crank_slider(simcore.load_config()["model"])
+    i = int(np.searchsorted(run.time.values, 0.0015))
+    from simcore.io import generalized
+
+    g = generalized(run)
+    q0 = g["q"].isel(time=i).values.ravel()
+    v0 = g["v"].isel(time=i).values.ravel()
+    h = 3e-6
+    traj = model.simulate(h, 300 * h, contact_model="compliant", q0=q0, v0=v0, t0=0.0015,
+                          output_every=300)
+    st, cs = traj.extras["step_state"], traj.extras["compliant_state"]
+    assert (cs.gap < 0.0).sum() >= 2  # loaded contacts
+    arr = model.arrays(compliant=True)
+    n, m, nc = st.q.size, st.lam_s.size, cs.gap.size
+    coef = alpha_coefficients(0.0)
+    results = []
+    for new in (False, True):
+        w = compliant_work(n, m, nc)
+        lam = st.lam_s.copy()
+        q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, _, _ = w.step
+        args = (st.q.copy(), st.v.copy(), st.acc.copy(), st.vdot.copy(), lam, 0.0015 + h, h,
+                coef, 1e-10, 50, arr, q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, w.smooth,
+                cs.v_pre.copy(), 1e-4, w.contacts)
+        if new:
+            its, ok = compliant_smooth_step(*args, w.hertz, w.branches)
+        else:
+            its, ok = smooth_step(*args)
+        assert ok and its >= 1
+        results.append((vdot1.copy(), lam.copy(), w.contacts[0].copy()))
+    for old, new in zip(results[0], results[1], strict=True):
+        np.testing.assert_allclose(new, old, rtol=1e-8, atol=1e-8 * np.abs(old).max())

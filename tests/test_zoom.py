@@ -152,3 +152,104 @@ def test_impact_table_records_the_zoom_step(run_ds):
     np.testing.assert_allclose(table["dt_zoom"].values[zoomed], t_hertz / STEPS_PER_CONTACT)
     assert np.all(np.isnan(table["dt_zoom"].values[~zoomed]))
     assert table.attrs["zoom_steps_per_contact"] == STEPS_PER_CONTACT
+
+
+def _ball_episode_peak(F_ball, F_contact):
+    """The definition of F_max_zoom written as a plain walk over the samples (independent of
+    analysis.zoom): from the impact contact's first force, walk back and forth while the ball
+    carries a force; the largest force on that stretch, NaN if it is the last sample."""
+    n = len(F_ball)
+    # a force at the first sample alone is the run's state at the solver's tolerance
+    first = next((i for i in range(n) if F_contact[i] > 0.0
+                  and (i > 0 or n == 1 or F_contact[1] > 0.0)), None)
+    lo, hi = 0, n - 1
+    if first is not None:
+        lo = first
+        while lo > 0 and F_ball[lo - 1] > 0.0:
+            lo -= 1
+        hi = first
+        while hi + 1 < n and F_ball[hi + 1] > 0.0:
+            hi += 1
+    best = max(range(lo, hi + 1), key=lambda i: (F_ball[i], -i))
+    return np.nan if best == n - 1 else F_ball[best]
+
+
+def test_episode_peak_takes_the_impact_of_the_ball_only():
+    from analysis.zoom import _episode_peak, _first_episode, _struck
+
+    contact = np.array([0.0, 0.0, 1.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    other = np.array([0.0, 0.5, 0.0, 0.0, 3.0, 0.0, 9.0, 9.5, 0.0])  # the ball's other contact
+    ball = np.maximum(contact, other)
+    # the episode runs from sample 1 (the other contact closed first) to 5: peak 3.0; the
+    # later, larger contact (9.5) is another episode
+    assert _episode_peak(ball, contact) == 3.0 == _ball_episode_peak(ball, contact)
+    rising = np.array([0.0, 1.0, 2.0, 3.0])
+    assert np.isnan(_episode_peak(rising, rising))
+    never = np.zeros(4)  # the impact's contact never closes: the ball's whole zoom
+    assert _episode_peak(np.array([0.0, 2.0, 1.0, 0.0]), never) == 2.0
+    # a touch at the first sample alone (the run's state) is not the impact
+    touch = np.array([1e-14, 0.0, 0.0, 5.0, 7.0, 0.0])
+    assert _episode_peak(touch, _struck(touch)) == 7.0 == _ball_episode_peak(touch, touch)
+    assert _first_episode(_struck(touch), 1.0) > 1.0
+    held = np.array([1.0, 2.0, 0.0])  # closed at the first two samples: kept
+    np.testing.assert_array_equal(_struck(held), held)
+
+
+def test_zoom_stops_when_the_balls_are_free_and_reports_the_full_window_numbers(run_ds,
+                                                                                monkeypatch):
+    """The early stop on the impacts' balls: each number of the table equals the one read
+    from a zoom over the whole window (until_released=False), by the independent walk above,
+    and the stopped zooms are shorter."""
+    from analysis.zoom import _first_episode
+
+    imp = analysis.extract_impacts(run_ds)
+    calls = []
+    zoom = simcore.zoom
+
+    def recording(run, time, **kw):
+        z = zoom(run, time, **kw)
+        calls.append((time, kw, z.sizes["time"]))
+        return z
+
+    monkeypatch.setattr(simcore, "zoom", recording)
+    table = add_zoom_forces(run_ds, imp, zoom_top=3)
+    monkeypatch.undo()
+    stopped = 0
+    for time, kw, n_rows in calls:
+        full = simcore.zoom(run_ds, time, window=kw["window"], dt=kw["dt"],
+                            until_released=False)
+        stopped += n_rows < full.sizes["time"]
+        F = full["F_N"].values
+        for row in np.flatnonzero(np.isclose(table["time"].values, time, rtol=0, atol=0)):
+            if not np.isfinite(table["dt_zoom"].values[row]):
+                continue
+            contact = int(table["contact"].values[row])
+            ball = full["ball"].values == int(table["ball"].values[row])
+            expected = _ball_episode_peak(F[:, ball].max(axis=1), F[:, contact])
+            got = float(table["F_max_zoom"].values[row])
+            assert got == expected or (np.isnan(got) and np.isnan(expected))
+            Fc = F[:, contact].copy()
+            if Fc[0] > 0.0 and Fc[1] == 0.0:
+                Fc[0] = 0.0
+            t_full = _first_episode(Fc, float(full.attrs["solver.output_dt"]))
+            got = float(table["contact_time_zoom"].values[row])
+            assert got == t_full or (np.isnan(got) and np.isnan(t_full))
+    assert stopped >= 1
+
+
+def test_watch_contacts_waits_for_the_onset_of_its_group():
+    """A group's episode starts at its onset contact: a ball thrown at a plane with its only
+    contact watched stops after the rebound; the same run watching for an onset that never
+    comes (an empty onset) runs to its end. A wrong shape is refused naming the key."""
+    from simcore.mechanism import ball_on_plane
+
+    model = ball_on_plane(radius=0.01, mass=0.0327, height=0.01 + 1e-6, e_N=1.0, gravity=0.0,
+                          speed=(0.0, -1.0))
+    kw = dict(contact_model="compliant", stop_when_released=True, chunk=100)
+    traj = model.simulate(1e-7, 5e-4, watch_contacts=[True], watch_onset=[True], **kw)
+    assert traj.F_N.max() > 0.0 and traj.F_N[-1, 0] == 0.0 and traj.time[-1] < 2e-4
+    whole = model.simulate(1e-7, 5e-4, watch_contacts=[True], watch_onset=[False], **kw)
+    assert whole.time[-1] == pytest.approx(5e-4)
+    np.testing.assert_array_equal(whole.F_N[:len(traj.time)], traj.F_N)
+    with pytest.raises(ValueError, match="^watch_contacts"):
+        model.simulate(1e-7, 5e-4, watch_contacts=[True, False], **kw)

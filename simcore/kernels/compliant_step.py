@@ -16,24 +16,57 @@ from collections import namedtuple
 
 import numpy as np
 
-from .generalized_alpha import alpha_coefficients, smooth_step, smooth_work, step_work
-from .hertz import elastic_energy
-from .jit import kernel
-from .joints import bilateral, joint_row_count
-from .linalg import gauss_solve
-from .springs import total_energy
+from .bodies import BLOCKS_NEWTON, clear_pair_blocks, fill_pair_blocks
+from .generalized_alpha import alpha_coefficients, smooth_work, step_work
+from .hertz import contact_forces_into, elastic_energy_into, hertz_work
+from .jit import kernel, step_kernel
+from .joints import bilateral, joint_row_count, joint_support
+from .linalg import block_factor, block_solve, copy_matrix, copy_vector, lu_factor, lu_solve
+from .springs import smooth_forces_into, total_energy
 
 #: Work arrays of :func:`integrate_compliant_chunk` (:func:`compliant_work`): the step's
-#: (:func:`~.generalized_alpha.step_work`), the smooth stage's and the contacts' (11, nc) rows
-#: of FN, FT, gap, vn, vt and tangential Jacobian entries.
-CompliantWork = namedtuple("CompliantWork", ["step", "smooth", "contacts"])
+#: (:func:`~.generalized_alpha.step_work`), the smooth stage's (:func:`~.generalized_alpha.
+#: smooth_work`), the contacts' (11, nc) rows of FN, FT, gap, vn, vt and tangential Jacobian
+#: entries, the Hertz law's (:func:`~.hertz.hertz_work`), the joint projection's
+#: (:data:`ProjectionWork`) and the friction branches' (:data:`BranchWork`).
+CompliantWork = namedtuple("CompliantWork", ["step", "smooth", "contacts", "hertz",
+                                             "projection", "branches"])
+
+#: Work arrays of :func:`project_joints_into`: joint rows g, G (m x n), their velocity terms,
+#: the rows' supports (cols (m x 6), ncols), S = G M^-1 G^T and its LU pivots, a right-hand
+#: side (m).
+ProjectionWork = namedtuple("ProjectionWork", ["g", "G", "gm", "dgdt", "cols", "ncols", "S",
+                                               "rhs", "piv"])
+
+#: Work arrays of the Newton solve (:func:`newton_solve`) and the friction branches
+#: (:func:`compliant_smooth_step`): the modified Newton matrix and residual, each contact's
+#: branch in the tangent and as assumed, a copy of the residual (n), the joint rows' half
+#: solves W, Z (m x n) and where each starts (m).
+BranchWork = namedtuple("BranchWork", ["J2", "r2", "current", "assumed", "r0", "W", "Z",
+                                       "first_w", "first_z"])
+
+
+def projection_work(n, m):
+    """:data:`ProjectionWork` for n coordinates and m joint rows."""
+    return ProjectionWork(g=np.zeros(m), G=np.zeros((m, n)), gm=np.zeros(m), dgdt=np.zeros(m),
+                          cols=np.zeros((m, 6), dtype=np.int64),
+                          ncols=np.zeros(m, dtype=np.int64), S=np.zeros((m, m)),
+                          rhs=np.zeros(m), piv=np.zeros(m, dtype=np.int64))
 
 
 def compliant_work(n, nbil, nc):
     """Every work array of :func:`integrate_compliant_chunk` for n coordinates, nbil joint
     rows and nc contacts, made once per run in Python."""
     return CompliantWork(step=step_work(n), smooth=smooth_work(n, nbil),
-                         contacts=np.zeros((11, nc)))
+                         contacts=np.zeros((11, nc)), hertz=hertz_work(),
+                         projection=projection_work(n, nbil),
+                         branches=BranchWork(J2=np.zeros((n, n)), r2=np.zeros(n + nbil),
+                                             current=np.zeros(nc, dtype=np.int64),
+                                             assumed=np.zeros(nc, dtype=np.int64),
+                                             r0=np.zeros(n), W=np.zeros((nbil, n)),
+                                             Z=np.zeros((nbil, n)),
+                                             first_w=np.zeros(nbil, dtype=np.int64),
+                                             first_z=np.zeros(nbil, dtype=np.int64)))
 
 
 COMPLIANT_STAGE_SMOOTH = 0
@@ -43,9 +76,22 @@ COMPLIANT_STAGE_VELOCITY = 2
 
 @kernel
 def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
+    """:func:`project_joints_into` with work arrays of its own (for calls outside the time
+    loop). Returns (iterations, converged)."""
+    n = q_t.shape[0]
+    m = joint_row_count(ma.jt_type)
+    pw = ProjectionWork(np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m),
+                        np.zeros((m, 6), dtype=np.int64), np.zeros(m, dtype=np.int64),
+                        np.zeros((m, m)), np.zeros(m), np.zeros(m, dtype=np.int64))
+    return project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw)
+
+
+@step_kernel
+def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw):
     """Remove the joints' drift: q1 = q_t + M^-1 G^T nu with g(q1) = 0 (Newton, |g|/h <= tol;
     no iteration when the drift is already within it), then v1 = v_t + M^-1 G^T mu with
-    G(q1) v1 + dg/dt = 0. Returns (iterations, converged)."""
+    G(q1) v1 + dg/dt = 0. ``pw``: :data:`ProjectionWork`. Each S = G M^-1 G^T is factorised
+    once (LU), the last one serves the velocities too. Returns (iterations, converged)."""
     n = q_t.shape[0]
     m = joint_row_count(ma.jt_type)
     for i in range(n):
@@ -53,13 +99,18 @@ def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
         v1[i] = v_t[i]
     if m == 0:
         return 0, True
-    g = np.zeros(m)
-    G = np.zeros((m, n))
-    gm = np.zeros(m)
-    dgdt = np.zeros(m)
-    MG = np.zeros((n, m))
-    S = np.zeros((m, m))
-    rhs = np.zeros((m, 1))
+    g = pw.g
+    G = pw.G
+    gm = pw.gm
+    dgdt = pw.dgdt
+    cols = pw.cols
+    ncols = pw.ncols
+    S = pw.S
+    rhs = pw.rhs
+    piv = pw.piv
+    mdiag = ma.mdiag
+    # each joint row touches its two bodies' columns only (G is zero elsewhere)
+    joint_support(ma.jt_type, ma.jt_body, cols, ncols)
     target = tol * h
     iters = 0
     ok = False
@@ -68,15 +119,14 @@ def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
         res = 0.0
         for r in range(m):
             res = max(res, abs(g[r]))
-        for i in range(n):
-            for r in range(m):
-                MG[i, r] = G[r, i] / ma.mdiag[i]
         for r in range(m):
             for c in range(m):
                 s = 0.0
-                for i in range(n):
-                    s += G[r, i] * MG[i, c]
+                for t in range(ncols[r]):
+                    i = cols[r, t]
+                    s += G[r, i] * G[c, i] / mdiag[i]
                 S[r, c] = s
+        lu_factor(S, m, piv)
         if res <= target:
             ok = True
             break
@@ -84,25 +134,314 @@ def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
             break
         iters += 1
         for r in range(m):
-            rhs[r, 0] = -g[r]
-        dnu = gauss_solve(S, rhs)
-        for i in range(n):
-            for r in range(m):
-                q1[i] += MG[i, r] * dnu[r, 0]
-    # velocities, with the rows at q1 (those of the last evaluation)
+            rhs[r] = -g[r]
+        lu_solve(S, m, piv, rhs)
+        for r in range(m):
+            for t in range(ncols[r]):
+                i = cols[r, t]
+                q1[i] += G[r, i] / mdiag[i] * rhs[r]
+    # velocities, with the rows at q1 (those of the last evaluation, S factorised above)
     for r in range(m):
         c = dgdt[r]
-        for i in range(n):
+        for t in range(ncols[r]):
+            i = cols[r, t]
             c += G[r, i] * v_t[i]
-        rhs[r, 0] = -c
-    mu = gauss_solve(S, rhs)
-    for i in range(n):
-        for r in range(m):
-            v1[i] += MG[i, r] * mu[r, 0]
+        rhs[r] = -c
+    lu_solve(S, m, piv, rhs)
+    for r in range(m):
+        for t in range(ncols[r]):
+            i = cols[r, t]
+            v1[i] += G[r, i] / mdiag[i] * rhs[r]
     return iters, ok
 
 
-@kernel
+@step_kernel
+def _branch(x):
+    """Friction branch of a scaled slip x = v_T / v_reg: 0 inside the band, else its sign."""
+    if abs(x) < 1.0:
+        return 0
+    return 1 if x > 0.0 else -1
+
+
+@step_kernel
+def _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, cwork, hw):
+    """Forces (and with ``tangent`` their tangents) and joint rows at (q_t, v_t)."""
+    if tangent:
+        # the contacts' tangents are added in their body pairs' blocks: clear those first
+        # (smooth_forces_into clears the springs' own)
+        clear_pair_blocks(K_t, ma.ct_body)
+        clear_pair_blocks(C_t, ma.ct_body)
+    smooth_forces_into(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, tangent, sw.fw, sw.iw)
+    contact_forces_into(q_t, v_t, ma, v_pre, v_reg, f_t, K_t, C_t, tangent, cwork[0],
+                        cwork[1], cwork[2], cwork[3], cwork[4], cwork[5:11], hw)
+    bilateral(q_t, v_t, t1, ma, sw.g, sw.G, sw.gm, sw.dgdt)
+
+
+@step_kernel
+def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t,
+                          acc1, vdot1, f_t, K_t, C_t, Ks_t, sw, v_pre, v_reg, cwork, hw, bw):
+    """The generalized-alpha stage of a compliant step: Newton on ``vdot1`` with the springs'
+    and the Hertz contacts' forces and their exact tangents, joints at velocity level. The
+    same scheme as :func:`~.generalized_alpha.smooth_step` with its compliant branches,
+    written for the time loop: no array allocated (``sw``, ``hw``, ``bw``: work arrays), the
+    tangents evaluated only where a Newton step needs them (an iterate that converges, the last
+    of almost every step, gets its forces alone), the Newton step and its friction-branch
+    re-solves by the block solver of :mod:`.linalg`.
+
+    Friction is piecewise linear in the slip (slope mu F / v_reg inside the band
+    |v_T| < v_reg, flat outside): each Newton step is solved with each contact's branch chosen
+    consistently with the slip the step predicts (:func:`_friction_branches`). The normal force
+    is clipped at zero where the damping term would pull: a step that does not reduce the
+    scaled residual is halved back towards the previous iterate. ``cwork`` (11, nc) receives
+    FN, FT, gap, vn, vt and the tangential Jacobian entries at the last (q_t, v_t).
+    Returns (iterations, converged)."""
+    am, af, gam, beta = coef
+    mdiag = ma.mdiag
+    n = q.shape[0]
+    m = lam.shape[0]
+    ca = (1.0 - af) / (1.0 - am)
+    G = sw.G
+    dgdt = sw.dgdt
+    J = sw.J
+    rhs = sw.rhs
+    sol = sw.sol
+    copy_vector(vdot1, vdot, n)
+    iters = 0
+    converged = False
+    merit_prev = np.inf
+    vdot_prev = sw.vdot_prev
+    lam_prev = sw.lam_prev
+    copy_vector(vdot_prev, vdot1, n)
+    copy_vector(lam_prev, lam, m)
+    halvings = 0
+    for it in range(max_iter + 1):
+        for i in range(n):
+            acc1[i] = ((1.0 - af) * vdot1[i] + af * vdot[i] - am * acc[i]) / (1.0 - am)
+            q_t[i] = q[i] + h * v[i] + h * h * (0.5 - beta) * acc[i] + h * h * beta * acc1[i]
+            v_t[i] = v[i] + h * (1.0 - gam) * acc[i] + h * gam * acc1[i]
+        # the predictor (it = 0) practically never satisfies the tolerance: its tangents are
+        # evaluated with it; a later iterate first gets its forces alone
+        tangent = it == 0
+        _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, cwork, hw)
+        # contact forces and the loads they balance cancel in f_t: the force scale of the
+        # residual is that of the largest contact force
+        scale = 1e-300
+        for k in range(cwork.shape[1]):
+            scale = max(scale, cwork[0, k])
+        res_f = 0.0
+        for i in range(n):
+            react = 0.0
+            for r in range(m):
+                react += G[r, i] * lam[r]
+            rhs[i] = -(mdiag[i] * vdot1[i] - f_t[i] - react)
+            res_f = max(res_f, abs(rhs[i]))
+            scale = max(scale, abs(f_t[i]), abs(mdiag[i] * vdot1[i]), abs(react))
+        res_c = 0.0
+        for r in range(m):
+            c = dgdt[r]
+            for i in range(n):
+                c += G[r, i] * v_t[i]
+            rhs[n + r] = -c
+            res_c = max(res_c, abs(c))
+        if res_f <= tol * scale and res_c <= tol:
+            converged = True
+            break
+        if it == max_iter:
+            break
+        iters += 1
+        merit = max(res_f / (tol * scale), res_c / tol)
+        if merit > (1.0 - 1e-4) * merit_prev and halvings < 10:
+            halvings += 1
+            for i in range(n):
+                vdot1[i] = 0.5 * (vdot1[i] + vdot_prev[i])
+            for r in range(m):
+                lam[r] = 0.5 * (lam[r] + lam_prev[r])
+            continue
+        halvings = 0
+        merit_prev = merit
+        copy_vector(vdot_prev, vdot1, n)
+        copy_vector(lam_prev, lam, m)
+        if not tangent:  # the same forces again, now with their tangents
+            _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, True, sw, cwork, hw)
+        # Newton step on [J, -G^T; c G, 0]: J is diagonal but for the bodies joined by
+        # springs and loaded contacts (their body-pair blocks)
+        fill_pair_blocks(J, C_t, K_t, h, gam, beta, ca, ma.sp_body, BLOCKS_NEWTON)
+        fill_pair_blocks(J, C_t, K_t, h, gam, beta, ca, ma.ct_body, BLOCKS_NEWTON)
+        for i in range(n):
+            J[i, i] = (C_t[i, i] * h * gam + K_t[i, i] * h * h * beta) * ca + mdiag[i]
+        copy_vector(sol, rhs, n + m)
+        newton_solve(J, G, h * gam * ca, sol, sw.fac, sw.S, sw.piv, bw)
+        _friction_branches(J, rhs, G, h * gam * ca, sol, ma, v_reg, cwork, sw, bw)
+        for r in range(m):
+            lam[r] += sol[n + r]
+        for i in range(n):
+            vdot1[i] += sol[i]
+    return iters, converged
+
+
+@step_kernel
+def newton_solve(J, G, c, rhs, fac, S, piv, bw):
+    """Solve [J, -G^T; c G, 0] [x; y] = rhs in place (``rhs[:n]`` becomes x, ``rhs[n:]`` y)
+    by the Schur complement S = c G J^-1 G^T of the m joint rows, J factorised on its coupled
+    block (:func:`~.linalg.block_factor`, LU: P J_c = L U).
+
+    The same solution as :func:`~.linalg.saddle_point_solve_into` with less work: that one
+    solves J for each joint row in full (J^-1 G^T, m solves) to form S and to update x. Here
+    S's coupled part is g_a^T J_c^-1 g_b = (U^-T g_a) . (L^-1 P g_b), two forward
+    substitutions per row that each start at the row's first non-zero (the joint rows touch
+    the crank and the rod, which the loaded contacts couple to every ball and the factor
+    orders last), and x = J^-1 (r + G^T y), a second full solve. ``S`` (m x m), ``piv`` (m),
+    ``bw``: :data:`BranchWork` (r0, W, Z, first_w, first_z)."""
+    n = J.shape[0]
+    m = G.shape[0]
+    r0 = bw.r0
+    block_factor(J, n, fac, False)
+    for i in range(n):
+        r0[i] = rhs[i]
+    x = rhs[:n]
+    block_solve(fac, n, x)  # x = J^-1 r
+    if m == 0:
+        return
+    k = fac.info[0]
+    if fac.info[1] != 1 and k > 0:  # (block_factor gives LU for an unsymmetric J)
+        raise np.linalg.LinAlgError("newton_solve needs an LU factor")
+    idx = fac.idx
+    B = fac.B
+    fp = fac.piv
+    dinv = fac.dinv
+    W = bw.W
+    Z = bw.Z
+    first_w = bw.first_w
+    first_z = bw.first_z
+    for a in range(m):
+        # W[a] = U^-T g_a (U^T is lower triangular, diagonal U[i, i])
+        fw = k
+        for p in range(k):
+            W[a, p] = G[a, idx[p]]
+            if fw == k and W[a, p] != 0.0:
+                fw = p
+        for i in range(fw, k):
+            s = W[a, i]
+            for p in range(fw, i):
+                s -= B[p, i] * W[a, p]
+            W[a, i] = s / B[i, i]
+        first_w[a] = fw
+        # Z[a] = L^-1 P g_a (L unit lower triangular)
+        for p in range(k):
+            Z[a, p] = G[a, idx[p]]
+        for j in range(k):
+            t = fp[j]
+            if t != j:
+                tmp = Z[a, j]
+                Z[a, j] = Z[a, t]
+                Z[a, t] = tmp
+        fz = k
+        for p in range(k):
+            if Z[a, p] != 0.0:
+                fz = p
+                break
+        for i in range(fz, k):
+            s = Z[a, i]
+            for p in range(fz, i):
+                s -= B[i, p] * Z[a, p]
+            Z[a, i] = s
+        first_z[a] = fz
+    # S = c G J^-1 G^T (coupled part from W, Z; the others from the inverse diagonal, zero
+    # on the coupled indices) and the Schur right-hand side y = r_m - c G x
+    y = rhs[n:]
+    for a in range(m):
+        gx = 0.0
+        for i in range(n):
+            gx += G[a, i] * x[i]
+        y[a] -= c * gx
+        for b in range(m):
+            s = 0.0
+            for p in range(max(first_w[a], first_z[b]), k):
+                s += W[a, p] * Z[b, p]
+            for i in range(n):
+                if G[a, i] != 0.0:
+                    s += G[a, i] * dinv[i] * G[b, i]
+            S[a, b] = c * s
+    lu_factor(S, m, piv)
+    lu_solve(S, m, piv, y)
+    # x = J^-1 (r + G^T y)
+    for i in range(n):
+        s = r0[i]
+        for a in range(m):
+            s += G[a, i] * y[a]
+        x[i] = s
+    block_solve(fac, n, x)
+
+
+@step_kernel
+def _friction_branches(J, rhs, G, cv, sol, ma, v_reg, cwork, sw, bw):
+    """Re-solve the Newton step ``sol`` (in place) with each contact's friction on the branch
+    its predicted slip falls on (slope mu F / v_reg in the band, 0 outside, with the model's
+    value shifted to that branch's line), until the branches agree with the prediction; the
+    residual is monotone in the slip, so a slipping branch whose step lands elsewhere goes to
+    the band first."""
+    n = J.shape[0]
+    m = G.shape[0]
+    nc = ma.ct_type.shape[0]
+    FN = cwork[0]
+    FT = cwork[1]
+    vt = cwork[4]
+    current = bw.current
+    assumed = bw.assumed
+    J2 = bw.J2
+    r2 = bw.r2
+    for k in range(nc):
+        current[k] = _branch(vt[k] / v_reg)
+        assumed[k] = current[k]
+    for _pass in range(2 * nc + 2):
+        changed = False
+        for k in range(nc):
+            mu = ma.ct_law[k, 0]
+            if FN[k] <= 0.0 or mu <= 0.0:
+                continue
+            ia = ma.ct_body[k, 0]
+            ib = ma.ct_body[k, 1]
+            dvt = 0.0
+            for a in range(3):
+                if ia >= 0:
+                    dvt += cwork[5 + a, k] * sol[3 * ia + a]
+                if ib >= 0:
+                    dvt += cwork[8 + a, k] * sol[3 * ib + a]
+            predicted = _branch((vt[k] + cv * dvt) / v_reg)
+            if predicted != assumed[k]:
+                assumed[k] = 0 if assumed[k] != 0 else predicted
+                changed = True
+        if not changed:
+            return
+        copy_matrix(J2, J, n, n)
+        copy_vector(r2, rhs, n + m)
+        for k in range(nc):
+            if assumed[k] == current[k]:
+                continue
+            mu = ma.ct_law[k, 0]
+            x = vt[k] / v_reg
+            slope_used = 1.0 / v_reg if current[k] == 0 else 0.0
+            slope_new = 1.0 / v_reg if assumed[k] == 0 else 0.0
+            coeff = cv * mu * FN[k] * (slope_new - slope_used)
+            ft_model = -mu * FN[k] * (x if assumed[k] == 0 else float(assumed[k]))
+            ia = ma.ct_body[k, 0]
+            ib = ma.ct_body[k, 1]
+            for a in range(6):
+                ba = ia if a < 3 else ib
+                if ba < 0:
+                    continue
+                ra = 3 * ba + a % 3
+                r2[ra] += (ft_model - FT[k]) * cwork[5 + a, k]
+                for c in range(6):
+                    bc = ia if c < 3 else ib
+                    if bc < 0:
+                        continue
+                    J2[ra, 3 * bc + c % 3] += coeff * cwork[5 + a, k] * cwork[5 + c, k]
+        copy_vector(sol, r2, n + m)
+        newton_solve(J2, G, cv, sol, sw.fac, sw.S, sw.piv, bw)
+
+
+@step_kernel
 def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
     """Advance steps k0 .. k1-1 of the compliant model (state at t0 + k0 h on entry).
 
@@ -142,6 +481,9 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
     q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
     cwork = work.contacts
     sw = work.smooth
+    hw = work.hertz
+    pw = work.projection
+    bw = work.branches
     first_bad = -1
     for k in range(k0, k1):
         t1 = st.t0 + (k + 1) * h
@@ -149,10 +491,10 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
         for j in range(nc):
             if cs.closed[j] == 0:
                 cs.v_pre[j] = max(-cs.vn[j], st.v_pre_min)
-        it_s, ok_s = smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, tol, max_iter, ma,
-                                 q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, sw, cs.v_pre,
-                                 st.v_reg, cwork)
-        it_p, ok_p = project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1)
+        it_s, ok_s = compliant_smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, tol, max_iter,
+                                           ma, q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, sw,
+                                           cs.v_pre, st.v_reg, cwork, hw, bw)
+        it_p, ok_p = project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw)
         for i in range(n):
             q[i] = q1[i]
             v[i] = v1[i]
@@ -185,8 +527,9 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
                 first_bad = k
         if (k + 1) % every == 0:
             row = (k + 1) // every
-            out.q[row] = q
-            out.v[row] = v
+            for i in range(n):  # (an array assignment would need reference counting)
+                out.q[row, i] = q[i]
+                out.v[row, i] = v[i]
             for j in range(nc):
                 out.F_N[row, j] = cs.FN_max[j]
                 out.F_T[row, j] = cs.FT_at_max[j]
@@ -201,7 +544,7 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
                 cs.LT[j] = 0.0
                 cs.gap_min[j] = np.inf
                 cs.vn_start[j] = cs.vn[j]
-            out.energy[row] = total_energy(q, v, ma) + elastic_energy(q, ma)
+            out.energy[row] = total_energy(q, v, ma) + elastic_energy_into(q, ma, hw.wN, hw.wT)
             for s in range(3):
                 out.iterations[row, s] = cs.it_max[s]
                 cs.it_max[s] = 0

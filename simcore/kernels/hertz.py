@@ -18,11 +18,25 @@ the turning of the tangent row with q is left out (a term of size mu F / L).
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 
 from .bodies import row_dot
-from .contact import contact_hessian, contact_rows
-from .jit import kernel
+from .contact import contact_hessian_into, contact_rows
+from .jit import kernel, step_kernel
+
+#: Work arrays of :func:`contact_forces_into` and :func:`elastic_energy_into` (made once per
+#: run by :func:`hertz_work`): a contact's Jacobian rows wN, wT, its gap Hessian H (6 x 6),
+#: local velocities, H v, dF/dq, the global indices of its six coordinates and the Hessian's
+#: own work rows P (2 x 6, :func:`~.contact.contact_hessian_into`).
+HertzWork = namedtuple("HertzWork", ["wN", "wT", "H", "loc", "Hv", "dFdq", "idx", "P"])
+
+
+def hertz_work():
+    """The work arrays of :func:`contact_forces_into` (:data:`HertzWork`)."""
+    return HertzWork(np.zeros(6), np.zeros(6), np.zeros((6, 6)), np.zeros(6), np.zeros(6),
+                     np.zeros(6), np.zeros(6, dtype=np.int64), np.zeros((2, 6)))
 
 
 @kernel
@@ -45,19 +59,30 @@ def normal_force(delta, delta_dot, K, chi, v_pre):
 @kernel
 def contact_forces(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt, WT):
     """Add the compliant contact forces to ``f`` [N, N m] and, with ``tangent``, their
+    stiffness ``K`` and damping ``C`` to the matrices (in place): :func:`contact_forces_into`
+    with work arrays of its own (for calls outside the time loop)."""
+    contact_forces_into(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt, WT,
+                        HertzWork(np.zeros(6), np.zeros(6), np.zeros((6, 6)), np.zeros(6),
+                                  np.zeros(6), np.zeros(6), np.zeros(6, dtype=np.int64),
+                                  np.zeros((2, 6))))
+
+
+@step_kernel
+def contact_forces_into(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt, WT, hw):
+    """Add the compliant contact forces to ``f`` [N, N m] and, with ``tangent``, their
     stiffness ``K`` and damping ``C`` to the matrices (in place). Fills the per-contact normal
     force ``FN`` [N], friction force ``FT`` [N] (along t = e_z x n), gap [m] and the normal and
     tangential relative velocities [m/s], and ``WT`` (6, nc) the tangential Jacobian entries
     of each contact. The friction slope is the exact one: mu F / v_reg inside the band
     |v_T| < v_reg, 0 outside (see :func:`simcore.kernels.generalized_alpha.smooth_step` for
-    how Newton copes with the kink)."""
-    wN = np.zeros(6)
-    wT = np.zeros(6)
-    H = np.zeros((6, 6))
-    loc = np.zeros(6)
-    Hv = np.zeros(6)
-    dFdq = np.zeros(6)
-    idx = np.zeros(6, dtype=np.int64)
+    how Newton copes with the kink). ``hw``: work arrays (:func:`hertz_work`)."""
+    wN = hw.wN
+    wT = hw.wT
+    H = hw.H
+    loc = hw.loc
+    Hv = hw.Hv
+    dFdq = hw.dFdq
+    idx = hw.idx
     for k in range(ma.ct_type.shape[0]):
         ia = ma.ct_body[k, 0]
         ib = ma.ct_body[k, 1]
@@ -89,7 +114,7 @@ def contact_forces(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt
         if not tangent:
             continue
         # local velocities and H v (H = d2 g / dq2 of the element)
-        contact_hessian(q, k, ma, H)
+        contact_hessian_into(q, k, ma, H, hw.P)
         for a in range(6):
             body = ia if a < 3 else ib
             loc[a] = v[idx[a]] if body >= 0 else 0.0
@@ -121,8 +146,12 @@ def contact_forces(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt
 @kernel
 def elastic_energy(q, ma):
     """Energy stored in the compliant contacts, sum of (2/5) K delta^(5/2) [J]."""
-    wN = np.zeros(6)
-    wT = np.zeros(6)
+    return elastic_energy_into(q, ma, np.zeros(6), np.zeros(6))
+
+
+@step_kernel
+def elastic_energy_into(q, ma, wN, wT):
+    """:func:`elastic_energy` with work rows ``wN``, ``wT`` (6 each)."""
     e = 0.0
     for k in range(ma.ct_type.shape[0]):
         delta = -contact_rows(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT)
