@@ -213,10 +213,8 @@ def _main(argv=None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     from .model import SolverError
-    from .simulate import load_in_background, run
+    from .simulate import run
 
-    # what the file's writing imports (xarray's netCDF4 writer asks for dask), meanwhile
-    load_in_background(("simcore.io", "netCDF4", "dask.array"))
     start = time.perf_counter()
     try:
         ds = run(cfg, progress=not args.quiet)

@@ -8,7 +8,6 @@ took is recorded apart, as ``compile_time_s``.
 
 from __future__ import annotations
 
-import importlib
 import sys
 import threading
 import time
@@ -20,40 +19,6 @@ from .mechanism import crank_slider
 from .model import SolverError  # noqa: F401  (re-exported)
 
 _warm: set[str] = set()  # contact models whose kernels this process has compiled or loaded
-_requested: set[str] = set()  # modules handed to load_in_background
-
-
-def load_in_background(modules=("simcore.io",)) -> threading.Thread | None:
-    """Import ``modules`` in a daemon thread, while this thread loads the kernels and runs.
-
-    A new process's first run spends about 0.3 s importing xarray (with pandas) for its
-    dataset, and the command another 0.3 s importing what xarray's netCDF writer asks for
-    (netCDF4, dask). Imports hold Python's global interpreter lock, but loading the kernels'
-    machine code and the time loop (compiled ``nogil``) do not: started first, the imports
-    proceed meanwhile. Whoever needs a module later simply imports it; Python's import lock
-    waits for the thread if it is still at it. A module that fails to import here is left for
-    that later import to report. Returns the thread, or None when every module is loaded.
-
-    Parameters
-    ----------
-    modules : sequence of str
-        Module names, imported in order.
-    """
-    missing = [name for name in modules if name not in sys.modules and name not in _requested]
-    if not missing:
-        return None
-    _requested.update(missing)
-
-    def load():
-        for name in missing:
-            try:
-                importlib.import_module(name)
-            except Exception:  # noqa: BLE001  (the main thread's own import reports it)
-                return
-
-    thread = threading.Thread(target=load, name="simcore-background-imports", daemon=True)
-    thread.start()
-    return thread
 
 
 def _simulate(model, cfg: dict, t_end: float | None = None, on_nonconvergence=None,
@@ -178,8 +143,6 @@ def run(config: dict, progress: bool = False):
     cfg = validate_config(config)
     model, layout = crank_slider(cfg["model"])
     check_run(cfg, model)  # limits before any work
-    if cfg["model"]["contact_model"] not in _warm:  # a first run: xarray loads meanwhile
-        load_in_background()
     compile_time_s = warm_up(cfg, notify=sys.stderr if progress else None)
     traj = _simulate(model, cfg, progress=progress)
     return trajectory_dataset(traj, model, layout, cfg, compile_time_s=compile_time_s)

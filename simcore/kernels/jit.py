@@ -9,9 +9,9 @@ count, some 15 % of a step's time in the bearing's small functions. Such a kerne
 create an array (``np.zeros``, ``.copy()``), nor keep one a callee returns: it would never be
 freed. Views (``a[i]``, ``a[:n]``) are fine, they borrow the parent's memory.
 
-Both release Python's global interpreter lock while they run (``nogil``): a new process's first
-run imports xarray in a second thread (:func:`simcore.simulate.load_in_background`) while the
-kernels load and integrate.
+Both release Python's global interpreter lock while they run (``nogil``): runs started from
+several Python threads integrate in parallel (each run has its own arrays; the kernels keep no
+state between calls).
 """
 
 from __future__ import annotations

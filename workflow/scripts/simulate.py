@@ -43,11 +43,9 @@ with job_log(sm.log.simulate) as terminal:
     from numpy.linalg import LinAlgError
 
     import simcore
-    from simcore.simulate import load_in_background
+    from analysis.study_tables import impact_table
+    from simcore.io import failed_run_dataset
 
-    # the table's modules (xarray with them) load while the first run loads its kernels and
-    # integrates; they are imported where first needed, the first run's time holds the wait
-    load_in_background(("simcore.io", "analysis.study_tables"))
     imported = time.time()
     simulated = loading = tabulating = writing_runs = writing_tables = 0.0
     stages = {"extract": 0.0, "zoom": 0.0}
@@ -64,8 +62,6 @@ with job_log(sm.log.simulate) as terminal:
             message = f"run {label(point)} failed: {type(exc).__name__}: {exc}"
             print(f"FAILED: {message}", flush=True)
             print(f"WARNING: {message} -> recorded as missing in {path}", file=terminal)
-            from simcore.io import failed_run_dataset
-
             ds = failed_run_dataset(cfg, message)
             n_failed += 1
         written = time.perf_counter()
@@ -74,8 +70,6 @@ with job_log(sm.log.simulate) as terminal:
         print(f"{label(point)}: {time.perf_counter() - start:.2f} s "
               f"(numba threads: {n_threads}) -> {path}", flush=True)
         with job_log(sm.log.impacts, mode="a"):
-            from analysis.study_tables import impact_table
-
             start = time.perf_counter()
             impacts = impact_table(ds, sm.params.analysis, point, source=path, timings=stages)
             if impacts.attrs["failed"]:
