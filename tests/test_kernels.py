@@ -427,22 +427,26 @@ def test_work_array_kernels_give_the_allocating_kernels_numbers(bearing):
         assert np.array_equal(H, H2) and np.abs(H).max() > 0.0
 
 
-def test_compliant_step_kernel_agrees_with_the_shared_smooth_stage():
-    """The compliant time loop's own stage (no allocation, tangents only where a Newton step
-    needs them, block solver in the friction branches) against the shared smooth stage of
-    generalized_alpha with its compliant branches, one step from a state with loaded balls
-    (a compliant zoom of a paper-case run after the first pinch): the same accelerations,
-    multipliers and contact forces to the Newton tolerance."""
+def test_compliant_smooth_stage_solves_its_equations():
+    """The compliant time loop's smooth stage (no allocation, tangents only where a Newton step
+    needs them, block solver in the friction branches), one step from a state with loaded balls
+    (a compliant zoom of a paper-case run after the first pinch), checked at its result against
+    the equations it solves, evaluated again with the plain kernels: the generalized-alpha
+    update of q~, v~ from the accelerations, equilibrium M v' = f(q~, v~) + Hertz forces
+    + G^T lambda, the joints' velocity constraint G v~ + dg/dt = 0, and the contact forces it
+    reports."""
     import simcore
+    from simcore.io import generalized
     from simcore.kernels.compliant_step import compliant_smooth_step, compliant_work
-    from simcore.kernels.generalized_alpha import alpha_coefficients, smooth_step
+    from simcore.kernels.generalized_alpha import alpha_coefficients
+    from simcore.kernels.hertz import contact_forces
+    from simcore.kernels.joints import bilateral
+    from simcore.kernels.springs import smooth_forces
     from simcore.mechanism import crank_slider
 
     run = simcore.run(simcore.load_config(overrides=["solver.t_end=0.002"]))
     model, _ = crank_slider(simcore.load_config()["model"])
     i = int(np.searchsorted(run.time.values, 0.0015))
-    from simcore.io import generalized
-
     g = generalized(run)
     q0 = g["q"].isel(time=i).values.ravel()
     v0 = g["v"].isel(time=i).values.ravel()
@@ -454,19 +458,36 @@ def test_compliant_step_kernel_agrees_with_the_shared_smooth_stage():
     arr = model.arrays(compliant=True)
     n, m, nc = st.q.size, st.lam_s.size, cs.gap.size
     coef = alpha_coefficients(0.0)
-    results = []
-    for new in (False, True):
-        w = compliant_work(n, m, nc)
-        lam = st.lam_s.copy()
-        q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, _, _ = w.step
-        args = (st.q.copy(), st.v.copy(), st.acc.copy(), st.vdot.copy(), lam, 0.0015 + h, h,
-                coef, 1e-10, 50, arr, q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, w.smooth,
-                cs.v_pre.copy(), 1e-4, w.contacts)
-        if new:
-            its, ok = compliant_smooth_step(*args, w.hertz, w.branches)
-        else:
-            its, ok = smooth_step(*args)
-        assert ok and its >= 1
-        results.append((vdot1.copy(), lam.copy(), w.contacts[0].copy()))
-    for old, new in zip(results[0], results[1], strict=True):
-        np.testing.assert_allclose(new, old, rtol=1e-8, atol=1e-8 * np.abs(old).max())
+    am, af, gam, beta = coef
+    tol, v_reg, t1 = 1e-10, 1e-4, 0.0015 + h
+    w = compliant_work(n, m, nc)
+    lam = st.lam_s.copy()
+    q, v, acc, vdot, v_pre = (st.q.copy(), st.v.copy(), st.acc.copy(), st.vdot.copy(),
+                              cs.v_pre.copy())
+    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, _, _ = w.step
+    its, ok = compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, 50, arr, q_t, v_t,
+                                    acc1, vdot1, f_t, K_t, C_t, Ks_t, w.smooth, v_pre, v_reg,
+                                    w.contacts, w.hertz, w.branches)
+    assert ok and its >= 1
+    # the scheme's update formulas
+    a1 = ((1.0 - af) * vdot1 + af * vdot - am * acc) / (1.0 - am)
+    np.testing.assert_allclose(acc1, a1, rtol=1e-12, atol=1e-12 * np.abs(a1).max())
+    np.testing.assert_allclose(q_t, q + h * v + h * h * ((0.5 - beta) * acc + beta * a1),
+                               rtol=1e-14, atol=1e-14)
+    np.testing.assert_allclose(v_t, v + h * ((1.0 - gam) * acc + gam * a1), rtol=1e-12,
+                               atol=1e-12 * np.abs(v_t).max())
+    # forces at (q~, v~) from the plain kernels
+    f = np.zeros(n)
+    M = np.zeros((n, n))
+    smooth_forces(q_t, v_t, arr, f, M, M, M, False)
+    FN, FT, gap, vn, vt = (np.zeros(nc) for _ in range(5))
+    contact_forces(q_t, v_t, arr, v_pre, v_reg, f, M, M, False, FN, FT, gap, vn, vt,
+                   np.zeros((6, nc)))
+    assert (FN > 0.0).sum() >= 2
+    np.testing.assert_allclose(w.contacts[0], FN, rtol=1e-12, atol=1e-9 * FN.max())
+    gj, G, gm, dgdt = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)
+    bilateral(q_t, v_t, t1, arr, gj, G, gm, dgdt)
+    residual = arr.mdiag * vdot1 - f - G.T @ lam
+    scale = max(np.abs(f).max(), np.abs(arr.mdiag * vdot1).max(), FN.max())
+    assert np.abs(residual).max() <= 10 * tol * scale, np.abs(residual).max() / scale
+    assert np.abs(G @ v_t + dgdt).max() <= 10 * tol

@@ -182,11 +182,11 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
                           acc1, vdot1, f_t, K_t, C_t, Ks_t, sw, v_pre, v_reg, cwork, hw, bw):
     """The generalized-alpha stage of a compliant step: Newton on ``vdot1`` with the springs'
     and the Hertz contacts' forces and their exact tangents, joints at velocity level. The
-    same scheme as :func:`~.generalized_alpha.smooth_step` with its compliant branches,
-    written for the time loop: no array allocated (``sw``, ``hw``, ``bw``: work arrays), the
-    tangents evaluated only where a Newton step needs them (an iterate that converges, the last
-    of almost every step, gets its forces alone), the Newton step and its friction-branch
-    re-solves by the block solver of :mod:`.linalg`.
+    scheme of :func:`~.generalized_alpha.smooth_step` (the nonsmooth model's) with the contact
+    forces in it, written for the time loop: no array allocated (``sw``, ``hw``, ``bw``: work
+    arrays), the tangents evaluated only where a Newton step needs them (an iterate that
+    converges, the last of almost every step, gets its forces alone), the Newton step and its
+    friction-branch re-solves by the block solver of :mod:`.linalg`.
 
     Friction is piecewise linear in the slip (slope mu F / v_reg inside the band
     |v_T| < v_reg, flat outside): each Newton step is solved with each contact's branch chosen

@@ -944,8 +944,7 @@ def integrate_chunk(k0, k1, st, ma, state, out, work):
     for k in range(k0, k1):
         t1 = (k + 1) * h
         it_s, ok_s = smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, tol, max_iter, ma,
-                                 q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, sw, None, 1.0,
-                                 None)
+                                 q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, sw)
         it_p, ok_p = position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap,
                                    pwk)
         # normal velocities before the jump, G_N(q1) v~, from the position stage's rows at q1
