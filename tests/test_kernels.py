@@ -491,3 +491,23 @@ def test_compliant_smooth_stage_solves_its_equations():
     scale = max(np.abs(f).max(), np.abs(arr.mdiag * vdot1).max(), FN.max())
     assert np.abs(residual).max() <= 10 * tol * scale, np.abs(residual).max() / scale
     assert np.abs(G @ v_t + dgdt).max() <= 10 * tol
+
+
+def test_smooth_residual_against_numpy():
+    from simcore.kernels.generalized_alpha import smooth_residual
+
+    rng = np.random.default_rng(7)
+    n, m = 9, 4
+    mdiag, vdot1, f, v_t = (rng.normal(size=n) for _ in range(4))
+    G, lam, dgdt = rng.normal(size=(m, n)), rng.normal(size=m), rng.normal(size=m)
+    rhs = np.zeros(n + m)
+    res_f, res_c, scale = smooth_residual(mdiag, vdot1, f, G, lam, dgdt, v_t, rhs, 1e-300)
+    force = -(mdiag * vdot1 - f - G.T @ lam)
+    constraint = -(G @ v_t + dgdt)
+    np.testing.assert_allclose(rhs, np.r_[force, constraint], rtol=1e-13, atol=1e-13)
+    assert res_f == pytest.approx(np.abs(force).max(), rel=1e-13)
+    assert res_c == pytest.approx(np.abs(constraint).max(), rel=1e-13)
+    largest = max(np.abs(f).max(), np.abs(mdiag * vdot1).max(), np.abs(G.T @ lam).max())
+    assert scale == pytest.approx(largest, rel=1e-13)
+    # a larger scale of the caller's (its largest contact force) stays
+    assert smooth_residual(mdiag, vdot1, f, G, lam, dgdt, v_t, rhs, 1e6)[2] == 1e6

@@ -17,7 +17,7 @@ from collections import namedtuple
 import numpy as np
 
 from .bodies import BLOCKS_NEWTON, clear_pair_blocks, fill_pair_blocks
-from .generalized_alpha import alpha_coefficients, smooth_work, step_work
+from .generalized_alpha import alpha_coefficients, smooth_residual, smooth_work, step_work
 from .hertz import contact_forces_into, elastic_energy_into, hertz_work
 from .jit import kernel, step_kernel
 from .joints import bilateral, joint_row_count, joint_support
@@ -228,21 +228,7 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
         scale = 1e-300
         for k in range(cwork.shape[1]):
             scale = max(scale, cwork[0, k])
-        res_f = 0.0
-        for i in range(n):
-            react = 0.0
-            for r in range(m):
-                react += G[r, i] * lam[r]
-            rhs[i] = -(mdiag[i] * vdot1[i] - f_t[i] - react)
-            res_f = max(res_f, abs(rhs[i]))
-            scale = max(scale, abs(f_t[i]), abs(mdiag[i] * vdot1[i]), abs(react))
-        res_c = 0.0
-        for r in range(m):
-            c = dgdt[r]
-            for i in range(n):
-                c += G[r, i] * v_t[i]
-            rhs[n + r] = -c
-            res_c = max(res_c, abs(c))
+        res_f, res_c, scale = smooth_residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale)
         if res_f <= tol * scale and res_c <= tol:
             converged = True
             break

@@ -94,6 +94,33 @@ def initial_acceleration(q, v, t, ma, vdot, lam, v_pre, v_reg):
     copy_vector(lam, rhs[n:], m)
 
 
+@step_kernel
+def smooth_residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale):
+    """Residual of a smooth stage's iterate, as its Newton right-hand side: ``rhs[:n]`` =
+    -(M v' - f - G^T lambda) [N, N m], ``rhs[n:]`` = -(G v~ + dg/dt) [m/s, rad/s]. Returns
+    (largest force entry, largest constraint entry, force scale): the scale is the largest of
+    ``scale`` (the caller's, e.g. its largest contact force) and of |f|, |M v'|, |G^T lambda|
+    over the coordinates."""
+    n = vdot1.shape[0]
+    m = lam.shape[0]
+    res_f = 0.0
+    for i in range(n):
+        react = 0.0
+        for r in range(m):
+            react += G[r, i] * lam[r]
+        rhs[i] = -(mdiag[i] * vdot1[i] - f_t[i] - react)
+        res_f = max(res_f, abs(rhs[i]))
+        scale = max(scale, abs(f_t[i]), abs(mdiag[i] * vdot1[i]), abs(react))
+    res_c = 0.0
+    for r in range(m):
+        c = dgdt[r]
+        for i in range(n):
+            c += G[r, i] * v_t[i]
+        rhs[n + r] = -c
+        res_c = max(res_c, abs(c))
+    return res_f, res_c, scale
+
+
 @kernel
 def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, acc1, vdot1,
                 f_t, K_t, C_t, Ks_t, sw):
@@ -125,22 +152,8 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             v_t[i] = v[i] + h * (1.0 - gam) * acc[i] + h * gam * acc1[i]
         smooth_forces_into(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, True, sw.fw, sw.iw)
         bilateral(q_t, v_t, t1, ma, g, G, gm, dgdt)
-        scale = 1e-300
-        res_f = 0.0
-        for i in range(n):
-            react = 0.0
-            for r in range(m):
-                react += G[r, i] * lam[r]
-            rhs[i] = -(mdiag[i] * vdot1[i] - f_t[i] - react)
-            res_f = max(res_f, abs(rhs[i]))
-            scale = max(scale, abs(f_t[i]), abs(mdiag[i] * vdot1[i]), abs(react))
-        res_c = 0.0
-        for r in range(m):
-            c = dgdt[r]
-            for i in range(n):
-                c += G[r, i] * v_t[i]
-            rhs[n + r] = -c
-            res_c = max(res_c, abs(c))
+        res_f, res_c, scale = smooth_residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs,
+                                              1e-300)
         if res_f <= tol * scale and res_c <= tol:
             converged = True
             break
