@@ -511,3 +511,20 @@ def test_smooth_residual_against_numpy():
     assert scale == pytest.approx(largest, rel=1e-13)
     # a larger scale of the caller's (its largest contact force) stays
     assert smooth_residual(mdiag, vdot1, f, G, lam, dgdt, v_t, rhs, 1e6)[2] == 1e6
+
+
+def test_alpha_predict_against_the_scheme():
+    from simcore.kernels.generalized_alpha import alpha_coefficients, alpha_predict
+
+    rng = np.random.default_rng(3)
+    q, v, acc, vdot, vdot1 = (rng.normal(size=7) for _ in range(5))
+    h = 1e-3
+    coef = alpha_coefficients(0.5)
+    am, af, gam, beta = coef
+    acc1, q_t, v_t = np.zeros(7), np.zeros(7), np.zeros(7)
+    alpha_predict(q, v, acc, vdot, vdot1, h, coef, acc1, q_t, v_t)
+    a1 = ((1 - af) * vdot1 + af * vdot - am * acc) / (1 - am)
+    np.testing.assert_allclose(acc1, a1, rtol=1e-14)
+    np.testing.assert_allclose(q_t, q + h * v + h * h * ((0.5 - beta) * acc + beta * a1),
+                               rtol=1e-14)
+    np.testing.assert_allclose(v_t, v + h * ((1 - gam) * acc + gam * a1), rtol=1e-14)

@@ -17,7 +17,13 @@ from collections import namedtuple
 import numpy as np
 
 from .bodies import BLOCKS_NEWTON, clear_pair_blocks, fill_pair_blocks
-from .generalized_alpha import alpha_coefficients, smooth_residual, smooth_work, step_work
+from .generalized_alpha import (
+    alpha_coefficients,
+    alpha_predict,
+    smooth_residual,
+    smooth_work,
+    step_work,
+)
 from .hertz import contact_forces_into, elastic_energy_into, hertz_work
 from .jit import kernel, step_kernel
 from .joints import bilateral, joint_row_count, joint_support
@@ -215,10 +221,7 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
     copy_vector(lam_prev, lam, m)
     halvings = 0
     for it in range(max_iter + 1):
-        for i in range(n):
-            acc1[i] = ((1.0 - af) * vdot1[i] + af * vdot[i] - am * acc[i]) / (1.0 - am)
-            q_t[i] = q[i] + h * v[i] + h * h * (0.5 - beta) * acc[i] + h * h * beta * acc1[i]
-            v_t[i] = v[i] + h * (1.0 - gam) * acc[i] + h * gam * acc1[i]
+        alpha_predict(q, v, acc, vdot, vdot1, h, coef, acc1, q_t, v_t)
         # the predictor (it = 0) practically never satisfies the tolerance: its tangents are
         # evaluated with it; a later iterate first gets its forces alone
         tangent = it == 0

@@ -95,6 +95,19 @@ def initial_acceleration(q, v, t, ma, vdot, lam, v_pre, v_reg):
 
 
 @step_kernel
+def alpha_predict(q, v, acc, vdot, vdot1, h, coef, acc1, q_t, v_t):
+    """The generalized-alpha update of an iterate ``vdot1`` of the end-of-step accelerations:
+    a_{n+1} = ((1 - af) v'_{n+1} + af v'_n - am a_n) / (1 - am), q~ = q + h v + h^2 ((1/2 -
+    beta) a_n + beta a_{n+1}), v~ = v + h ((1 - gam) a_n + gam a_{n+1}), into ``acc1``, ``q_t``,
+    ``v_t``. ``coef``: :func:`alpha_coefficients`."""
+    am, af, gam, beta = coef
+    for i in range(q.shape[0]):
+        acc1[i] = ((1.0 - af) * vdot1[i] + af * vdot[i] - am * acc[i]) / (1.0 - am)
+        q_t[i] = q[i] + h * v[i] + h * h * (0.5 - beta) * acc[i] + h * h * beta * acc1[i]
+        v_t[i] = v[i] + h * (1.0 - gam) * acc[i] + h * gam * acc1[i]
+
+
+@step_kernel
 def smooth_residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale):
     """Residual of a smooth stage's iterate, as its Newton right-hand side: ``rhs[:n]`` =
     -(M v' - f - G^T lambda) [N, N m], ``rhs[n:]`` = -(G v~ + dg/dt) [m/s, rad/s]. Returns
@@ -146,10 +159,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
     iters = 0
     converged = False
     for it in range(max_iter + 1):
-        for i in range(n):
-            acc1[i] = ((1.0 - af) * vdot1[i] + af * vdot[i] - am * acc[i]) / (1.0 - am)
-            q_t[i] = q[i] + h * v[i] + h * h * (0.5 - beta) * acc[i] + h * h * beta * acc1[i]
-            v_t[i] = v[i] + h * (1.0 - gam) * acc[i] + h * gam * acc1[i]
+        alpha_predict(q, v, acc, vdot, vdot1, h, coef, acc1, q_t, v_t)
         smooth_forces_into(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, True, sw.fw, sw.iw)
         bilateral(q_t, v_t, t1, ma, g, G, gm, dgdt)
         res_f, res_c, scale = smooth_residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs,
