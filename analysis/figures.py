@@ -688,11 +688,9 @@ def _panel_grid(nrow, ncol, panel_w, panel_h, wgap, hgap, *, left=0.85, right=1.
     return fig, axes, cax
 
 
-def _colorbar(fig, mesh, axes, label, cax=None):
-    """Colour bar with plain-number ticks (1, 2, 5 per decade on a log scale), in ``cax`` if
-    given, else beside ``axes``."""
-    bar = (fig.colorbar(mesh, cax=cax, label=label) if cax is not None
-           else fig.colorbar(mesh, ax=axes, label=label, shrink=0.9))
+def _colorbar(fig, mesh, cax, label):
+    """Colour bar in ``cax`` with plain-number ticks (1, 2, 5 per decade on a log scale)."""
+    bar = fig.colorbar(mesh, cax=cax, label=label)
     if isinstance(mesh.norm, matplotlib.colors.LogNorm):
         bar.ax.yaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
         bar.ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
@@ -762,7 +760,7 @@ def _facet_figure(da, swept, path, label, failed, title):
                 _ticks(ax, "x", x, da[x].values)
             if j == 0 and y is not None:
                 _ticks(ax, "y", y, da[y].values)
-    _colorbar(fig, mesh, axes, label, cax)
+    _colorbar(fig, mesh, cax, label)
     fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -794,7 +792,7 @@ def _pairs_figure(da, swept, path, label, how, failed, title):
         ax.set_title(f"{how} over {', '.join(rest)}" if rest else "", fontsize=9)
     for ax in axes.ravel()[len(pairs):]:
         ax.set_axis_off()
-    _colorbar(fig, mesh, axes, label, cax)
+    _colorbar(fig, mesh, cax, label)
     fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=100)
     plt.close(fig)

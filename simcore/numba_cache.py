@@ -63,13 +63,6 @@ def configure_cache(folder: str | Path = KERNELS_DIR) -> str:
     return path
 
 
-def configured_cache_dir() -> str:
-    """The folder Numba's cache uses in this process (``numba.config.CACHE_DIR``)."""
-    import numba
-
-    return str(numba.config.CACHE_DIR)
-
-
 def preload_scipy_blas() -> bool:
     """Load SciPy's ``cython_blas`` extension module on its own, without the ``scipy.linalg``
     package around it.

@@ -46,12 +46,12 @@ def _compile_notice(stream) -> threading.Timer:
     the kernels are being compiled (a cache load takes well under a second; a compilation
     30-60 s in which nothing else would be printed)."""
     def say():
-        from .numba_cache import configured_cache_dir
+        import numba
 
         timer.said = True
         stream.write("simcore: compiling the simulation kernels (first run after an install or "
                      "an edit of the kernels; 30-60 s, then cached in "
-                     f"{configured_cache_dir()}) ...\n")
+                     f"{numba.config.CACHE_DIR}) ...\n")
         stream.flush()
 
     timer = threading.Timer(COMPILE_NOTICE_AFTER, say)
