@@ -252,7 +252,7 @@ def profile_step(model, s, n_steps: int, repeats: int = 3) -> np.ndarray:
         n, nc = q.size, arr.ct_type.size
         nbil = int(nb.joint_row_count(arr.jt_type))
         acc, vdot, lam_s = np.zeros(n), np.zeros(n), np.zeros(nbil)
-        nb.initial_acceleration(q, v, 0.0, arr, vdot, lam_s, None, 1.0)
+        nb.initial_acceleration(q, v, 0.0, arr, np.zeros(n), vdot, lam_s, nb.smooth_work(n, nbil))
         acc[:] = vdot
         gap0, vn0, vt0 = np.zeros(nc), np.zeros(nc), np.zeros(nc)
         nb.contact_velocities(q, v, arr, gap0, vn0, vt0)

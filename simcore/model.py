@@ -466,11 +466,20 @@ class Model:
         gap0 = np.zeros(nc)
         vn0 = np.zeros(nc)
         vt0 = np.zeros(nc)
-        nb.contact_velocities(q, v, arr, gap0, vn0, vt0)
+        # the start uses the time loop's own kernels and work arrays (nothing else to compile)
+        work = (nb.compliant_work(ndof, nbil, nc) if compliant
+                else nb.nonsmooth_work(ndof, nbil, nc))
+        sw = work.smooth
+        nb.contact_velocities_into(q, v, arr, gap0, vn0, vt0, np.zeros(6), np.zeros(6), sw.trig)
         v_pre = np.maximum(-vn0, v_pre_min)
+        f_contact = np.zeros(ndof)  # the compliant contact forces at the start
+        if compliant:
+            FN0, FT0 = np.zeros(nc), np.zeros(nc)
+            nb.contact_forces(q, v, arr, v_pre, v_reg, f_contact, np.zeros((1, 1)),
+                              np.zeros((1, 1)), False, FN0, FT0, gap0.copy(), vn0.copy(),
+                              vt0.copy(), np.zeros((6, nc)))
         try:
-            nb.initial_acceleration(q, v, float(t0), arr, vdot, lam_s,
-                                    v_pre if compliant else None, v_reg)
+            nb.initial_acceleration(q, v, float(t0), arr, f_contact, vdot, lam_s, sw)
         except np.linalg.LinAlgError as exc:
             raise SolverError(f"the joints at t = 0 are redundant or singular: {exc}") from None
         acc[:] = vdot
@@ -508,10 +517,6 @@ class Model:
         if compliant:
             out.F_N = np.zeros((n_out, nc))
             out.F_T = np.zeros((n_out, nc))
-            FN0, FT0 = np.zeros(nc), np.zeros(nc)
-            nb.contact_forces(q, v, arr, v_pre, v_reg, np.zeros(ndof), np.zeros((1, 1)),
-                              np.zeros((1, 1)), False, FN0, FT0, gap0.copy(), vn0.copy(),
-                              vt0.copy(), np.zeros((6, nc)))
             out.F_N[0] = FN0
             out.F_T[0] = FT0
             out.energy[0] += nb.elastic_energy(q, arr)
@@ -526,7 +531,6 @@ class Model:
                                           out.energy, out.iterations, out.converged,
                                           out.drive_torque)
             chunk = max(1, int(chunk) // output_every) * output_every
-            work = nb.compliant_work(ndof, nbil, nc)
 
             def advance(k, k_next):
                 return nb.integrate_compliant_chunk(k, k_next, output_every, settings, arr,
@@ -536,8 +540,6 @@ class Model:
                                       out.gap_N, out.vn_pre, out.vn_post, out.vn_free,
                                       out.energy, out.iterations, out.converged,
                                       out.drive_torque)
-
-            work = nb.nonsmooth_work(ndof, nbil, nc)
 
             def advance(k, k_next):
                 return nb.integrate_chunk(k, k_next, settings, arr, state, outputs, work)

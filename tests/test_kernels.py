@@ -171,8 +171,35 @@ def test_initial_acceleration_of_free_fall():
     arr = model.arrays()
     q, v = model.initial_state()
     vdot, lam = np.zeros(3), np.zeros(0)
-    nb.initial_acceleration(q, v, 0.0, arr, vdot, lam, None, 1.0)
+    nb.initial_acceleration(q, v, 0.0, arr, np.zeros(3), vdot, lam, nb.smooth_work(3, 0))
     np.testing.assert_allclose(vdot, [0.0, -9.81, 0.0])
+
+
+def test_initial_acceleration_solves_the_saddle_point_system(bearing):
+    """vdot and the joint multipliers against numpy's dense solve of
+    [M, -G^T; G, 0] [vdot; lam] = [f + f_extra; -gamma], with f and the joint rows from the
+    allocating kernels and an arbitrary extra force (the compliant model's contact forces)."""
+    model, _, arr = bearing
+    q, v = model.initial_state()
+    rng = np.random.default_rng(7)
+    v = v + rng.normal(0.0, 0.5, v.size)
+    n, m = q.size, model.constraint_rows()
+    f_extra = rng.normal(0.0, 10.0, n)
+    f = np.zeros(n)
+    scratch = np.zeros((n, n))
+    nb.smooth_forces(q, v, arr, f, scratch, scratch, scratch, False)
+    g, G, gam, dgdt = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)
+    nb.bilateral(q, v, 0.25, arr, g, G, gam, dgdt)
+    big = np.zeros((n + m, n + m))
+    big[:n, :n] = np.diag(arr.mdiag)
+    big[:n, n:] = -G.T
+    big[n:, :n] = G
+    expected = np.linalg.solve(big, np.concatenate([f + f_extra, -gam]))
+    vdot, lam = np.zeros(n), np.zeros(m)
+    nb.initial_acceleration(q, v, 0.25, arr, f_extra, vdot, lam, nb.smooth_work(n, m))
+    scale = np.abs(expected).max()
+    np.testing.assert_allclose(vdot, expected[:n], rtol=0, atol=1e-11 * scale)
+    np.testing.assert_allclose(lam, expected[n:], rtol=0, atol=1e-11 * scale)
 
 
 def test_stage_kernels_on_a_pinched_ball():

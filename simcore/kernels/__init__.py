@@ -58,8 +58,14 @@ from .contact import (  # noqa: E402
     contact_hessian,
     contact_rows,
     contact_velocities,
+    contact_velocities_into,
 )
-from .generalized_alpha import alpha_coefficients, initial_acceleration, smooth_step  # noqa: E402
+from .generalized_alpha import (  # noqa: E402
+    alpha_coefficients,
+    initial_acceleration,
+    smooth_step,
+    smooth_work,
+)
 from .hertz import contact_forces, elastic_energy, normal_force  # noqa: E402
 from .joints import (  # noqa: E402
     JOINT_ANGLE,
@@ -92,7 +98,8 @@ __all__ = [
     "support_dot",
     "body_omega", "body_point", "clear_pair_blocks", "fill_pair_blocks", "contact_hessian",
     "contact_rows",
-    "contact_velocities", "initial_acceleration", "integrate_chunk", "joint_row_count",
+    "contact_velocities", "contact_velocities_into", "initial_acceleration", "smooth_work",
+    "integrate_chunk", "joint_row_count",
     "nonsmooth_work",
     "pair_point_jacobians", "point_pair_row", "position_step", "row_dot", "scatter_row",
     "smooth_forces", "spring_damping",

@@ -9,17 +9,15 @@ from collections import namedtuple
 
 import numpy as np
 
-from .bodies import BLOCKS_NEWTON, fill_pair_blocks
-from .hertz import contact_forces
-from .jit import kernel, step_kernel
-from .joints import bilateral, joint_row_count
+from .bodies import BLOCKS_NEWTON, fill_pair_blocks, trig_cache
+from .jit import step_kernel
+from .joints import bilateral_cached
 from .linalg import (
     block_factor_work,
     copy_vector,
-    saddle_point_solve,
     saddle_point_solve_into,
 )
-from .springs import smooth_forces, smooth_forces_into
+from .springs import smooth_forces_into
 
 #: Work arrays of :func:`smooth_step` (made by :func:`smooth_work`, once per run):
 #: the joint rows g, G, their velocity terms gm, dgdt, the Newton matrix J and right-hand side
@@ -28,7 +26,7 @@ from .springs import smooth_forces, smooth_forces_into
 #: (:func:`~.compliant_step.compliant_smooth_step`) its previous iterate (vdot_prev, lam_prev)
 #: for its backtracking and its Newton step (sol).
 SmoothWork = namedtuple("SmoothWork", ["g", "G", "gm", "dgdt", "J", "rhs", "fac", "JG", "S",
-                                       "piv", "vdot_prev", "lam_prev", "sol", "fw", "iw"])
+                                       "piv", "vdot_prev", "lam_prev", "sol", "fw", "iw", "trig"])
 
 
 def step_work(n):
@@ -46,7 +44,8 @@ def smooth_work(n, m):
                       J=np.zeros((n, n)), rhs=np.zeros(n + m), fac=block_factor_work(n),
                       JG=np.zeros((m, n)), S=np.zeros((m, m)), piv=np.zeros(m, dtype=np.int64),
                       vdot_prev=np.zeros(n), lam_prev=np.zeros(m), sol=np.zeros(n + m),
-                      fw=np.zeros((3, 6)), iw=np.zeros((2, 6), dtype=np.int64))
+                      fw=np.zeros((3, 6)), iw=np.zeros((2, 6), dtype=np.int64),
+                      trig=trig_cache(n // 3))
 
 
 @step_kernel
@@ -59,39 +58,45 @@ def alpha_coefficients(rho_inf):
     return am, af, gam, beta
 
 
-@kernel
-def initial_acceleration(q, v, t, ma, vdot, lam, v_pre, v_reg):
-    """Smooth acceleration at t = 0 from M vdot = f + G^T lam, G vdot + gamma = 0. With onset
-    speeds ``v_pre`` (compliant contacts; ``None`` for the nonsmooth model, whose contact
-    code is then not compiled) the Hertz contact forces are part of f."""
+@step_kernel
+def initial_acceleration(q, v, t, ma, f_extra, vdot, lam, sw):
+    """Smooth acceleration at time ``t`` [s] from M vdot = f + f_extra + G^T lam,
+    G vdot + gamma = 0 (the consistent start of generalized-alpha, both contact models).
+
+    Parameters
+    ----------
+    q, v : ndarray
+        Coordinates [m, rad] and velocities [m/s, rad/s].
+    f_extra : ndarray
+        Forces added to gravity and the springs [N, N m]: the compliant model's Hertz contact
+        forces at the start, zeros for the nonsmooth model.
+    vdot, lam : ndarray
+        Receive the accelerations [m/s^2, rad/s^2] and the joint multipliers [N, N m].
+    sw : SmoothWork
+        Work arrays (:func:`smooth_work`); the same kernels and types as the time loop's
+        smooth stage, so that a run compiles nothing else for its start.
+    """
     mdiag = ma.mdiag
-    jt_type = ma.jt_type
     n = q.shape[0]
-    m = joint_row_count(jt_type)
-    f = np.zeros(n)
-    M = np.zeros((n, n))  # no tangents asked of the forces: M stands in for K, C, K_s
-    smooth_forces(q, v, ma, f, M, M, M, False)
-    if v_pre is not None:
-        nc = ma.ct_type.shape[0]
-        w = np.zeros((5, nc))
-        contact_forces(q, v, ma, v_pre, v_reg, f, M, M, False, w[0], w[1], w[2], w[3], w[4],
-                       np.zeros((6, nc)))
-    g = np.zeros(m)
-    G = np.zeros((m, n))
-    gam = np.zeros(m)
-    dgdt = np.zeros(m)
-    bilateral(q, v, t, ma, g, G, gam, dgdt)
+    m = sw.g.shape[0]
+    J = sw.J
+    rhs = sw.rhs
+    # no tangents are asked of the forces (J only stands in for K, C, K_s); the Newton
+    # matrix is then M itself
+    smooth_forces_into(q, v, ma, rhs, J, J, J, False, sw.fw, sw.iw)
+    bilateral_cached(q, v, t, ma, sw.g, sw.G, sw.gm, sw.dgdt, sw.trig)
     # [M, -G^T; G, 0] [vdot; lam] = [f; -gamma], by the solver of the smooth stage's steps
-    # (so that a run compiles no other dense solver)
-    rhs = np.zeros(n + m)
     for i in range(n):
-        M[i, i] = mdiag[i]
-        rhs[i] = f[i]
+        for j in range(n):
+            J[i, j] = 0.0
+        J[i, i] = mdiag[i]
+        rhs[i] += f_extra[i]
     for r in range(m):
-        rhs[n + r] = -gam[r]
-    saddle_point_solve(M, G, 1.0, rhs)
+        rhs[n + r] = -sw.gm[r]
+    saddle_point_solve_into(J, sw.G, 1.0, rhs, sw.fac, sw.JG, sw.S, sw.piv)
     copy_vector(vdot, rhs, n)
-    copy_vector(lam, rhs[n:], m)
+    for r in range(m):
+        lam[r] = rhs[n + r]
 
 
 @step_kernel
@@ -134,7 +139,7 @@ def smooth_residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale):
     return res_f, res_c, scale
 
 
-@kernel
+@step_kernel
 def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, acc1, vdot1,
                 f_t, K_t, C_t, Ks_t, sw):
     """Generalized-alpha prediction with smooth forces and bilateral joints (velocity level):
@@ -161,7 +166,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
     for it in range(max_iter + 1):
         alpha_predict(q, v, acc, vdot, vdot1, h, coef, acc1, q_t, v_t)
         smooth_forces_into(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, True, sw.fw, sw.iw)
-        bilateral(q_t, v_t, t1, ma, g, G, gm, dgdt)
+        bilateral_cached(q_t, v_t, t1, ma, g, G, gm, dgdt, sw.trig)
         res_f, res_c, scale = smooth_residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs,
                                               1e-300)
         if res_f <= tol * scale and res_c <= tol:
