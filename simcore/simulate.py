@@ -3,7 +3,8 @@
 The first run in a process first compiles the Numba kernels, or loads them from Numba's cache
 (``__pycache__`` next to the sources): seconds to a minute. :func:`warm_up` does that with a
 run of two steps, so that the run's ``wall_time_s`` measures the integration alone; the time it
-took is recorded apart, as ``compile_time_s``.
+took is recorded apart, as ``compile_time_s``. A cold compilation of the nonsmooth model is
+shared with a second process (:mod:`simcore.parallel_compile`).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from .config import load_config, output_every, validate_config
 from .limits import check_run
 from .mechanism import crank_slider
 from .model import SolverError  # noqa: F401  (re-exported)
+from .parallel_compile import start_helper, stop_helper
 
 _warm: set[str] = set()  # contact models whose kernels this process has compiled or loaded
 
@@ -89,6 +91,8 @@ def warm_up(config: dict | None = None, notify=None) -> float:
     start = time.perf_counter()
     notice = _compile_notice(notify) if notify is not None else None
     model, _ = crank_slider(cfg["model"])
+    # a cold compilation of the nonsmooth loop is shared with a second process
+    helper = start_helper() if kind == "nonsmooth" else None
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -98,6 +102,7 @@ def warm_up(config: dict | None = None, notify=None) -> float:
             except SolverError:
                 pass  # the kernels are compiled all the same; the real run reports the failure
     finally:
+        stop_helper(helper)
         if notice is not None:
             notice.cancel()
             notice.join()  # a notice being written is finished before the next line
