@@ -3,7 +3,8 @@
 Prints, in one run:
 
 - cold compile: a new process with an empty Numba cache (a temporary ``NUMBA_CACHE_DIR``):
-  imports, then the first (compiling) 1-step run of the paper case;
+  imports, then the first (compiling) 1-step run of the paper case, whose compile a second
+  process shares (``simcore.parallel_compile``): wall time, and the CPU time of both;
 - a new process with a warm cache: the first run of the paper case in all, from the interpreter's
   start to the returned dataset (``simcore.run``, the API) and to the written file
   (``python -m simcore run``, the CLI), with where the time goes (``benchmarks/first_run.py``,
@@ -28,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -282,9 +284,13 @@ def main() -> None:
         return
 
     with tempfile.TemporaryDirectory() as cache:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         imp, first, total = _subprocess_times({"NUMBA_CACHE_DIR": cache})
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
         print(f"cold compile (empty cache): import {imp:.2f} s, first 1-step run {first:.2f} s "
-              f"(compile of everything a run needs), process total {total:.2f} s")
+              f"(compile of everything a run needs), process total {total:.2f} s wall, "
+              f"{cpu:.1f} s CPU with the compile's helper process")
 
     import numba
 

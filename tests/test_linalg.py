@@ -129,6 +129,13 @@ def test_block_gram_is_the_delassus_matrix(indefinite):
     np.testing.assert_allclose(D[:m, :m], G @ np.linalg.solve(A, G.T), rtol=1e-9, atol=1e-12)
 
 
+def _saddle_point_solve(J, G, c, rhs):
+    """saddle_point_solve_into with fresh work arrays (as the time loops' are made)."""
+    n, m = J.shape[0], G.shape[0]
+    la.saddle_point_solve_into(J, G, c, rhs, la.block_factor_work(n), np.zeros((m, n)),
+                               np.zeros((m, m)), np.zeros(m, dtype=np.int64))
+
+
 def test_saddle_point_solve_matches_the_assembled_system():
     rng = np.random.default_rng(10)
     n, m, c = 33, 6, 0.37
@@ -139,11 +146,11 @@ def test_saddle_point_solve_matches_the_assembled_system():
     rhs = rng.standard_normal(n + m)
     K = np.block([[J, -G.T], [c * G, np.zeros((m, m))]])
     x = rhs.copy()
-    la.saddle_point_solve(J, G, c, x)
+    _saddle_point_solve(J, G, c, x)
     np.testing.assert_allclose(x, np.linalg.solve(K, rhs), rtol=1e-9, atol=1e-12)
     # no constraint rows: a plain solve
     y = rhs[:n].copy()
-    la.saddle_point_solve(J, np.zeros((0, n)), c, y)
+    _saddle_point_solve(J, np.zeros((0, n)), c, y)
     np.testing.assert_allclose(y, np.linalg.solve(J, rhs[:n]), rtol=1e-10)
 
 

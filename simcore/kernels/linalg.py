@@ -15,8 +15,9 @@ arrays, so one work array serves problems of any size up to its own.
   its coupled block only (Cholesky, LU if the block is not positive definite);
 - :func:`block_gram`, :func:`block_gram_rows`, :func:`block_gram_entry`: Delassus matrices
   G A^-1 G^T from such a factor and the rows' supports;
-- :func:`saddle_point_solve`, :func:`block_inverse`: allocating conveniences for code outside
-  the time loop.
+- :func:`saddle_point_solve_into`: the joints' saddle-point systems of the smooth stages and
+  of the initial acceleration; :func:`block_inverse`: an allocating convenience for code
+  outside the time loop.
 
 A singular matrix raises ``numpy.linalg.LinAlgError`` like ``np.linalg.solve`` does.
 """
@@ -348,24 +349,14 @@ def block_gram_entry(fac, G, r, Y, yr, cols, c, m):
     return s
 
 
-@kernel
-def saddle_point_solve(J, G, c, rhs):
+@step_kernel
+def saddle_point_solve_into(J, G, c, rhs, fac, JG, S, piv):
     """Solve [J, -G^T; c G, 0] [x; y] = rhs in place (``rhs[:n]`` becomes x, ``rhs[n:]``
     becomes y) by the Schur complement S = c G J^-1 G^T of the m constraint rows.
 
     ``J`` (n x n) is factorised on its coupled block (:func:`block_factor`, LU: J need not be
-    symmetric); ``G`` is m x n, ``c`` a scalar. (Allocates its work arrays; the time loops call
-    :func:`saddle_point_solve_into` with arrays made once per run.)"""
-    n = J.shape[0]
-    m = G.shape[0]
-    saddle_point_solve_into(J, G, c, rhs, block_factor_work(n), np.empty((m, n)),
-                            np.empty((m, m)), np.empty(m, dtype=np.int64))
-
-
-@step_kernel
-def saddle_point_solve_into(J, G, c, rhs, fac, JG, S, piv):
-    """:func:`saddle_point_solve` on work arrays: ``fac`` (:func:`block_factor_work` of n),
-    ``JG`` (m x n), ``S`` (m x m), ``piv`` (m integers)."""
+    symmetric); ``G`` is m x n, ``c`` a scalar. Work arrays: ``fac`` (:func:`block_factor_work`
+    of n), ``JG`` (m x n), ``S`` (m x m), ``piv`` (m integers)."""
     n = J.shape[0]
     m = G.shape[0]
     block_factor(J, n, fac, False)
