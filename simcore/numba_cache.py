@@ -55,12 +55,59 @@ def configure_cache(folder: str | Path = KERNELS_DIR) -> str:
     decorated, i.e. imported)."""
     import numba
 
+    lock_cache_writes()
     user = os.environ.get("NUMBA_CACHE_DIR", "")
     if user:
         return user
     path = str(cache_dir_for(folder))
     numba.config.CACHE_DIR = path
     return path
+
+
+def lock_cache_writes() -> bool:
+    """Make Numba's writing of a cache entry safe between processes.
+
+    Numba saves an entry by reading the function's index file, choosing the first free data
+    file number, writing the index and then the data file. Each file is replaced atomically, but
+    the sequence is not: two processes that save different specialisations of one function at
+    the same moment (the study's warm-up processes and a cold run's compile helper,
+    :mod:`simcore.parallel_compile`, both compile shared callees) can choose the same data file,
+    and the index can then name the other specialisation's machine code, in a cache folder that
+    stays in use until the kernels are edited. Here the whole sequence runs under an exclusive
+    ``flock`` on a lock file beside the index (``<index>.lock``), so saves of one function
+    follow one another; loading is unchanged. Applied once per process, before any kernel is
+    compiled.
+
+    Returns
+    -------
+    bool
+        True when saves are locked (POSIX ``fcntl`` and Numba's ``IndexDataCacheFile.save`` are
+        there); False otherwise, and then no second compiling process is started.
+    """
+    try:
+        import fcntl
+
+        from numba.core.caching import IndexDataCacheFile
+    except ImportError:
+        return False
+    save = IndexDataCacheFile.save
+    if getattr(save, "locked_between_processes", False):
+        return True
+
+    def locked_save(self, key, data):
+        path = getattr(self, "_index_path", None)
+        if path is None:  # another Numba layout: save as Numba does
+            return save(self, key, data)
+        with open(path + ".lock", "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            try:
+                return save(self, key, data)
+            finally:
+                fcntl.flock(lock, fcntl.LOCK_UN)
+
+    locked_save.locked_between_processes = True
+    IndexDataCacheFile.save = locked_save
+    return True
 
 
 def preload_scipy_blas() -> bool:

@@ -5,8 +5,10 @@ loop's source calls them (the smooth stage, the position correction, then the ve
 and finally the loop itself, which links them all: some 35-45 s of one core. When the kernels
 are not in Numba's cache yet, :func:`start_helper` starts a second Python process that compiles
 the velocity jump's kernels (:func:`compile_velocity_stage`) while this process compiles the
-rest. Numba writes its cache files atomically and looks a kernel up in the cache when it first
-needs it, so by the time the loop gets to the velocity jump it finds it compiled and loads it.
+rest. Numba looks a kernel up in the cache when it first needs it, so by the time the loop gets
+to the velocity jump it finds it compiled and loads it. The two processes save their cache
+entries one after the other (:func:`simcore.numba_cache.lock_cache_writes`): Numba's own saving
+of an entry is not safe between processes.
 With two cores a cold start then takes about two thirds of the time; with a warm cache nothing
 is started.
 
@@ -35,17 +37,29 @@ def in_cache(dispatcher) -> bool | None:
 
 
 def start_helper() -> subprocess.Popen | None:
-    """Start the helper process when the velocity jump's kernels are not in the cache (and
-    more than one core is there to run it); returns it, or None when nothing was started."""
+    """Start the helper process when the velocity jump's kernels are not in the cache, more
+    than one core is there to run it and cache saves are locked between processes; returns it,
+    or None when nothing was started."""
     from . import kernels as nb
+    from .numba_cache import lock_cache_writes
 
-    if in_cache(nb.velocity_step) is not False or (os.cpu_count() or 1) < 2:
+    if in_cache(nb.velocity_step) is not False or usable_cores() < 2:
         return None
+    if not lock_cache_writes() or not sys.executable:
+        return None  # (unlocked saves of two processes could mix up cache entries)
     try:
         return subprocess.Popen([sys.executable, "-c", HELPER], stdin=subprocess.DEVNULL,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    except OSError:
+    except Exception:  # an optimisation only: whatever stops it, compile here
         return None
+
+
+def usable_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the system tells it)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
 
 
 def stop_helper(helper: subprocess.Popen | None) -> None:

@@ -103,3 +103,37 @@ def test_editing_a_callee_in_another_module_recompiles_the_caller(tmp_path, keye
     else:
         # the pitfall the keying removes: the caller's cached code still returns the old value
         assert _run(tmp_path, env) == 2
+
+
+def _save_entries(folder, worker, count, barrier):
+    from numba.core.caching import IndexDataCacheFile
+
+    cache = IndexDataCacheFile(folder, "kernel", "stamp")
+    barrier.wait()
+    for i in range(count):
+        cache.save((worker, i), ("code of", worker, i))
+
+
+def test_cache_saves_of_several_processes_keep_every_entry(tmp_path):
+    """Processes saving different entries of one function at the same time (the compile helper
+    and the warm-up processes do): with the locked save every entry is there afterwards with
+    its own data. (Numba's unlocked save loses entries or mixes up their data files here.)"""
+    import multiprocessing
+
+    from numba.core.caching import IndexDataCacheFile
+
+    assert numba_cache.lock_cache_writes()
+    context = multiprocessing.get_context("fork")
+    workers, count = 4, 25
+    barrier = context.Barrier(workers)
+    procs = [context.Process(target=_save_entries, args=(str(tmp_path), w, count, barrier))
+             for w in range(workers)]
+    for proc in procs:
+        proc.start()
+    for proc in procs:
+        proc.join(60)
+        assert proc.exitcode == 0
+    cache = IndexDataCacheFile(str(tmp_path), "kernel", "stamp")
+    for w in range(workers):
+        for i in range(count):
+            assert cache.load((w, i)) == ("code of", w, i)

@@ -26,7 +26,7 @@ from .generalized_alpha import (
 )
 from .hertz import contact_forces_into, elastic_energy_into, hertz_work
 from .jit import kernel, step_kernel
-from .joints import bilateral, bilateral_cached, joint_row_count, joint_support
+from .joints import bilateral, joint_row_count, joint_support
 from .linalg import block_factor, block_solve, copy_matrix, copy_vector, lu_factor, lu_solve
 from .springs import smooth_forces_into, total_energy
 
@@ -180,7 +180,7 @@ def _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, 
     smooth_forces_into(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, tangent, sw.fw, sw.iw)
     contact_forces_into(q_t, v_t, ma, v_pre, v_reg, f_t, K_t, C_t, tangent, cwork[0],
                         cwork[1], cwork[2], cwork[3], cwork[4], cwork[5:11], hw)
-    bilateral_cached(q_t, v_t, t1, ma, sw.g, sw.G, sw.gm, sw.dgdt, sw.trig)
+    bilateral(q_t, v_t, t1, ma, sw.g, sw.G, sw.gm, sw.dgdt)
 
 
 @step_kernel

@@ -24,7 +24,8 @@ from .springs import smooth_forces_into
 #: rhs, the factor of J and the Schur-complement arrays JG, S, piv, the spring forces' work
 #: rows fw, iw (:func:`~.springs.smooth_forces_into`), and for the compliant model's stage
 #: (:func:`~.compliant_step.compliant_smooth_step`) its previous iterate (vdot_prev, lam_prev)
-#: for its backtracking and its Newton step (sol).
+#: for its backtracking and its Newton step (sol); ``trig``, the bodies' sines and cosines
+#: cached by angle (:func:`~.bodies.body_point_cached`) for the joint rows.
 SmoothWork = namedtuple("SmoothWork", ["g", "G", "gm", "dgdt", "J", "rhs", "fac", "JG", "S",
                                        "piv", "vdot_prev", "lam_prev", "sol", "fw", "iw", "trig"])
 

@@ -60,8 +60,9 @@ if __name__ == "__main__":
 
     start = time.perf_counter()
     # Two cores compile at once: the compliant kernels in a second process (they share some
-    # callees with the nonsmooth ones, which both compile; Numba writes its cache files
-    # atomically). Should that process fail, the zoom below compiles them here.
+    # callees with the nonsmooth ones, which both compile; their cache saves are serialised by
+    # simcore.numba_cache.lock_cache_writes). Should that process fail, the zoom below compiles
+    # them here.
     compliant = subprocess.Popen([sys.executable, "-c", COMPLIANT_WARM_UP],
                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     import analysis
