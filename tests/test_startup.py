@@ -31,9 +31,11 @@ FRESH_PROCESS = r"""
 import json, sys
 import numpy as np
 import simcore
+xarray_before = "xarray" in sys.modules
 ds = simcore.run(simcore.load_config(overrides=["solver.t_end=2e-4"]))
 from numba.np import arraymath
-out = {"scipy_linalg": "scipy.linalg" in sys.modules,
+out = {"xarray_before": xarray_before, "dataset_type": type(ds).__module__,
+       "scipy_linalg": "scipy.linalg" in sys.modules,
        "dask_array": "dask.array" in sys.modules,
        "dask": "dask" in sys.modules,
        "have_blas": bool(arraymath._HAVE_BLAS),
@@ -63,6 +65,8 @@ def test_first_run_imports_neither_scipy_linalg_nor_dask_nor_distributed(tmp_pat
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout.strip().splitlines()[-1])
     assert out["steps"] == 2
+    # xarray was imported during the run (in the background, simcore.simulate.import_meanwhile)
+    assert not out["xarray_before"] and out["dataset_type"].startswith("xarray")
     assert not out["scipy_linalg"], "Numba's BLAS check imported the scipy.linalg package"
     assert not out["dask_array"], "building the run's dataset imported dask.array"
     assert not out["dask"], "building the run's dataset imported dask"
@@ -72,6 +76,22 @@ def test_first_run_imports_neither_scipy_linalg_nor_dask_nor_distributed(tmp_pat
     assert out["attribute"]
     # and a kernel that uses BLAS compiles and computes A A
     assert out["product_error"] == 0.0
+
+
+def test_import_meanwhile_imports_and_leaves_a_failure_to_the_caller():
+    from simcore.simulate import import_meanwhile
+
+    assert import_meanwhile("json") is None  # imported already: no thread
+    name = "simcore_test_no_such_module"
+    thread = import_meanwhile(name)
+    thread.join(timeout=60)
+    assert not thread.is_alive() and name not in sys.modules
+    with pytest.raises(ModuleNotFoundError, match=name):
+        __import__(name)  # the caller's own import reports the failure
+    thread = import_meanwhile("colorsys")  # a small module nothing here imports
+    if thread is not None:
+        thread.join(timeout=60)
+    assert "colorsys" in sys.modules
 
 
 def _paper_model(**over):
