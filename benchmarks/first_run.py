@@ -30,6 +30,10 @@ test is not changed):
 - ``dataset``: :func:`simcore.io.trajectory_dataset` (the xarray Dataset of the run);
 - ``import_xarray``, ``import_dask`` (``import_dask_array`` when xarray asks for it),
   ``import_netcdf4``: imports made during the run, wherever they happen;
+- ``import_wait``: how long the run waited for the I/O layer's import when it ran in a
+  background thread during the integration (:func:`simcore.simulate.import_meanwhile`; then
+  ``import_background`` is 1 and ``import_xarray`` is that thread's time, overlapping the
+  integration);
 - ``write``: :func:`simcore.io.write_netcdf` (CLI only).
 
 Usage: python benchmarks/first_run.py {api,cli} [--out FILE.nc]
@@ -141,6 +145,30 @@ def _instrument_numba():
     dispatcher.Dispatcher.typeof_pyval = timed_typeof
 
 
+def _wrap_import_meanwhile(simulate):
+    """Time the run's wait for the import :func:`simcore.simulate.import_meanwhile` starts."""
+    original = simulate.import_meanwhile
+
+    def timed(name):
+        thread = original(name)
+        if thread is not None:
+            stages["import_background"] = 1
+            join = thread.join
+
+            def timed_join(timeout=None):
+                t = time.perf_counter()
+                try:
+                    return join(timeout)
+                finally:
+                    stages["import_wait"] = (stages.get("import_wait", 0.0)
+                                             + time.perf_counter() - t)
+
+            thread.join = timed_join
+        return thread
+
+    simulate.import_meanwhile = timed
+
+
 def _wrap_io(module):
     _wrap(module, "trajectory_dataset", "dataset")
     _wrap(module, "write_netcdf", "write")
@@ -197,6 +225,7 @@ def main(argv=None) -> None:
 
     _wrap(simulate, "crank_slider", "build_model")
     _wrap(simulate, "warm_up", "warm_up")
+    _wrap_import_meanwhile(simulate)
     if args.path == "api":
         t = time.perf_counter()
         cfg = simcore.load_config()
