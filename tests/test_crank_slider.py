@@ -128,7 +128,12 @@ def test_paper_case_full_length():
     assert float(ds["gap_N"].min()) >= -1e-8
     e = ds["energy"].values
     assert e.max() <= e[0] * (1 + 1e-3)
-    assert _joint_residuals(ds, simcore.load_config()["model"]) <= 1e-12
+    # every step restores the joints (at least one Newton iteration of the position
+    # correction): what is left is one Newton step's quadratic remainder, not a drift that
+    # accumulates up to the tolerance tol * h = 1e-9 m
+    solver = simcore.load_config()["solver"]
+    assert _joint_residuals(ds, simcore.load_config()["model"]) <= (
+        1e-2 * solver["tol"] * solver["dt"])
 
 
 @pytest.mark.parametrize("clearance, mu, omega0, e_N", [
