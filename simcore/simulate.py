@@ -4,7 +4,9 @@ The first run in a process first compiles the Numba kernels, or loads them from 
 (``__pycache__`` next to the sources): seconds to a minute. :func:`warm_up` does that with a
 run of two steps, so that the run's ``wall_time_s`` measures the integration alone; the time it
 took is recorded apart, as ``compile_time_s``. A cold compilation of the nonsmooth model is
-shared with a second process (:mod:`simcore.parallel_compile`).
+shared with a second process (:mod:`simcore.parallel_compile`). The first run in a process
+imports the I/O layer (xarray) in a background thread while it integrates
+(:func:`import_meanwhile`).
 """
 
 from __future__ import annotations
