@@ -153,17 +153,7 @@ def _wrap_import_meanwhile(simulate):
         thread = original(name)
         if thread is not None:
             stages["import_background"] = 1
-            join = thread.join
-
-            def timed_join(timeout=None):
-                t = time.perf_counter()
-                try:
-                    return join(timeout)
-                finally:
-                    stages["import_wait"] = (stages.get("import_wait", 0.0)
-                                             + time.perf_counter() - t)
-
-            thread.join = timed_join
+            _wrap(thread, "join", "import_wait")
         return thread
 
     simulate.import_meanwhile = timed
