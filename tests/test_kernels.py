@@ -454,21 +454,15 @@ def test_work_array_kernels_give_the_allocating_kernels_numbers(bearing):
         assert np.array_equal(H, H2) and np.abs(H).max() > 0.0
 
 
-def test_compliant_smooth_stage_solves_its_equations():
-    """The compliant time loop's smooth stage (no allocation, tangents only where a Newton step
-    needs them, block solver in the friction branches), one step from a state with loaded balls
-    (a compliant zoom of a paper-case run after the first pinch), checked at its result against
-    the equations it solves, evaluated again with the plain kernels: the generalized-alpha
-    update of q~, v~ from the accelerations, equilibrium M v' = f(q~, v~) + Hertz forces
-    + G^T lambda, the joints' velocity constraint G v~ + dg/dt = 0, and the contact forces it
-    reports."""
+def _loaded_compliant_step():
+    """A state of the compliant model with loaded balls (a compliant zoom of a paper-case run
+    after the first pinch) and a function that takes one smooth stage of a step from it with
+    given work arrays: step(work, tol, max_iter) -> (iterations, converged, vdot1, lam, q_t,
+    v_t, K_t-free outputs...), as a dict."""
     import simcore
     from simcore.io import generalized
-    from simcore.kernels.compliant_step import compliant_smooth_step, compliant_work
+    from simcore.kernels.compliant_step import compliant_smooth_step
     from simcore.kernels.generalized_alpha import alpha_coefficients
-    from simcore.kernels.hertz import contact_forces
-    from simcore.kernels.joints import bilateral
-    from simcore.kernels.springs import smooth_forces
     from simcore.mechanism import crank_slider
 
     run = simcore.run(simcore.load_config(overrides=["solver.t_end=0.002"]))
@@ -483,41 +477,101 @@ def test_compliant_smooth_stage_solves_its_equations():
     st, cs = traj.extras["step_state"], traj.extras["compliant_state"]
     assert (cs.gap < 0.0).sum() >= 2  # loaded contacts
     arr = model.arrays(compliant=True)
-    n, m, nc = st.q.size, st.lam_s.size, cs.gap.size
     coef = alpha_coefficients(0.0)
+    v_reg, t1 = 1e-4, 0.0015 + h
+
+    def step(w, tol, max_iter=50):
+        lam = st.lam_s.copy()
+        q, v, acc, vdot, v_pre = (st.q.copy(), st.v.copy(), st.acc.copy(), st.vdot.copy(),
+                                  cs.v_pre.copy())
+        q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, _, _ = w.step
+        its, ok = compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, arr,
+                                        q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, w.smooth,
+                                        v_pre, v_reg, w.contacts, w.hertz, w.branches)
+        return dict(its=its, ok=ok, q=q, v=v, acc=acc, vdot=vdot, v_pre=v_pre, lam=lam,
+                    q_t=q_t.copy(), v_t=v_t.copy(), acc1=acc1.copy(), vdot1=vdot1.copy(),
+                    FN=w.contacts[0].copy())
+
+    return step, arr, h, coef, v_reg, t1, (st.q.size, st.lam_s.size, cs.gap.size)
+
+
+def _stage_residuals(r, arr, h, coef, v_reg, t1, n, m, nc):
+    """Check the scheme's update formulas and the contact forces a smooth stage reports at its
+    result ``r`` (from the plain kernels); return its equilibrium residual over the force scale
+    and its joints' velocity residual [m/s]."""
+    from simcore.kernels.hertz import contact_forces
+    from simcore.kernels.joints import bilateral
+    from simcore.kernels.springs import smooth_forces
+
     am, af, gam, beta = coef
-    tol, v_reg, t1 = 1e-10, 1e-4, 0.0015 + h
-    w = compliant_work(n, m, nc)
-    lam = st.lam_s.copy()
-    q, v, acc, vdot, v_pre = (st.q.copy(), st.v.copy(), st.acc.copy(), st.vdot.copy(),
-                              cs.v_pre.copy())
-    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, _, _ = w.step
-    its, ok = compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, 50, arr, q_t, v_t,
-                                    acc1, vdot1, f_t, K_t, C_t, Ks_t, w.smooth, v_pre, v_reg,
-                                    w.contacts, w.hertz, w.branches)
-    assert ok and its >= 1
-    # the scheme's update formulas
-    a1 = ((1.0 - af) * vdot1 + af * vdot - am * acc) / (1.0 - am)
-    np.testing.assert_allclose(acc1, a1, rtol=1e-12, atol=1e-12 * np.abs(a1).max())
+    q, v, acc, vdot, q_t, v_t = r["q"], r["v"], r["acc"], r["vdot"], r["q_t"], r["v_t"]
+    a1 = ((1.0 - af) * r["vdot1"] + af * vdot - am * acc) / (1.0 - am)
+    np.testing.assert_allclose(r["acc1"], a1, rtol=1e-12, atol=1e-12 * np.abs(a1).max())
     np.testing.assert_allclose(q_t, q + h * v + h * h * ((0.5 - beta) * acc + beta * a1),
                                rtol=1e-14, atol=1e-14)
     np.testing.assert_allclose(v_t, v + h * ((1.0 - gam) * acc + gam * a1), rtol=1e-12,
                                atol=1e-12 * np.abs(v_t).max())
-    # forces at (q~, v~) from the plain kernels
     f = np.zeros(n)
     M = np.zeros((n, n))
     smooth_forces(q_t, v_t, arr, f, M, M, M, False)
     FN, FT, gap, vn, vt = (np.zeros(nc) for _ in range(5))
-    contact_forces(q_t, v_t, arr, v_pre, v_reg, f, M, M, False, FN, FT, gap, vn, vt,
+    contact_forces(q_t, v_t, arr, r["v_pre"], v_reg, f, M, M, False, FN, FT, gap, vn, vt,
                    np.zeros((6, nc)))
     assert (FN > 0.0).sum() >= 2
-    np.testing.assert_allclose(w.contacts[0], FN, rtol=1e-12, atol=1e-9 * FN.max())
+    np.testing.assert_allclose(r["FN"], FN, rtol=1e-12, atol=1e-9 * FN.max())
     gj, G, gm, dgdt = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)
     bilateral(q_t, v_t, t1, arr, gj, G, gm, dgdt)
-    residual = arr.mdiag * vdot1 - f - G.T @ lam
-    scale = max(np.abs(f).max(), np.abs(arr.mdiag * vdot1).max(), FN.max())
-    assert np.abs(residual).max() <= 10 * tol * scale, np.abs(residual).max() / scale
-    assert np.abs(G @ v_t + dgdt).max() <= 10 * tol
+    residual = arr.mdiag * r["vdot1"] - f - G.T @ r["lam"]
+    scale = max(np.abs(f).max(), np.abs(arr.mdiag * r["vdot1"]).max(), FN.max())
+    return np.abs(residual).max() / scale, np.abs(G @ v_t + dgdt).max()
+
+
+def test_compliant_smooth_stage_solves_its_equations():
+    """The compliant time loop's smooth stage (no allocation, tangents only where a Newton step
+    needs them, block solver in the friction branches), one step from a state with loaded balls
+    (a compliant zoom of a paper-case run after the first pinch), checked at its result against
+    the equations it solves, evaluated again with the plain kernels: the generalized-alpha
+    update of q~, v~ from the accelerations, equilibrium M v' = f(q~, v~) + Hertz forces
+    + G^T lambda, the joints' velocity constraint G v~ + dg/dt = 0, and the contact forces it
+    reports."""
+    from simcore.kernels.compliant_step import compliant_work
+
+    step, arr, h, coef, v_reg, t1, (n, m, nc) = _loaded_compliant_step()
+    tol = 1e-10
+    r = step(compliant_work(n, m, nc), tol)
+    assert r["ok"] and r["its"] >= 1
+    res_f, res_c = _stage_residuals(r, arr, h, coef, v_reg, t1, n, m, nc)
+    assert res_f <= 10 * tol, res_f
+    assert res_c <= 10 * tol
+
+
+def test_compliant_smooth_stage_reuses_the_last_factors():
+    """A step that follows a converged one iterates with that step's Newton factors (no
+    tangents, no factorisation) and still solves its equations, to CHORD_TIGHTENING of the
+    tolerance: given factors that are 0.2 % off (as an earlier state's are), it leaves them as
+    they are and meets the equations, checked by the plain kernels, to that fraction of the
+    tolerance; a step that does not converge leaves no factors to reuse."""
+    from simcore.kernels.compliant_step import CHORD_TIGHTENING, compliant_work
+
+    step, arr, h, coef, v_reg, t1, (n, m, nc) = _loaded_compliant_step()
+    tol = 1e-7
+    w = compliant_work(n, m, nc)
+    newton = step(w, tol)  # fresh work arrays: Newton, which leaves its factors
+    assert newton["ok"] and w.branches.reuse[0] == 1
+    k = w.smooth.fac.info[0]
+    assert k > 0 and w.smooth.fac.info[1] == 1  # an LU factor of the coupled block
+    B = w.smooth.fac.B
+    B[:k, :k] += np.triu(B[:k, :k]) * 0.002  # U -> 1.002 U: the factor of 1.002 J_c
+    kept = B[:k, :k].copy()
+    w.branches.vdot_old[:] = newton["vdot"]  # (no extrapolation: the same start as Newton's)
+    chord = step(w, tol)
+    assert chord["ok"]
+    np.testing.assert_array_equal(B[:k, :k], kept)  # iterated with the factors it was given
+    res_f, res_c = _stage_residuals(chord, arr, h, coef, v_reg, t1, n, m, nc)
+    assert res_f <= 10 * CHORD_TIGHTENING * tol, res_f
+    assert res_c <= 10 * CHORD_TIGHTENING * tol
+    failed = step(w, tol, max_iter=0)
+    assert not failed["ok"] and w.branches.reuse[0] == 0
 
 
 def test_smooth_residual_against_numpy():

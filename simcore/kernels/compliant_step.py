@@ -47,9 +47,13 @@ ProjectionWork = namedtuple("ProjectionWork", ["g", "G", "gm", "dgdt", "cols", "
 #: Work arrays of the Newton solve (:func:`newton_solve`) and the friction branches
 #: (:func:`compliant_smooth_step`): the modified Newton matrix and residual, each contact's
 #: branch in the tangent and as assumed, a copy of the residual (n), the joint rows' half
-#: solves W, Z (m x n) and where each starts (m).
+#: solves W, Z (m x n) and where each starts (m); and what the factors of the last Newton
+#: step (``fac``, ``S``, ``piv`` of the smooth work) were made with, for the next step's
+#: first update (:func:`chord_solve`): the joint rows G_f (m x n), the coefficient c_f (1)
+#: and whether they may serve (``reuse``, 1: yes).
 BranchWork = namedtuple("BranchWork", ["J2", "r2", "current", "assumed", "r0", "W", "Z",
-                                       "first_w", "first_z"])
+                                       "first_w", "first_z", "G_f", "c_f", "reuse",
+                                       "vdot_old"])
 
 
 def projection_work(n, m):
@@ -72,8 +76,19 @@ def compliant_work(n, nbil, nc):
                                              r0=np.zeros(n), W=np.zeros((nbil, n)),
                                              Z=np.zeros((nbil, n)),
                                              first_w=np.zeros(nbil, dtype=np.int64),
-                                             first_z=np.zeros(nbil, dtype=np.int64)))
+                                             first_z=np.zeros(nbil, dtype=np.int64),
+                                             G_f=np.zeros((nbil, n)), c_f=np.zeros(1),
+                                             reuse=np.zeros(2, dtype=np.int64),
+                                             vdot_old=np.zeros(n)))
 
+
+#: An iterate of the reused factors (:func:`compliant_smooth_step`) counts as converged once
+#: its residual is within this fraction of the tolerance: then the zooms' F_max_zoom agree with
+#: those of Newton alone to 1.2e-6 (docs/compliant.md) ...
+CHORD_TIGHTENING = 0.01
+#: ... and Newton takes over once such an iterate reduces the scaled residual by less than this
+#: factor.
+CHORD_CONTRACTION = 0.1
 
 COMPLIANT_STAGE_SMOOTH = 0
 COMPLIANT_STAGE_POSITION = 1
@@ -200,7 +215,18 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
     is clipped at zero where the damping term would pull: a step that does not reduce the
     scaled residual is halved back towards the previous iterate. ``cwork`` (11, nc) receives
     FN, FT, gap, vn, vt and the tangential Jacobian entries at the last (q_t, v_t).
-    Returns (iterations, converged)."""
+
+    Reused factors (a chord iteration): a step after a converged one first iterates with the
+    factors of the last Newton matrix (``sw.fac``, ``sw.S``, ``sw.piv``, made with the joint
+    rows ``bw.G_f``), without tangents or a factorisation (:func:`chord_solve`). At the
+    zooms' steps (tens per Hertz contact time) the Newton matrix is the mass matrix to a few
+    per mille, and changes by less from one step to the next, so these iterates contract by
+    about a hundred each. Their iterate counts as converged only within
+    :data:`CHORD_TIGHTENING` of the tolerance (a Newton iterate, quadratic, lands there after
+    its step); an update that would change a friction branch, or a contraction weaker than
+    :data:`CHORD_CONTRACTION`, hands over to Newton, whose factors then serve the next steps.
+    The first iterate is the accelerations extrapolated linearly from the last two steps
+    (``bw.vdot_old``). Returns (iterations, converged)."""
     am, af, gam, beta = coef
     mdiag = ma.mdiag
     n = q.shape[0]
@@ -211,7 +237,12 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
     J = sw.J
     rhs = sw.rhs
     sol = sw.sol
-    copy_vector(vdot1, vdot, n)
+    # first iterate: the accelerations extrapolated linearly from the last two steps (where
+    # the last step converged; else the last step's)
+    extrapolate = bw.reuse[1] == 1
+    for i in range(n):
+        vdot1[i] = 2.0 * vdot[i] - bw.vdot_old[i] if extrapolate else vdot[i]
+        bw.vdot_old[i] = vdot[i]
     iters = 0
     converged = False
     merit_prev = np.inf
@@ -220,11 +251,15 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
     copy_vector(vdot_prev, vdot1, n)
     copy_vector(lam_prev, lam, m)
     halvings = 0
+    cv = h * gam * ca
+    # the updates may use the last step's Newton factors (see the docstring)
+    chord = bw.reuse[0] == 1 and bw.c_f[0] == cv
     for it in range(max_iter + 1):
         alpha_predict(q, v, acc, vdot, vdot1, h, coef, acc1, q_t, v_t)
         # the predictor (it = 0) practically never satisfies the tolerance: its tangents are
-        # evaluated with it; a later iterate first gets its forces alone
-        tangent = it == 0
+        # evaluated with it, unless its update reuses the last factors; a later iterate first
+        # gets its forces alone
+        tangent = it == 0 and not chord
         _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, cwork, hw)
         # contact forces and the loads they balance cancel in f_t: the force scale of the
         # residual is that of the largest contact force
@@ -232,13 +267,23 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
         for k in range(cwork.shape[1]):
             scale = max(scale, cwork[0, k])
         res_f, res_c, scale = smooth_residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale)
-        if res_f <= tol * scale and res_c <= tol:
+        # an iterate of the reused factors converges only linearly: it must be well inside
+        # the tolerance, where a Newton iterate (quadratic) lands after its step
+        limit = CHORD_TIGHTENING if chord and it > 0 else 1.0
+        if res_f <= limit * tol * scale and res_c <= limit * tol:
             converged = True
             break
         if it == max_iter:
             break
         iters += 1
         merit = max(res_f / (tol * scale), res_c / tol)
+        if chord and it > 0 and merit > CHORD_CONTRACTION * merit_prev:
+            chord = False  # the old factors no longer fit: Newton from here ...
+            if merit > merit_prev:  # ... or, where their update made it worse, from before it
+                copy_vector(vdot1, vdot_prev, n)
+                copy_vector(lam, lam_prev, m)
+                merit_prev = np.inf
+                continue
         if merit > (1.0 - 1e-4) * merit_prev and halvings < 10:
             halvings += 1
             for i in range(n):
@@ -250,6 +295,16 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
         merit_prev = merit
         copy_vector(vdot_prev, vdot1, n)
         copy_vector(lam_prev, lam, m)
+        if chord:
+            copy_vector(sol, rhs, n + m)
+            chord_solve(sw.fac, bw.G_f, cv, sw.S, sw.piv, sol, bw.r0)
+            if _branches_hold(sol, cv, ma, v_reg, cwork):
+                for r in range(m):
+                    lam[r] += sol[n + r]
+                for i in range(n):
+                    vdot1[i] += sol[i]
+                continue
+            chord = False
         if not tangent:  # the same forces again, now with their tangents
             _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, True, sw, cwork, hw)
         # Newton step on [J, -G^T; c G, 0]: J is diagonal but for the bodies joined by
@@ -259,12 +314,20 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
         for i in range(n):
             J[i, i] = (C_t[i, i] * h * gam + K_t[i, i] * h * h * beta) * ca + mdiag[i]
         copy_vector(sol, rhs, n + m)
-        newton_solve(J, G, h * gam * ca, sol, sw.fac, sw.S, sw.piv, bw)
-        _friction_branches(J, rhs, G, h * gam * ca, sol, ma, v_reg, cwork, sw, bw)
+        newton_solve(J, G, cv, sol, sw.fac, sw.S, sw.piv, bw)
+        _friction_branches(J, rhs, G, cv, sol, ma, v_reg, cwork, sw, bw)
+        # the factors now in sw.fac, sw.S, sw.piv (those of the last solve, with the friction
+        # branches it settled on) and the joint rows they were made with
+        copy_matrix(bw.G_f, G, m, n)
+        bw.c_f[0] = cv
+        bw.reuse[0] = 1
         for r in range(m):
             lam[r] += sol[n + r]
         for i in range(n):
             vdot1[i] += sol[i]
+    if not converged:  # a failed step's factors serve no other
+        bw.reuse[0] = 0
+    bw.reuse[1] = 1 if converged else 0
     return iters, converged
 
 
@@ -279,18 +342,23 @@ def newton_solve(J, G, c, rhs, fac, S, piv, bw):
     S's coupled part is g_a^T J_c^-1 g_b = (U^-T g_a) . (L^-1 P g_b), two forward
     substitutions per row that each start at the row's first non-zero (the joint rows touch
     the crank and the rod, which the loaded contacts couple to every ball and the factor
-    orders last), and x = J^-1 (r + G^T y), a second full solve. ``S`` (m x m), ``piv`` (m),
-    ``bw``: :data:`BranchWork` (r0, W, Z, first_w, first_z)."""
+    orders last), and x = J^-1 (r + G^T y), a second full solve (:func:`chord_solve`, which
+    the factors left in ``fac``, ``S`` and ``piv`` also serve later). ``S`` (m x m), ``piv``
+    (m), ``bw``: :data:`BranchWork` (r0, W, Z, first_w, first_z)."""
     n = J.shape[0]
     m = G.shape[0]
-    r0 = bw.r0
     block_factor(J, n, fac, False)
-    for i in range(n):
-        r0[i] = rhs[i]
-    x = rhs[:n]
-    block_solve(fac, n, x)  # x = J^-1 r
-    if m == 0:
-        return
+    if m > 0:
+        _schur_factor(G, c, fac, S, piv, bw)
+    chord_solve(fac, G, c, S, piv, rhs, bw.r0)
+
+
+@step_kernel
+def _schur_factor(G, c, fac, S, piv, bw):
+    """S = c G J^-1 G^T from the factor of J (``fac``, LU), factorised in place (LU, ``piv``):
+    see :func:`newton_solve`."""
+    n = G.shape[1]
+    m = G.shape[0]
     k = fac.info[0]
     if fac.info[1] != 1 and k > 0:  # (block_factor gives LU for an unsymmetric J)
         raise np.linalg.LinAlgError("newton_solve needs an LU factor")
@@ -335,14 +403,9 @@ def newton_solve(J, G, c, rhs, fac, S, piv, bw):
                 s -= B[i, p] * Z[a, p]
             Z[a, i] = s
         first_z[a] = fz
-    # S = c G J^-1 G^T (coupled part from W, Z; the others from the inverse diagonal, zero
-    # on the coupled indices) and the Schur right-hand side y = r_m - c G x
-    y = rhs[n:]
+    # coupled part from W, Z; the others from the inverse diagonal, zero on the coupled
+    # indices
     for a in range(m):
-        gx = 0.0
-        for i in range(n):
-            gx += G[a, i] * x[i]
-        y[a] -= c * gx
         for b in range(m):
             s = 0.0
             for p in range(max(first_w[a], first_z[b]), k):
@@ -352,14 +415,62 @@ def newton_solve(J, G, c, rhs, fac, S, piv, bw):
                     s += G[a, i] * dinv[i] * G[b, i]
             S[a, b] = c * s
     lu_factor(S, m, piv)
+
+
+@step_kernel
+def chord_solve(fac, G, c, S, piv, rhs, r0):
+    """Solve [J, -G^T; c G, 0] [x; y] = rhs in place with factors already made: ``fac`` of J
+    (:func:`~.linalg.block_factor`) and the LU of S = c G J^-1 G^T in ``S``, ``piv``
+    (:func:`newton_solve`): x0 = J^-1 r, S y = r_m - c G x0, x = J^-1 (r + G^T y). ``r0``
+    (n): work."""
+    n = r0.shape[0]
+    m = G.shape[0]
+    for i in range(n):
+        r0[i] = rhs[i]
+    x = rhs[:n]
+    block_solve(fac, n, x)  # x = J^-1 r
+    if m == 0:
+        return
+    y = rhs[n:]
+    for a in range(m):
+        gx = 0.0
+        for i in range(n):
+            gx += G[a, i] * x[i]
+        y[a] -= c * gx
     lu_solve(S, m, piv, y)
-    # x = J^-1 (r + G^T y)
     for i in range(n):
         s = r0[i]
         for a in range(m):
             s += G[a, i] * y[a]
         x[i] = s
     block_solve(fac, n, x)
+
+
+@step_kernel
+def _predicted_branch(k, sol, cv, ma, v_reg, cwork):
+    """Friction branch of contact k at the slip a Newton step ``sol`` predicts: v_T + cv dv_T
+    (``cwork``: its slip and tangential Jacobian entries at the iterate)."""
+    ia = ma.ct_body[k, 0]
+    ib = ma.ct_body[k, 1]
+    dvt = 0.0
+    for a in range(3):
+        if ia >= 0:
+            dvt += cwork[5 + a, k] * sol[3 * ia + a]
+        if ib >= 0:
+            dvt += cwork[8 + a, k] * sol[3 * ib + a]
+    return _branch((cwork[4, k] + cv * dvt) / v_reg)
+
+
+@step_kernel
+def _branches_hold(sol, cv, ma, v_reg, cwork):
+    """Whether every loaded contact with friction stays on its friction branch over the step
+    ``sol`` (then the friction law is linear along it, as a Newton matrix assumes)."""
+    for k in range(ma.ct_type.shape[0]):
+        if cwork[0, k] <= 0.0 or ma.ct_law[k, 0] <= 0.0:
+            continue
+        if _predicted_branch(k, sol, cv, ma, v_reg, cwork) != _branch(cwork[4, k] / v_reg):
+            return False
+    return True
 
 
 @step_kernel
@@ -388,15 +499,7 @@ def _friction_branches(J, rhs, G, cv, sol, ma, v_reg, cwork, sw, bw):
             mu = ma.ct_law[k, 0]
             if FN[k] <= 0.0 or mu <= 0.0:
                 continue
-            ia = ma.ct_body[k, 0]
-            ib = ma.ct_body[k, 1]
-            dvt = 0.0
-            for a in range(3):
-                if ia >= 0:
-                    dvt += cwork[5 + a, k] * sol[3 * ia + a]
-                if ib >= 0:
-                    dvt += cwork[8 + a, k] * sol[3 * ib + a]
-            predicted = _branch((vt[k] + cv * dvt) / v_reg)
+            predicted = _predicted_branch(k, sol, cv, ma, v_reg, cwork)
             if predicted != assumed[k]:
                 assumed[k] = 0 if assumed[k] != 0 else predicted
                 changed = True
