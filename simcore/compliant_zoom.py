@@ -94,19 +94,16 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
     simcore.ConfigError
         Bad settings or a time outside the run (one line naming the key), before any work.
     """
-    from .io import generalized, trajectory_dataset
+    from .io import GENERALIZED_PARTS, state_at, trajectory_dataset
 
-    if "q" not in run_ds and "position" in run_ds:  # a run file: q and v from their parts
-        run_ds = generalized(run_ds)
-    for name in ("q", "v"):
-        if name not in run_ds:
+    for name, parts in GENERALIZED_PARTS.items():  # a run file has q and v in parts
+        if name not in run_ds and not all(part in run_ds for part in parts):
             raise ConfigError(f"run: the run file has no variable {name!r} (needed to restart "
                               "from its state)")
     cfg = zoom_config(run_ds, window=window, dt=dt, overrides=overrides, output_dt=output_dt)
     i = start_index(run_ds, time)
     model, layout = crank_slider(cfg["model"])
-    q0 = np.asarray(run_ds["q"].isel(time=i).values, dtype=float).ravel()
-    v0 = np.asarray(run_ds["v"].isel(time=i).values, dtype=float).ravel()
+    q0, v0 = state_at(run_ds, i)
     if q0.size != 3 * len(model.body_names):
         raise ConfigError("run: its bodies do not match the model its attributes describe")
     t0 = float(run_ds["time"].values[i])

@@ -532,6 +532,10 @@ def failed_run_dataset(cfg: dict, message: str) -> xr.Dataset:
     return xr.Dataset(coords=parameter_coords(cfg["model"]), attrs=attrs)
 
 
+#: The run-file variables that make up ``q`` and ``v`` (:func:`generalized`).
+GENERALIZED_PARTS = {"q": ("position", "angle"), "v": ("velocity", "angular_velocity")}
+
+
 def generalized(ds: xr.Dataset) -> xr.Dataset:
     """Add the generalized coordinates ``q`` and velocities ``v`` (time, body, dof) to a run.
 
@@ -548,10 +552,27 @@ def generalized(ds: xr.Dataset) -> xr.Dataset:
                                     "dof": ["x", "y", "phi"]},
                             attrs={"long_name": long_name})
 
-    q = stack(ds["position"], ds["angle"], "positions x [m], y [m] and angle phi [rad]")
-    v = stack(ds["velocity"], ds["angular_velocity"],
+    q = stack(*(ds[p] for p in GENERALIZED_PARTS["q"]),
+              "positions x [m], y [m] and angle phi [rad]")
+    v = stack(*(ds[p] for p in GENERALIZED_PARTS["v"]),
               "velocities vx, vy [m s-1] and angular velocity omega [rad s-1]")
     return ds.assign(q=q, v=v)
+
+
+def state_at(ds: xr.Dataset, i: int) -> tuple[np.ndarray, np.ndarray]:
+    """The generalized coordinates and velocities (n,) of sample ``i`` of a run, in the
+    kernels' order (x, y, phi of each body): from ``q`` and ``v`` where the run has them, else
+    from their parts (:data:`GENERALIZED_PARTS`), without stacking the whole run as
+    :func:`generalized` does."""
+    def one(name):
+        if name in ds:
+            return np.asarray(ds[name].isel(time=i).values, dtype=float).ravel()
+        lin, rot = GENERALIZED_PARTS[name]
+        lin = ds[lin].isel(time=i).transpose("body", "axis").values
+        rot = ds[rot].isel(time=i).transpose("body").values
+        return np.concatenate([lin, rot[:, None]], axis=1).astype(float).ravel()
+
+    return one("q"), one("v")
 
 
 def open_run(path: str | Path) -> xr.Dataset:

@@ -11,7 +11,7 @@ import pytest
 import xarray as xr
 
 import simcore
-from simcore.io import failed_run_dataset, generalized, open_run, write_netcdf
+from simcore.io import failed_run_dataset, generalized, open_run, state_at, write_netcdf
 from simcore.mechanism import crank_slider
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -80,6 +80,12 @@ def test_generalized_coordinates_are_those_of_the_kernels():
     np.testing.assert_array_equal(ds.q.values, traj.q.reshape(-1, nbody, 3))
     np.testing.assert_array_equal(ds.v.values, traj.v.reshape(-1, nbody, 3))
     assert list(ds.dof.values) == ["x", "y", "phi"]
+    # one sample's state (a zoom's restart) from the parts of a run, as from q and v
+    for i in (0, 17, ds.sizes["time"] - 1):
+        for run in (ds.drop_vars(["q", "v"]), ds):
+            q_i, v_i = state_at(run, i)
+            np.testing.assert_array_equal(q_i, traj.q[i])
+            np.testing.assert_array_equal(v_i, traj.v[i])
 
 
 @pytest.mark.filterwarnings("ignore:In a future version of xarray:FutureWarning")
