@@ -117,8 +117,9 @@ def warm_up(config: dict | None = None, notify=None) -> float:
     return seconds
 
 
-def import_meanwhile(name: str) -> threading.Thread | None:
-    """Start importing module ``name`` in a background thread, unless it is imported already.
+def import_meanwhile(*names: str) -> threading.Thread | None:
+    """Start importing modules ``names`` (in this order) in a background thread, unless they
+    are imported already.
 
     The time loop's kernels release the interpreter lock, so a new process's first run
     imports the I/O layer (xarray and pandas with it, some 0.25 s) while it integrates instead
@@ -127,29 +128,37 @@ def import_meanwhile(name: str) -> threading.Thread | None:
 
     Parameters
     ----------
-    name : str
-        Absolute module name.
+    *names : str
+        Absolute module names.
 
     Returns
     -------
     threading.Thread or None
-        The started thread (join it before using the module), or None.
+        The started thread (join it before using the modules), or None.
     """
-    if name in sys.modules:
+    missing = [name for name in names if name not in sys.modules]
+    if not missing:
         return None
 
     def target():
-        try:
-            importlib.import_module(name)
-        except BaseException:  # noqa: BLE001 - the caller's import reports it
-            pass
+        for name in missing:
+            try:
+                importlib.import_module(name)
+            except BaseException:  # noqa: BLE001 - the caller's import reports it
+                pass
 
-    thread = threading.Thread(target=target, name=f"import {name}", daemon=True)
+    thread = threading.Thread(target=target, name=f"import {', '.join(missing)}", daemon=True)
     thread.start()
     return thread
 
 
-def run(config: dict, progress: bool = False):
+#: What writing a run file imports on its first use, besides the I/O layer: xarray's netCDF
+#: encoder builds a Variable for every variable it writes, which asks for dask's array type
+#: (0.2-0.25 s). :func:`run` with ``will_write`` imports it while the run integrates.
+WRITER_IMPORTS = ("dask.array",)
+
+
+def run(config: dict, progress: bool = False, will_write: bool = False):
     """Simulate the crank-slider bearing of ``config`` and return its dataset.
 
     Parameters
@@ -158,6 +167,10 @@ def run(config: dict, progress: bool = False):
         A configuration (validated here again, defaults filled).
     progress : bool
         Show a progress bar on stderr when it is a terminal.
+    will_write : bool
+        The dataset is going to be written (:func:`simcore.write_netcdf`): what a new process's
+        first write would import (:data:`WRITER_IMPORTS`) is imported while the run
+        integrates.
 
     Returns
     -------
@@ -184,7 +197,7 @@ def run(config: dict, progress: bool = False):
     compile_time_s = warm_up(cfg, notify=sys.stderr if progress else None)
     # (not earlier: while the kernels load, Numba's many short calls into LLVM would each wait
     # for the interpreter lock held by the importing thread)
-    importer = import_meanwhile("simcore.io")
+    importer = import_meanwhile("simcore.io", *(WRITER_IMPORTS if will_write else ()))
     try:
         traj = _simulate(model, cfg, progress=progress)
     finally:
