@@ -318,39 +318,33 @@ def _locate(x, u, h, f_s, c, which, g_lo, g_hi, out, kx, ku):
     bisection's 44. Returned is the end past the change, as bisection returns it."""
     lo = 0.0
     hi = 1.0
-    kept = 0  # which end the last iteration kept: -1 lo, 1 hi
+    kept = 0  # which end the last secant step kept: -1 lo, 1 hi (0: none, or a bisection)
+    bisect = False
     for _ in range(200):
         width = hi - lo
         if width <= 2.0 ** -44:
             break
-        mid = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
-        if not (lo < mid < hi):
-            mid = 0.5 * (lo + hi)
+        mid = 0.5 * (lo + hi)
+        if not bisect:
+            secant = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
+            if lo < secant < hi:
+                mid = secant
         _dp_step(x, u, mid * h, f_s, c, out, kx, ku)
         g = _impact_events(out[0], out[1], f_s, c)[which]
         if (g > 0.0) == (g_lo > 0.0):
             lo = mid
             g_lo = g
-            if kept == 1:
+            if kept == 1 and not bisect:
                 g_hi *= 0.5
-            kept = 1
+            kept = 0 if bisect else 1
         else:
             hi = mid
             g_hi = g
-            if kept == -1:
+            if kept == -1 and not bisect:
                 g_lo *= 0.5
-            kept = -1
-        if hi - lo > 0.5 * width:  # a slow secant step: bisect once
-            mid = 0.5 * (lo + hi)
-            _dp_step(x, u, mid * h, f_s, c, out, kx, ku)
-            g = _impact_events(out[0], out[1], f_s, c)[which]
-            if (g > 0.0) == (g_lo > 0.0):
-                lo = mid
-                g_lo = g
-            else:
-                hi = mid
-                g_hi = g
-            kept = 0
+            kept = 0 if bisect else -1
+        # a secant step that did not halve the bracket is followed by a bisection
+        bisect = not bisect and hi - lo > 0.5 * width
     _dp_step(x, u, hi * h, f_s, c, out, kx, ku)
     return hi, out[0], out[1]
 
