@@ -149,8 +149,8 @@ def _wrap_import_meanwhile(simulate):
     """Time the run's wait for the import :func:`simcore.simulate.import_meanwhile` starts."""
     original = simulate.import_meanwhile
 
-    def timed(*names):
-        thread = original(*names)
+    def timed(name):
+        thread = original(name)
         if thread is not None:
             stages["import_background"] = 1
             _wrap(thread, "join", "import_wait")
@@ -231,8 +231,8 @@ def main(argv=None) -> None:
         stages["config"] = 0.0  # the command reads its configuration itself
         original_run = simulate.run
 
-        def timed_run(cfg, progress=False, will_write=False):
-            ds = original_run(cfg, progress=progress, will_write=will_write)
+        def timed_run(cfg, progress=False):
+            ds = original_run(cfg, progress=progress)
             stages["integrate"] = float(ds.attrs["wall_time_s"])
             stages["max_lambda_N"] = float(ds["Lambda_N"].values.max())
             return ds

@@ -46,15 +46,15 @@ except PackageNotFoundError:  # running from a source tree without installation
 _first_run_done = False
 
 
-def run(config, progress=False, will_write=False):
+def run(config, progress=False):
     """Simulate one run; see :func:`simcore.simulate.run`."""
     global _first_run_done
     from .simulate import run as _run
 
     if _first_run_done:
-        return _run(config, progress=progress, will_write=will_write)
+        return _run(config, progress=progress)
     with _collector_paused():  # the first run loads the kernels, xarray, ...
-        ds = _run(config, progress=progress, will_write=will_write)
+        ds = _run(config, progress=progress)
     _first_run_done = True
     return ds
 

@@ -217,7 +217,7 @@ def _main(argv=None) -> int:
 
     start = time.perf_counter()
     try:
-        ds = run(cfg, progress=not args.quiet, will_write=True)
+        ds = run(cfg, progress=not args.quiet)
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

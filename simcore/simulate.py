@@ -117,9 +117,8 @@ def warm_up(config: dict | None = None, notify=None) -> float:
     return seconds
 
 
-def import_meanwhile(*names: str) -> threading.Thread | None:
-    """Start importing modules ``names`` (in this order) in a background thread, unless they
-    are imported already.
+def import_meanwhile(name: str) -> threading.Thread | None:
+    """Start importing module ``name`` in a background thread, unless it is imported already.
 
     The time loop's kernels release the interpreter lock, so a new process's first run
     imports the I/O layer (xarray and pandas with it, some 0.25 s) while it integrates instead
@@ -128,37 +127,29 @@ def import_meanwhile(*names: str) -> threading.Thread | None:
 
     Parameters
     ----------
-    *names : str
-        Absolute module names.
+    name : str
+        Absolute module name.
 
     Returns
     -------
     threading.Thread or None
-        The started thread (join it before using the modules), or None.
+        The started thread (join it before using the module), or None.
     """
-    missing = [name for name in names if name not in sys.modules]
-    if not missing:
+    if name in sys.modules:
         return None
 
     def target():
-        for name in missing:
-            try:
-                importlib.import_module(name)
-            except BaseException:  # noqa: BLE001 - the caller's import reports it
-                pass
+        try:
+            importlib.import_module(name)
+        except BaseException:  # noqa: BLE001 - the caller's import reports it
+            pass
 
-    thread = threading.Thread(target=target, name=f"import {', '.join(missing)}", daemon=True)
+    thread = threading.Thread(target=target, name=f"import {name}", daemon=True)
     thread.start()
     return thread
 
 
-#: What writing a run file imports on its first use, besides the I/O layer: xarray's netCDF
-#: encoder builds a Variable for every variable it writes, which asks for dask's array type
-#: (0.2-0.25 s). :func:`run` with ``will_write`` imports it while the run integrates.
-WRITER_IMPORTS = ("dask.array",)
-
-
-def run(config: dict, progress: bool = False, will_write: bool = False):
+def run(config: dict, progress: bool = False):
     """Simulate the crank-slider bearing of ``config`` and return its dataset.
 
     Parameters
@@ -167,10 +158,6 @@ def run(config: dict, progress: bool = False, will_write: bool = False):
         A configuration (validated here again, defaults filled).
     progress : bool
         Show a progress bar on stderr when it is a terminal.
-    will_write : bool
-        The dataset is going to be written (:func:`simcore.write_netcdf`): what a new process's
-        first write would import (:data:`WRITER_IMPORTS`) is imported while the run
-        integrates.
 
     Returns
     -------
@@ -197,7 +184,7 @@ def run(config: dict, progress: bool = False, will_write: bool = False):
     compile_time_s = warm_up(cfg, notify=sys.stderr if progress else None)
     # (not earlier: while the kernels load, Numba's many short calls into LLVM would each wait
     # for the interpreter lock held by the importing thread)
-    importer = import_meanwhile("simcore.io", *(WRITER_IMPORTS if will_write else ()))
+    importer = import_meanwhile("simcore.io")
     try:
         traj = _simulate(model, cfg, progress=progress)
     finally:

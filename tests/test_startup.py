@@ -78,33 +78,6 @@ def test_first_run_imports_neither_scipy_linalg_nor_dask_nor_distributed(tmp_pat
     assert out["product_error"] == 0.0
 
 
-WRITING_PROCESS = r"""
-import json, sys
-import simcore
-from simcore.simulate import WRITER_IMPORTS
-ds = simcore.run(simcore.load_config(overrides=["solver.t_end=2e-4"]), will_write=True)
-imported = {name: name in sys.modules for name in WRITER_IMPORTS}
-simcore.write_netcdf(ds, sys.argv[1])
-print(json.dumps(imported))
-"""
-
-
-def test_a_run_that_will_be_written_imports_what_the_writer_needs(tmp_path):
-    """``will_write``: what a first write imports (dask.array, through xarray's netCDF
-    encoder) is imported by the run, in the background while it integrates; the file is the
-    same as without (checked by the test above with a plain run)."""
-    env = dict(os.environ, NUMBA_NUM_THREADS="1",
-               PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
-    path = tmp_path / "run.nc"
-    proc = subprocess.run([sys.executable, "-c", WRITING_PROCESS, str(path)],
-                          capture_output=True, text=True, env=env, cwd=ROOT, timeout=600)
-    assert proc.returncode == 0, proc.stderr
-    imported = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert imported and all(imported.values()), imported
-    with xr.open_dataset(path) as ds:
-        assert ds.sizes["time"] == 3
-
-
 def test_import_meanwhile_imports_and_leaves_a_failure_to_the_caller():
     from simcore.simulate import import_meanwhile
 
@@ -119,10 +92,6 @@ def test_import_meanwhile_imports_and_leaves_a_failure_to_the_caller():
     if thread is not None:
         thread.join(timeout=60)
     assert "colorsys" in sys.modules
-    # several modules in order, in one thread; a failure does not stop the next
-    thread = import_meanwhile(name, "json", "sched")
-    thread.join(timeout=60)
-    assert "sched" in sys.modules and name not in sys.modules
 
 
 def _paper_model(**over):

@@ -55,7 +55,7 @@ with job_log(sm.log.simulate) as terminal:
         cfg = simcore.validate_config(raw)
         start = time.perf_counter()
         try:
-            ds = simcore.run(cfg, will_write=True)
+            ds = simcore.run(cfg)
             simulated += ds.attrs["wall_time_s"]
             loading += ds.attrs["compile_time_s"]
         except (simcore.SolverError, LinAlgError) as exc:  # numerical failure of this run
