@@ -47,10 +47,11 @@ ProjectionWork = namedtuple("ProjectionWork", ["g", "G", "gm", "dgdt", "cols", "
 #: Work arrays of the Newton solve (:func:`newton_solve`) and the friction branches
 #: (:func:`compliant_smooth_step`): the modified Newton matrix and residual, each contact's
 #: branch in the tangent and as assumed, a copy of the residual (n), the joint rows' half
-#: solves W, Z (m x n) and where each starts (m); and what the factors of the last Newton
-#: step (``fac``, ``S``, ``piv`` of the smooth work) were made with, for the next step's
-#: first update (:func:`chord_solve`): the joint rows G_f (m x n), the coefficient c_f (1)
-#: and whether they may serve (``reuse``, 1: yes).
+#: solves W, Z (m x n) and where each starts (m); what the factors of the last Newton step
+#: (``fac``, ``S``, ``piv`` of the smooth work) were made with, for the next steps' updates
+#: (:func:`chord_solve`): the joint rows G_f (m x n) and the coefficient c_f (1); ``reuse``
+#: (2): whether those factors may serve (0: no) and whether the last step converged (then its
+#: start accelerations ``vdot_old`` (n) extrapolate the next step's first iterate).
 BranchWork = namedtuple("BranchWork", ["J2", "r2", "current", "assumed", "r0", "W", "Z",
                                        "first_w", "first_z", "G_f", "c_f", "reuse",
                                        "vdot_old"])
