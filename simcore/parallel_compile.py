@@ -1,29 +1,44 @@
-"""Share a cold compilation of the nonsmooth time loop between two processes.
+"""Share a cold compilation of the nonsmooth model between two processes.
 
-A run's first call compiles the time loop's kernels one after the other, in the order the
-loop's source calls them (the smooth stage, the position correction, then the velocity jump)
-and finally the loop itself, which links them all: some 35-45 s of one core. When the kernels
-are not in Numba's cache yet, :func:`start_helper` starts a second Python process that compiles
-the velocity jump's kernels (:func:`compile_velocity_stage`) while this process compiles the
-rest. Numba looks a kernel up in the cache when it first needs it, so by the time the loop gets
-to the velocity jump it finds it compiled and loads it. The two processes save their cache
+With an empty cache, a run's first call compiles every kernel it needs, one after the other:
+the start's kernels (contact velocities, initial acceleration, energy), then the time loop,
+whose typing compiles its three stages (the smooth stage, the position correction, the velocity
+jump) before the loop itself, which links them all. Numba looks a kernel up in its on-disk cache
+when it first needs it, so a second process can compile part of that list meanwhile and this
+process then loads it. :func:`start_helper` starts that process on :data:`HELPER_TASKS` (the
+position correction first, then the start's kernels); this process compiles
+:data:`MAIN_TASKS` (the velocity jump, then the smooth stage), waits until the helper has saved
+the position correction (:meth:`Helper.wait_for`), and then runs, finding in the cache what the
+helper has compiled. The tasks compile each kernel for the argument types a run gives it
+(:func:`compile_tasks`), so the run's look-up finds the same entry. The two processes save their
 entries one after the other (:func:`simcore.numba_cache.lock_cache_writes`): Numba's own saving
 of an entry is not safe between processes.
-With two cores a cold start then takes about two thirds of the time; with a warm cache nothing
-is started.
 
-The helper is an optimisation only: if it fails, is slow, or the cache cannot be checked, this
-process compiles everything itself, exactly as without it.
+The split is measured (docs/method.md, "The kernels"): the two lists take about the same time,
+and the loop's own compilation, which needs all three stages, comes last in this process. With
+a warm cache nothing is started; the helper is an optimisation only: if it cannot start, fails
+or is slow, this process compiles whatever is missing itself, exactly as without it.
 """
 
 from __future__ import annotations
 
 import os
+import selectors
 import subprocess
 import sys
+import time
 
-#: the helper process's program
-HELPER = "from simcore.parallel_compile import compile_velocity_stage; compile_velocity_stage()"
+#: what the helper process compiles, in this order (names of :func:`compile_tasks`)
+HELPER_TASKS = ("position", "contact_velocities", "energy", "initial_acceleration")
+#: what this process compiles meanwhile
+MAIN_TASKS = ("velocity", "smooth")
+#: the loop's callees that the helper compiles; this process waits for them, then compiles
+#: the loop
+LOOP_NEEDS = ("position", "contact_velocities", "energy")
+#: the helper's program
+HELPER = "from simcore.parallel_compile import helper_main; helper_main()"
+#: longest wait for the helper's position correction [s] (it takes 5-10 s)
+WAIT_LIMIT = 300.0
 
 
 def in_cache(dispatcher) -> bool | None:
@@ -36,22 +51,133 @@ def in_cache(dispatcher) -> bool | None:
     return os.path.exists(index)
 
 
-def start_helper() -> subprocess.Popen | None:
-    """Start the helper process when the velocity jump's kernels are not in the cache, more
-    than one core is there to run it and cache saves are locked between processes; returns it,
-    or None when nothing was started."""
+def compile_tasks(config: dict | None = None) -> dict:
+    """The kernels a nonsmooth run calls from Python or its time loop calls, as (kernel,
+    arguments) by task name: the crank-slider of ``config`` (default: the paper's case) with
+    the work arrays, settings and state a run makes. Only the arguments' types matter; nothing
+    is run."""
+    import numpy as np
+
+    from . import kernels as nb
+    from .config import load_config
+    from .mechanism import crank_slider
+
+    cfg = config if config is not None else load_config()
+    model, _ = crank_slider(cfg["model"])
+    arr = model.arrays()
+    q, v = model.initial_state()
+    n, nc, nbil = q.size, arr.ct_type.size, model.constraint_rows()
+    work = nb.nonsmooth_work(n, nbil, nc)
+    state = nb.StepState(q, v, np.zeros(n), np.zeros(n), np.zeros(nbil), np.zeros(nbil),
+                         np.zeros(nc), np.zeros(nc), np.zeros(nc), np.zeros(nc))
+    # the types of Model.simulate's StepSettings
+    st = nb.StepSettings(1e-4, 0.0, 1e-5, 50, 1.0, -1, 0.0, 1e-3, 1e-3)
+    tasks = {name: call for name, call in nb.loop_stage_calls(st, arr, state, work).items()}
+    # the start of Model.simulate
+    tasks["contact_velocities"] = (nb.contact_velocities_into,
+                                   (q, v, arr, np.zeros(nc), np.zeros(nc), np.zeros(nc),
+                                    np.zeros(6), np.zeros(6), work.smooth.trig))
+    tasks["initial_acceleration"] = (nb.initial_acceleration,
+                                     (q, v, 0.0, arr, np.zeros(n), np.zeros(n), np.zeros(nbil),
+                                      work.smooth))
+    tasks["energy"] = (nb.total_energy, (q, v, arr))
+    rows = 2  # output rows of a one-step chunk
+    out = nb.ChunkOutputs(*(np.zeros((rows, size)) for size in (n, n) + (nc,) * 7),
+                          np.zeros(rows), np.zeros((rows, 3), np.int64), np.ones(rows, np.int8),
+                          np.zeros(rows))
+    tasks["loop"] = (nb.integrate_chunk, (0, 1, st, arr, state, out, work))
+    return tasks
+
+
+def compile_task(call) -> None:
+    """Compile (or load from the cache) one (kernel, arguments) of :func:`compile_tasks` for
+    the types of its arguments, without running it."""
+    from numba import typeof
+
+    kernel, args = call
+    kernel.compile(tuple(typeof(a) for a in args))
+
+
+def helper_main() -> None:
+    """The helper process: compile :data:`HELPER_TASKS` in order, writing ``done <name>
+    <seconds>`` on stdout after each (its cache entry is saved by then; seconds since the
+    process started its tasks)."""
+    start = time.perf_counter()
+    tasks = compile_tasks()
+    for name in HELPER_TASKS:
+        compile_task(tasks[name])
+        print(f"done {name} {time.perf_counter() - start:.2f}", flush=True)
+
+
+class Helper:
+    """The helper process and what it has reported done."""
+
+    def __init__(self, process: subprocess.Popen):
+        self.process = process
+        self.done: dict[str, float] = {}  # task name: seconds into the helper's work
+        self._buffer = b""
+
+    def wait_for(self, name: str, limit: float = WAIT_LIMIT) -> bool:
+        """Wait until the helper reports task ``name`` done (True), or has ended, or ``limit``
+        seconds have passed (False)."""
+        deadline = time.monotonic() + limit
+        with selectors.DefaultSelector() as sel:
+            sel.register(self.process.stdout, selectors.EVENT_READ)
+            while name not in self.done:
+                left = deadline - time.monotonic()
+                if left <= 0 or not sel.select(left):
+                    return False
+                chunk = os.read(self.process.stdout.fileno(), 4096)
+                if not chunk:  # the helper has ended
+                    return False
+                self._buffer += chunk
+                *lines, self._buffer = self._buffer.split(b"\n")
+                for line in lines:
+                    words = line.decode().split()
+                    if len(words) == 3 and words[0] == "done":
+                        self.done[words[1]] = float(words[2])
+        return True
+
+    def stop(self) -> None:
+        """End the helper (whatever it has not finished, this process compiles itself)."""
+        if self.process.poll() is None:
+            self.process.terminate()
+        self.process.wait()
+        self.process.stdout.close()
+
+
+def start_helper() -> Helper | None:
+    """Start the helper process when the time loop is not in the cache, more than one core is
+    there to run it and cache saves are locked between processes; returns it, or None when
+    nothing was started."""
     from . import kernels as nb
     from .numba_cache import lock_cache_writes
 
-    if in_cache(nb.velocity_step) is not False or usable_cores() < 2:
+    if in_cache(nb.integrate_chunk) is not False or usable_cores() < 2:
         return None
     if not lock_cache_writes() or not sys.executable:
         return None  # (unlocked saves of two processes could mix up cache entries)
     try:
-        return subprocess.Popen([sys.executable, "-c", HELPER], stdin=subprocess.DEVNULL,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        process = subprocess.Popen([sys.executable, "-c", HELPER], stdin=subprocess.DEVNULL,
+                                   stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
     except Exception:  # an optimisation only: whatever stops it, compile here
         return None
+    return Helper(process)
+
+
+def compile_with_helper(helper: Helper | None) -> None:
+    """This process's share of a cold compilation: :data:`MAIN_TASKS`, then the wait for the
+    helper's share of the loop's callees (:data:`LOOP_NEEDS`), then the loop itself (while the
+    helper compiles the initial acceleration). Nothing to do without a helper."""
+    if helper is None:
+        return
+    tasks = compile_tasks()
+    for name in MAIN_TASKS:
+        compile_task(tasks[name])
+    for name in LOOP_NEEDS:
+        if not helper.wait_for(name):
+            break  # the helper failed or is slow: the loop compiles what is missing
+    compile_task(tasks["loop"])
 
 
 def usable_cores() -> int:
@@ -62,37 +188,7 @@ def usable_cores() -> int:
         return os.cpu_count() or 1
 
 
-def stop_helper(helper: subprocess.Popen | None) -> None:
-    """End the helper once this process has compiled everything (whatever it has not finished
-    by then, this process has compiled itself)."""
-    if helper is None:
-        return
-    if helper.poll() is None:
-        helper.terminate()
-    helper.wait()
-
-
-def compile_velocity_stage() -> None:
-    """Compile (or load) :func:`simcore.kernels.velocity_step` for the argument types the time
-    loop gives it: the paper's crank-slider with the work arrays and bundles of a run, through
-    one call on its start state (the values do not matter, the types do)."""
-    import numpy as np
-
-    from . import kernels as nb
-    from .config import load_config
-    from .mechanism import crank_slider
-
-    model, _ = crank_slider(load_config()["model"])
-    arr = model.arrays()
-    q, _v = model.initial_state()
-    n, nc, nbil = q.size, arr.ct_type.size, model.constraint_rows()
-    work = nb.nonsmooth_work(n, nbil, nc)
-    q_t, v_t, _acc1, _vdot1, f_t, _K, _C, _Ks, q1, v1 = work.step
-    nu_c, gap = work.contact[0], work.contact[1]
-    q_t[:] = q
-    q1[:] = q
-    h, tol = 1e-4, 1e-6
-    # the types of integrate_chunk's call: floats, an int64 iteration limit, the state's arrays
-    nb.velocity_step(q1, q_t, v_t, h, h, tol, 20, 1e-6, tol * h, arr, f_t, nu_c, gap,
-                     np.zeros(nc), np.zeros(nc), v1, np.zeros(nc), np.zeros(nc),
-                     np.zeros(nbil), work.velocity)
+def stop_helper(helper: Helper | None) -> None:
+    """End the helper once this process has compiled everything."""
+    if helper is not None:
+        helper.stop()

@@ -21,7 +21,7 @@ from .config import load_config, output_every, validate_config
 from .limits import check_run
 from .mechanism import crank_slider
 from .model import SolverError  # noqa: F401  (re-exported)
-from .parallel_compile import start_helper, stop_helper
+from .parallel_compile import compile_with_helper, start_helper, stop_helper
 
 _warm: set[str] = set()  # contact models whose kernels this process has compiled or loaded
 
@@ -97,6 +97,7 @@ def warm_up(config: dict | None = None, notify=None) -> float:
     # a cold compilation of the nonsmooth loop is shared with a second process
     helper = start_helper() if kind == "nonsmooth" else None
     try:
+        compile_with_helper(helper)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:

@@ -234,10 +234,6 @@ def test_small_geometry_and_algebra_kernels():
     nx, ny = 0.6, 0.8
     full = P.T @ (np.eye(2) - np.outer([nx, ny], [nx, ny])) @ P
     assert nb.transverse_form(*P[:, 2], *P[:, 5], nx, ny) == pytest.approx(full[2, 5])
-    rng = np.random.default_rng(1)
-    A = np.diag(rng.uniform(1.0, 2.0, 7))
-    A[2, 5] = A[5, 2] = 0.3
-    np.testing.assert_allclose(nb.block_inverse(A) @ A, np.eye(7), atol=1e-14)
 
 
 def test_contact_hessian_matches_finite_differences(bearing):
@@ -365,21 +361,6 @@ def test_project_joints_restores_positions_and_velocities(bearing):
     nb.bilateral(q1, v1, 0.0, arr, g, G, gam, dgdt)
     assert np.abs(g).max() <= 1e-9
     np.testing.assert_allclose(G @ v1 + dgdt, 0.0, atol=1e-12)
-
-
-def test_small_dense_solves():
-    from simcore.kernels.linalg import gauss_solve, solve_mass_like
-
-    rng = np.random.default_rng(3)
-    A = rng.normal(size=(6, 6)) + 0.1 * np.eye(6)
-    A[0, 0] = 0.0  # needs pivoting
-    B = rng.normal(size=(6, 3))
-    np.testing.assert_allclose(A @ gauss_solve(A, B), B, atol=1e-10)
-    M = np.diag(rng.uniform(1.0, 2.0, 9))
-    M[2, 7] = 0.4
-    M[7, 2] = -0.3
-    np.testing.assert_allclose(M @ solve_mass_like(M, B.repeat(3, axis=0)[:9]),
-                               B.repeat(3, axis=0)[:9], atol=1e-12)
 
 
 def test_cached_sines_and_cosines_give_the_uncached_numbers(bearing):

@@ -80,7 +80,6 @@ def test_block_factor_and_solve(symmetric):
     x = b.copy()
     la.block_solve(fac, n, x)
     np.testing.assert_allclose(x, np.linalg.solve(A, b), rtol=1e-10, atol=1e-12)
-    np.testing.assert_allclose(la.block_inverse(A), np.linalg.inv(A), rtol=1e-10, atol=1e-12)
 
 
 def test_block_factor_falls_back_to_lu_on_an_indefinite_block():

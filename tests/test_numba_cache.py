@@ -38,7 +38,7 @@ def test_every_kernel_caches_in_the_keyed_folder():
         pytest.skip("the user chose NUMBA_CACHE_DIR; the keyed folder is not used")
     assert Path(kernels.CACHE_DIR) == numba_cache.cache_dir_for()
     for name in ("integrate_chunk", "smooth_step", "contact_rows", "body_point",
-                 "total_energy", "block_inverse"):
+                 "total_energy", "contact_forces"):
         path = getattr(kernels, name)._cache._cache_path
         assert Path(path).is_relative_to(kernels.CACHE_DIR), (name, path)
 

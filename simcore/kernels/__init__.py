@@ -75,12 +75,13 @@ from .joints import (  # noqa: E402
     joint_row_count,
     joint_support,
 )
-from .linalg import block_inverse  # noqa: E402
+from .linalg import block_factor_work  # noqa: E402
 from .nonsmooth_step import (  # noqa: E402
     STAGE_POSITION,
     STAGE_SMOOTH,
     STAGE_VELOCITY,
     integrate_chunk,
+    loop_stage_calls,
     nonsmooth_work,
     position_step,
     solve_velocity_problem,
@@ -92,8 +93,8 @@ __all__ = [
     "CACHE_DIR", "CONTACT_INSIDE", "CONTACT_OUTSIDE", "CONTACT_PLANE", "JOINT_ANGLE",
     "JOINT_PRISMATIC", "JOINT_REVOLUTE", "STAGE_POSITION", "STAGE_SMOOTH", "STAGE_VELOCITY",
     "ChunkOutputs", "CompliantOutputs", "CompliantState", "ModelArrays", "StepSettings",
-    "StepState", "alpha_coefficients",
-    "bilateral", "block_inverse", "joint_support", "pair_support", "place_row",
+    "StepState", "alpha_coefficients", "loop_stage_calls",
+    "bilateral", "block_factor_work", "joint_support", "pair_support", "place_row",
     "scale_pair_blocks", "store6",
     "support_dot",
     "body_omega", "body_point", "clear_pair_blocks", "fill_pair_blocks", "contact_hessian",

@@ -178,10 +178,11 @@ def support_dot(G, r, cols, c, m, x):
     return s
 
 
-#: Operations of :func:`fill_pair_blocks`.
-BLOCKS_CLEAR = 0
-BLOCKS_SCALE = 1
-BLOCKS_NEWTON = 2
+#: Operations of :func:`fill_pair_blocks`. NumPy integers, not Python ones: Numba types a
+#: Python constant argument as a literal and compiles a specialisation per value.
+BLOCKS_CLEAR = np.int64(0)
+BLOCKS_SCALE = np.int64(1)
+BLOCKS_NEWTON = np.int64(2)
 
 
 @step_kernel

@@ -25,10 +25,18 @@ from .generalized_alpha import (
     step_work,
 )
 from .hertz import contact_forces_into, elastic_energy_into, hertz_work
-from .jit import kernel, step_kernel
+from .jit import kernel, loop_kernel, step_kernel
 from .joints import bilateral, joint_row_count, joint_support
-from .linalg import block_factor, block_solve, copy_matrix, copy_vector, lu_factor, lu_solve
-from .springs import smooth_forces_into, total_energy
+from .linalg import (
+    GENERAL,
+    block_factor,
+    block_solve,
+    copy_matrix,
+    copy_vector,
+    lu_factor,
+    lu_solve,
+)
+from .springs import WITH_TANGENTS, smooth_forces_into, total_energy
 
 #: Work arrays of :func:`integrate_compliant_chunk` (:func:`compliant_work`): the step's
 #: (:func:`~.generalized_alpha.step_work`), the smooth stage's (:func:`~.generalized_alpha.
@@ -307,7 +315,8 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
                 continue
             chord = False
         if not tangent:  # the same forces again, now with their tangents
-            _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, True, sw, cwork, hw)
+            _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, WITH_TANGENTS, sw, cwork,
+                      hw)
         # Newton step on [J, -G^T; c G, 0]: J is diagonal but for the bodies joined by
         # springs and loaded contacts (their body-pair blocks)
         fill_pair_blocks(J, C_t, K_t, h, gam, beta, ca, ma.sp_body, BLOCKS_NEWTON)
@@ -348,7 +357,7 @@ def newton_solve(J, G, c, rhs, fac, S, piv, bw):
     (m), ``bw``: :data:`BranchWork` (r0, W, Z, first_w, first_z)."""
     n = J.shape[0]
     m = G.shape[0]
-    block_factor(J, n, fac, False)
+    block_factor(J, n, fac, GENERAL)
     if m > 0:
         _schur_factor(G, c, fac, S, piv, bw)
     chord_solve(fac, G, c, S, piv, rhs, bw.r0)
@@ -534,7 +543,7 @@ def _friction_branches(J, rhs, G, cv, sol, ma, v_reg, cwork, sw, bw):
         newton_solve(J2, G, cv, sol, sw.fac, sw.S, sw.piv, bw)
 
 
-@step_kernel
+@loop_kernel
 def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
     """Advance steps k0 .. k1-1 of the compliant model (state at t0 + k0 h on entry).
 

@@ -17,7 +17,7 @@ from .linalg import (
     copy_vector,
     saddle_point_solve_into,
 )
-from .springs import smooth_forces_into
+from .springs import FORCES_ONLY, WITH_TANGENTS, smooth_forces_into
 
 #: Work arrays of :func:`smooth_step` (made by :func:`smooth_work`, once per run):
 #: the joint rows g, G, their velocity terms gm, dgdt, the Newton matrix J and right-hand side
@@ -84,7 +84,7 @@ def initial_acceleration(q, v, t, ma, f_extra, vdot, lam, sw):
     rhs = sw.rhs
     # no tangents are asked of the forces (J only stands in for K, C, K_s); the Newton
     # matrix is then M itself
-    smooth_forces_into(q, v, ma, rhs, J, J, J, False, sw.fw, sw.iw)
+    smooth_forces_into(q, v, ma, rhs, J, J, J, FORCES_ONLY, sw.fw, sw.iw)
     bilateral_cached(q, v, t, ma, sw.g, sw.G, sw.gm, sw.dgdt, sw.trig)
     # [M, -G^T; G, 0] [vdot; lam] = [f; -gamma], by the solver of the smooth stage's steps
     for i in range(n):
@@ -166,7 +166,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
     converged = False
     for it in range(max_iter + 1):
         alpha_predict(q, v, acc, vdot, vdot1, h, coef, acc1, q_t, v_t)
-        smooth_forces_into(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, True, sw.fw, sw.iw)
+        smooth_forces_into(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, WITH_TANGENTS, sw.fw, sw.iw)
         bilateral_cached(q_t, v_t, t1, ma, g, G, gm, dgdt, sw.trig)
         res_f, res_c, scale = smooth_residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs,
                                               1e-300)

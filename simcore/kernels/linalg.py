@@ -16,8 +16,7 @@ arrays, so one work array serves problems of any size up to its own.
 - :func:`block_gram`, :func:`block_gram_rows`, :func:`block_gram_entry`: Delassus matrices
   G A^-1 G^T from such a factor and the rows' supports;
 - :func:`saddle_point_solve_into`: the joints' saddle-point systems of the smooth stages and
-  of the initial acceleration; :func:`block_inverse`: an allocating convenience for code
-  outside the time loop.
+  of the initial acceleration.
 
 A singular matrix raises ``numpy.linalg.LinAlgError`` like ``np.linalg.solve`` does.
 """
@@ -28,7 +27,12 @@ from collections import namedtuple
 
 import numpy as np
 
-from .jit import kernel, step_kernel
+from .jit import step_kernel
+
+#: ``symmetric`` flags of :func:`block_factor`. NumPy booleans, not Python ones: Numba types a
+#: Python constant argument as a literal and compiles a specialisation per value.
+SYMMETRIC = np.bool_(True)
+GENERAL = np.bool_(False)
 
 #: A matrix factorised on its coupled block (see :func:`block_factor`): ``B`` holds the
 #: factors of the coupled block, ``idx[:k]`` the coupled indices, ``dinv`` the inverse
@@ -140,9 +144,9 @@ def lu_solve(LU, n, piv, x):
         x[i] = s / LU[i, i]
 
 
-@kernel
 def block_factor_work(n):
-    """Work arrays of :func:`block_factor` for matrices up to ``n x n``."""
+    """Work arrays of :func:`block_factor` for matrices up to ``n x n`` (plain Python: made
+    once per run, outside the kernels)."""
     # every entry is written by block_factor before it is read
     return BlockFactor(np.empty((n, n)), np.empty(n, dtype=np.int64), np.empty(n),
                        np.empty(n, dtype=np.int64), np.empty(n), np.zeros(2, dtype=np.int64))
@@ -359,7 +363,7 @@ def saddle_point_solve_into(J, G, c, rhs, fac, JG, S, piv):
     of n), ``JG`` (m x n), ``S`` (m x m), ``piv`` (m integers)."""
     n = J.shape[0]
     m = G.shape[0]
-    block_factor(J, n, fac, False)
+    block_factor(J, n, fac, GENERAL)
     x = rhs[:n]
     block_solve(fac, n, x)
     if m == 0:
@@ -389,107 +393,3 @@ def saddle_point_solve_into(J, G, c, rhs, fac, JG, S, piv):
         for r in range(m):
             s += JG[r, i] * y[r]
         x[i] = s
-
-
-@kernel
-def block_inverse(A):
-    """Inverse of a matrix that is diagonal outside the rows/columns coupled by off-diagonal
-    entries (M + h^2 K: only the bodies joined by springs or contacts are coupled): only the
-    coupled block is inverted (for the bearing 16 x 16 instead of 33 x 33)."""
-    n = A.shape[0]
-    fac = block_factor_work(n)
-    k = block_factor(A, n, fac, False)
-    out = np.zeros((n, n))
-    for i in range(n):
-        out[i, i] = fac.dinv[i]
-    col = np.zeros(n)
-    for c in range(k):
-        col[:] = 0.0
-        col[c] = 1.0
-        if fac.info[1] == 0:
-            cholesky_solve(fac.B, k, col)
-        else:
-            lu_solve(fac.B, k, fac.piv, col)
-        for a in range(k):
-            out[fac.idx[a], fac.idx[c]] = col[a]
-    return out
-
-
-@kernel
-def gauss_solve(A, B):
-    """Solve A X = B for a small dense A (k x k) and several right-hand sides B (k x r) by
-    Gaussian elimination with partial pivoting, written out (no LAPACK call overhead, which
-    dominates at these sizes). A and B are not modified. Raises ZeroDivisionError-free: a zero
-    pivot gives inf/nan, which the callers' convergence checks catch."""
-    k = A.shape[0]
-    r = B.shape[1]
-    M = A.copy()
-    X = B.copy()
-    for c in range(k):
-        p = c
-        big = abs(M[c, c])
-        for i in range(c + 1, k):
-            if abs(M[i, c]) > big:
-                big = abs(M[i, c])
-                p = i
-        if p != c:
-            for j in range(c, k):
-                tmp = M[c, j]
-                M[c, j] = M[p, j]
-                M[p, j] = tmp
-            for j in range(r):
-                tmp = X[c, j]
-                X[c, j] = X[p, j]
-                X[p, j] = tmp
-        piv = M[c, c]
-        for i in range(c + 1, k):
-            fac = M[i, c] / piv
-            if fac != 0.0:
-                for j in range(c + 1, k):
-                    M[i, j] -= fac * M[c, j]
-                for j in range(r):
-                    X[i, j] -= fac * X[c, j]
-    for c in range(k - 1, -1, -1):
-        for j in range(r):
-            s = X[c, j]
-            for i in range(c + 1, k):
-                s -= M[c, i] * X[i, j]
-            X[c, j] = s / M[c, c]
-    return X
-
-
-@kernel
-def solve_mass_like(A, B):
-    """Solve A X = B where A is diagonal outside the rows/columns coupled by off-diagonal
-    entries (M plus the tangents of springs and contacts): the uncoupled rows by division, the
-    coupled block by :func:`gauss_solve`. B: (n x r)."""
-    n = A.shape[0]
-    r = B.shape[1]
-    coupled = np.zeros(n, dtype=np.bool_)
-    for i in range(n):
-        for j in range(i + 1, n):
-            if A[i, j] != 0.0 or A[j, i] != 0.0:
-                coupled[i] = True
-                coupled[j] = True
-    X = np.empty((n, r))
-    kc = 0
-    for i in range(n):
-        if coupled[i]:
-            kc += 1
-        else:
-            for j in range(r):
-                X[i, j] = B[i, j] / A[i, i]
-    if kc > 0:
-        idx = np.nonzero(coupled)[0]
-        sub = np.empty((kc, kc))
-        rhs = np.empty((kc, r))
-        for a in range(kc):
-            for b in range(kc):
-                sub[a, b] = A[idx[a], idx[b]]
-            for j in range(r):
-                rhs[a, j] = B[idx[a], j]
-        sol = gauss_solve(sub, rhs)
-        for a in range(kc):
-            for j in range(r):
-                X[idx[a], j] = sol[a, j]
-    return X

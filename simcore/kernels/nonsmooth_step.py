@@ -18,9 +18,10 @@ from .bodies import (
 )
 from .contact import contact_hessian_into, contact_rows_cached, contact_velocities_into
 from .generalized_alpha import alpha_coefficients, smooth_step, smooth_work, step_work
-from .jit import step_kernel
+from .jit import loop_kernel, step_kernel
 from .joints import bilateral_cached, joint_support
 from .linalg import (
+    SYMMETRIC,
     block_factor,
     block_factor_work,
     block_gram,
@@ -32,7 +33,7 @@ from .linalg import (
     lu_factor,
     lu_solve,
 )
-from .springs import smooth_forces_into, spring_damping_into, total_energy
+from .springs import FORCES_ONLY, smooth_forces_into, spring_damping_into, total_energy
 
 # layout of the per-step statistics written by integrate_chunk
 STAGE_SMOOTH = 0
@@ -207,7 +208,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
     for i in range(n):
         Ap[i, i] = h * h * Ks_t[i, i] + mdiag[i]
         U[i] = 0.0
-    block_factor(Ap, n, wk.facA, True)
+    block_factor(Ap, n, wk.facA, SYMMETRIC)
     # warm start from the previous step's multipliers (a loaded contact, a pinched ball,
     # carries about the same from one step to the next): its Newton matrix then has the
     # contacts' geometric stiffness from the first iteration, and its active set is right
@@ -289,7 +290,7 @@ def position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, wk):
                             if bc < 0:
                                 continue
                             Hm[3 * ba + a % 3, 3 * bc + c % 3] -= nu_c[k] * Hloc[a, c]
-            block_factor(Hm, n, wk.facH, True)
+            block_factor(Hm, n, wk.facH, SYMMETRIC)
             fac = wk.facH
         # the linearised problem of this iterate, for all rows: joints first, then contacts;
         # row i of the new iterate reads (D nu)_i = b_i (+ proximal term on contacts)
@@ -734,7 +735,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     f1 = wk.f1
     C1 = wk.C1
     # the forces at (q1, v~) and the damping matrix (the stiffness is not needed here)
-    smooth_forces_into(q1, v_t, ma, f1, C1, C1, C1, False, wk.fw, wk.iw)
+    smooth_forces_into(q1, v_t, ma, f1, C1, C1, C1, FORCES_ONLY, wk.fw, wk.iw)
     spring_damping_into(q1, v_t, ma, C1, wk.fw, wk.iw)
     Av = wk.Av
     b = wk.b
@@ -744,7 +745,7 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
         Av[i, i] = h * C1[i, i] + mdiag[i]
         b[i] = h * (f1[i] - f_t[i])
     fac = wk.fac
-    block_factor(Av, n, fac, True)
+    block_factor(Av, n, fac, SYMMETRIC)
     Ab = wk.Ab
     copy_vector(Ab, b, n)
     block_solve(fac, n, Ab)
@@ -901,7 +902,30 @@ def velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, gap_close, ma, f_t, n
     return iters, ok
 
 
-@step_kernel
+def loop_stage_calls(st, ma, state, work):
+    """The calls :func:`integrate_chunk` makes to its three stages, as (kernel, arguments) by
+    stage name ("smooth", "position", "velocity"): the loop's own objects, so that each stage
+    can be compiled for the loop's argument types ahead of the loop
+    (:mod:`simcore.parallel_compile`). Plain Python; keep it in step with the loop's calls
+    (``tests/test_parallel_compile.py`` checks that the types are the loop's)."""
+    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
+    nu_c, gap = work.contact[0], work.contact[1]
+    h, tol, max_iter, eta = st.h, st.tol, st.max_iter, st.eta
+    t1 = st.t0 + h
+    coef = alpha_coefficients.py_func(st.rho_inf)  # (the Python function: nothing compiled)
+    return {
+        "smooth": (smooth_step, (state.q, state.v, state.acc, state.vdot, state.lam_s, t1, h,
+                                 coef, tol, max_iter, ma, q_t, v_t, acc1, vdot1, f_t, K_t, C_t,
+                                 Ks_t, work.smooth)),
+        "position": (position_step, (q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap,
+                                     work.position)),
+        "velocity": (velocity_step, (q1, q_t, v_t, t1, h, tol, max_iter, eta, tol * h, ma, f_t,
+                                     nu_c, gap, state.vn, state.vt, v1, state.lamN, state.lamT,
+                                     state.lam_b, work.velocity)),
+    }
+
+
+@loop_kernel
 def integrate_chunk(k0, k1, st, ma, state, out, work):
     """Advance steps k0 .. k1-1 (state at time k0*h on entry, at k1*h on exit), writing the
     outputs of each step at index k+1.

@@ -17,6 +17,11 @@ from .bodies import (
 )
 from .jit import kernel, step_kernel
 
+#: ``tangent`` flags of :func:`smooth_forces_into`. NumPy booleans, not Python ones: Numba types
+#: a Python constant argument as a literal and compiles a specialisation per value.
+WITH_TANGENTS = np.bool_(True)
+FORCES_ONLY = np.bool_(False)
+
 
 @step_kernel
 def spring_state(q, v, k, sp_body, sp_geom):
