@@ -137,3 +137,34 @@ def test_cache_saves_of_several_processes_keep_every_entry(tmp_path):
     for w in range(workers):
         for i in range(count):
             assert cache.load((w, i)) == ("code of", w, i)
+
+
+
+def _toy_stage(x, i):
+    return x[i] * x[i] + 1.0
+
+
+def _toy_loop(x, out):
+    for i in range(x.shape[0]):
+        out[i] = stage(x, i)
+    return out.sum()
+
+
+def test_a_loop_kernel_is_linked():
+    """A registered loop's library is only linked (simcore.kernels.jit.link_only): the hook
+    runs for it, without falling back on Numba's optimisation, and the loop computes what the
+    Python function computes. (That the paper case keeps its speed and figures is measured by
+    benchmarks/bench_core.py and tested by the crank-slider tests.)"""
+    import numpy as np
+    from numba import njit
+
+    from simcore.kernels import jit
+
+    global stage
+    stage = njit(_toy_stage)
+    x = np.linspace(0.0, 1.0, 7)
+    expected = _toy_loop(x, np.zeros(7))
+    linked = njit(jit.link_only(_toy_loop))
+    before = len(jit.LINKED)
+    assert linked(x, np.zeros(7)) == expected
+    assert jit.LINKED[before:] == ["_toy_loop"] and not jit.LINK_FAILED

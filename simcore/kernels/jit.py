@@ -55,10 +55,16 @@ def loop_kernel(func):
     This uses a private method of Numba (``CPUCodeLibrary._optimize_final_module``); where that
     is missing or anything in the linking fails, the loop is optimised as any other kernel.
     """
+    return step_kernel(link_only(func))
+
+
+def link_only(func):
+    """Register the Python function ``func`` so that the library Numba compiles for it is only
+    linked (:func:`loop_kernel`); returns ``func``."""
     name = func.__qualname__
     path = func.__module__.split(".") + name.split(".")
     _LINK_ONLY.add((name, "_ZN" + "".join(f"{len(p)}{p}" for p in path)))
-    return step_kernel(func)
+    return func
 
 
 def _install_link_only() -> bool:
