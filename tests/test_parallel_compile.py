@@ -25,6 +25,8 @@ s.warm_up(simcore.load_config())
 for name, (kernel, _) in tasks.items():
     st = kernel.stats
     print(name, st.cache_hits.total(), st.cache_misses.total(), len(kernel.signatures))
+from simcore.kernels import jit
+print("linked", ",".join(jit.LINKED) or "-", ",".join(jit.LINK_FAILED) or "-")
 """
 
 
@@ -40,8 +42,9 @@ def test_the_run_loads_what_the_helper_compiled(tmp_path):
         ["done", name] for name in parallel_compile.HELPER_TASKS]
     out = subprocess.run([sys.executable, "-c", RUN_AND_REPORT], env=env, check=True,
                          capture_output=True, text=True).stdout.split("\n")
-    report = {name: (int(hits), int(misses), int(n))
-              for name, hits, misses, n in (line.split() for line in out if line)}
+    *counts, linked = [line.split() for line in out if line]
+    assert linked == ["linked", "integrate_chunk", "-"]  # the loop linked, none failed
+    report = {name: (int(hits), int(misses), int(n)) for name, hits, misses, n in counts}
     for name in parallel_compile.HELPER_TASKS:
         assert report[name] == (1, 0, 1), name
     for name, (_hits, _misses, n_signatures) in report.items():
