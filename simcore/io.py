@@ -23,12 +23,59 @@ from __future__ import annotations
 
 import datetime
 import os
+import sys
 import tempfile
 from numbers import Number
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
+
+
+def _defer_dask_array_type() -> bool:
+    """Let xarray ask for dask's array type without importing ``dask.array`` first.
+
+    xarray checks every Variable it makes (the netCDF encoder makes one per variable written)
+    with ``isinstance(data, array_type("dask"))``, and the first check imports ``dask.array``
+    to learn that type: 0.15-0.2 s of a new process's first write, for a run that has NumPy
+    arrays only. No dask array can exist before ``dask.array`` is imported, so xarray's record
+    of dask (``xarray.namedarray.pycompat._cached_duck_array_modules["dask"]``) is given a
+    stand-in whose ``type`` is ``dask.array.Array`` once that module is imported (by the user,
+    or by xarray for a chunked dataset) and empty until then; anything else asked of it (the
+    version) is answered by xarray's own record, made then. The answers are those of xarray's
+    record at every moment. Nothing is changed where xarray has made its record already or
+    keeps it elsewhere.
+
+    Returns
+    -------
+    bool
+        True when the stand-in was put in place.
+    """
+    try:
+        from xarray.namedarray import pycompat
+
+        cache = pycompat._cached_duck_array_modules
+        record = pycompat.DuckArrayModule
+    except (ImportError, AttributeError):
+        return False
+    if not isinstance(cache, dict) or "dask" in cache:
+        return False
+
+    class DaskArrayType:
+        @property
+        def type(self):
+            array = getattr(sys.modules.get("dask.array"), "Array", None)
+            return (array,) if isinstance(array, type) else ()
+
+        def __getattr__(self, name):
+            cache["dask"] = real = record("dask")
+            return getattr(real, name)
+
+    cache["dask"] = DaskArrayType()
+    return True
+
+
+DASK_ARRAY_TYPE_DEFERRED = _defer_dask_array_type()
 
 #: CF version the files declare.
 CONVENTIONS = "CF-1.10"

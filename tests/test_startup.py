@@ -5,8 +5,9 @@ SciPy's ``scipy.linalg`` package (Numba's BLAS check is served by the ``cython_b
 alone, :func:`simcore.numba_cache.preload_scipy_blas`) and ``dask.array`` (the run's dataset is
 built from xarray Variables made on the fast path, :func:`simcore.io.dataset_of_arrays`). The run
 file is written without the question to dask's scheduler that imports ``distributed``
-(:func:`simcore.io.to_netcdf4`). These tests check that the shortcuts give the same objects and
-files as the ordinary way.
+(:func:`simcore.io.to_netcdf4`), and xarray learns dask's array type only once ``dask.array`` is
+imported (:func:`simcore.io._defer_dask_array_type`). These tests check that the shortcuts give
+the same objects and files as the ordinary way.
 """
 
 import json
@@ -42,6 +43,7 @@ out = {"xarray_before": xarray_before, "dataset_type": type(ds).__module__,
        "steps": int(ds.sizes["time"]) - 1}
 simcore.write_netcdf(ds, sys.argv[1])
 out["distributed"] = "distributed" in sys.modules
+out["dask_array_after_write"] = "dask.array" in sys.modules
 import scipy.linalg
 import scipy.linalg.cython_blas
 out["attribute"] = scipy.linalg.cython_blas is sys.modules["scipy.linalg.cython_blas"]
@@ -71,11 +73,40 @@ def test_first_run_imports_neither_scipy_linalg_nor_dask_nor_distributed(tmp_pat
     assert not out["dask_array"], "building the run's dataset imported dask.array"
     assert not out["dask"], "building the run's dataset imported dask"
     assert not out["distributed"], "writing the run file imported distributed"
+    assert not out["dask_array_after_write"], "writing the run file imported dask.array"
     assert out["have_blas"], "Numba must still see BLAS"
     # imported later the ordinary way, scipy.linalg carries the preloaded module
     assert out["attribute"]
     # and a kernel that uses BLAS compiles and computes A A
     assert out["product_error"] == 0.0
+
+
+DASK_STAND_IN = r"""
+import json, sys
+import simcore.io
+from xarray.namedarray.pycompat import array_type, mod_version
+import xarray as xr
+out = {"deferred": simcore.io.DASK_ARRAY_TYPE_DEFERRED, "before": list(array_type("dask")),
+       "imported": "dask.array" in sys.modules}
+import dask
+import dask.array as da
+v = xr.Variable(("x",), da.ones(4, chunks=2))
+out.update(after=array_type("dask") == (da.Array,), chunks=list(v.chunks[0]),
+           version=str(mod_version("dask")) == dask.__version__,
+           lazy=xr.Dataset({"a": v}).a.chunks is not None)
+print(json.dumps(out))
+"""
+
+
+def test_xarray_sees_dask_arrays_with_the_deferred_type():
+    """simcore.io's stand-in for xarray's record of dask: no dask.array import until it is
+    imported, and then xarray recognises dask arrays as it does without the stand-in."""
+    proc = subprocess.run([sys.executable, "-c", DASK_STAND_IN], capture_output=True,
+                          text=True, cwd=ROOT, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out == {"deferred": True, "before": [], "imported": False, "after": True,
+                   "chunks": [2, 2], "version": True, "lazy": True}
 
 
 def test_import_meanwhile_imports_and_leaves_a_failure_to_the_caller():
