@@ -48,11 +48,11 @@ def _first_episode(force: np.ndarray, dt: float) -> float:
     on = np.flatnonzero(force > 0.0)
     if on.size == 0:
         return 0.0
-    first = last = on[0]
-    while last + 1 < force.size and force[last + 1] > 0.0:
-        last += 1
-    if last == force.size - 1:
+    first = on[0]
+    off = np.flatnonzero(~(force[first:] > 0.0))  # (a persistent contact: thousands of samples)
+    if off.size == 0:
         return float("nan")
+    last = first + off[0] - 1
     s = np.cbrt(np.asarray(force[first:last + 1], dtype=float)) ** 2  # ~ indentation
     t_start, t_end = float(first), float(last)
     # half a step where the samples cannot place the switch (as counting samples does)
@@ -165,8 +165,8 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
         ``dt_zoom`` [s] (NaN where not zoomed) and attributes ``zoom_top``,
         ``zoom_steps_per_contact`` (0 for a fixed ``dt``), ``zoom_window``.
     """
-    import simcore
-    from simcore.compliant_zoom import zoom_config
+    from simcore.compliant_zoom import zoom_config, zoom_trajectory
+    from simcore.config import output_every
 
     zoom_top = int(zoom_top)
     if zoom_top < 0:
@@ -218,16 +218,18 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
             for g, row in enumerate(rows):
                 groups[g] = ball_of_contact == int(out["ball"].values[row])
                 onset[g, int(out["contact"].values[row])] = True
-            z = simcore.zoom(run_ds, time, window=windows[time], dt=steps[time],
-                             overrides=overrides, watch_contacts=groups, watch_onset=onset)
-            F_N = np.asarray(z["F_N"].values)
+            # (the zoom's arrays: its dataset would be built for three of them)
+            traj, _, _, zcfg = zoom_trajectory(run_ds, time, window=windows[time],
+                                               dt=steps[time], overrides=overrides,
+                                               watch_contacts=groups, watch_onset=onset)
+            F_N = traj.F_N
+            output_dt = float(zcfg["solver"]["dt"]) * output_every(zcfg)
             for row in rows:
                 contact = int(out["contact"].values[row])
-                same_ball = np.flatnonzero(np.asarray(z["ball"].values)
-                                           == int(out["ball"].values[row]))
+                same_ball = np.flatnonzero(ball_of_contact == int(out["ball"].values[row]))
                 F_contact = _struck(F_N[:, contact])
                 F_zoom[row] = _episode_peak(F_N[:, same_ball].max(axis=1), F_contact)
-                t_zoom[row] = _first_episode(F_contact, float(z.attrs["solver.output_dt"]))
+                t_zoom[row] = _first_episode(F_contact, output_dt)
                 dt_zoom[row] = steps[time]
     out["F_max_zoom"] = ("impact", F_zoom, {
         "units": "N", "long_name": "largest contact force of the impact's ball during the "

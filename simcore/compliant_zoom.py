@@ -94,7 +94,31 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
     simcore.ConfigError
         Bad settings or a time outside the run (one line naming the key), before any work.
     """
-    from .io import GENERALIZED_PARTS, state_at, trajectory_dataset
+    from .io import trajectory_dataset
+
+    traj, model, layout, cfg = zoom_trajectory(
+        run_ds, time, window=window, dt=dt, overrides=overrides, output_dt=output_dt,
+        until_released=until_released, progress=progress, watch_contacts=watch_contacts,
+        watch_onset=watch_onset)
+    ds = trajectory_dataset(traj, model, layout, cfg)
+    ds.attrs.update({
+        "zoom_time": float(time),
+        "zoom_start_time": float(traj.time[0]),
+        "zoom_source": str(run_ds.attrs.get("title", "")),
+        "solver.output_dt": float(cfg["solver"]["dt"]) * output_every(cfg),
+    })
+    return ds
+
+
+def zoom_trajectory(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(),
+                    output_dt=None, until_released=True, progress=False, watch_contacts=None,
+                    watch_onset=None):
+    """:func:`zoom` as plain arrays: (trajectory, model, layout, configuration), the
+    :class:`simcore.model.Trajectory` of the zoom with the model, layout and validated
+    configuration that made it (what :func:`zoom` turns into its dataset). Same parameters and
+    errors as :func:`zoom`; for code that reads a few arrays of many zooms
+    (:func:`analysis.zoom.add_zoom_forces`)."""
+    from .io import GENERALIZED_PARTS, state_at
 
     for name, parts in GENERALIZED_PARTS.items():  # a run file has q and v in parts
         if name not in run_ds and not all(part in run_ds for part in parts):
@@ -117,11 +141,4 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
                           output_every=every, q0=q0, v0=v0, t0=t0,
                           stop_when_released=until_released, watch_contacts=watch_contacts,
                           watch_onset=watch_onset)
-    ds = trajectory_dataset(traj, model, layout, cfg)
-    ds.attrs.update({
-        "zoom_time": float(time),
-        "zoom_start_time": t0,
-        "zoom_source": str(run_ds.attrs.get("title", "")),
-        "solver.output_dt": float(s["dt"]) * every,
-    })
-    return ds
+    return traj, model, layout, cfg

@@ -204,14 +204,14 @@ def test_zoom_stops_when_the_balls_are_free_and_reports_the_full_window_numbers(
 
     imp = analysis.extract_impacts(run_ds)
     calls = []
-    zoom = simcore.zoom
+    zoom_trajectory = simcore.compliant_zoom.zoom_trajectory
 
     def recording(run, time, **kw):
-        z = zoom(run, time, **kw)
-        calls.append((time, kw, z.sizes["time"]))
-        return z
+        out = zoom_trajectory(run, time, **kw)
+        calls.append((time, kw, out[0].time.size))
+        return out
 
-    monkeypatch.setattr(simcore, "zoom", recording)
+    monkeypatch.setattr(simcore.compliant_zoom, "zoom_trajectory", recording)
     table = add_zoom_forces(run_ds, imp, zoom_top=3)
     monkeypatch.undo()
     stopped = 0

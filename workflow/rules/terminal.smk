@@ -80,3 +80,12 @@ def _terse_terminal():
 
 
 _terse_terminal()
+
+
+def quick_exit():
+    """Freeze the objects of Snakemake's process at the end of the study: its shut-down would
+    walk them (Snakemake, simcore's configuration, pandas) with the cyclic collector several
+    times; frozen, they are skipped and freed with the process."""
+    import gc
+
+    gc.freeze()
