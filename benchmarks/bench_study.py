@@ -8,6 +8,8 @@
     python benchmarks/bench_study.py --jobs 2          only -j2
     python benchmarks/bench_study.py --default 1 --only-default
                                                        only the default study, once
+    python benchmarks/bench_study.py --large --only-default
+                                                       only the 1,000-run study, once
 
 Each study runs from scratch (``--forceall``) into a temporary results folder, so ``results/``
 is left alone; the Numba caches are warmed first (one run and one zoom in a fresh process), so
@@ -245,14 +247,19 @@ def main() -> None:
                         help="also run the default 81-run study N times at -j2 (median)")
     parser.add_argument("--only-default", action="store_true",
                         help="with --default: leave out the small study")
+    parser.add_argument("--large", action="store_true",
+                        help="also the 1,000-run study (benchmarks/study1000.yaml) at -j2, "
+                             "once (about 5 minutes)")
     args = parser.parse_args()
     job_counts = [int(j) for j in args.jobs.split(",")]
     print("load average before (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
-    studies = [] if (args.only_default and args.default) else [
+    studies = [] if (args.only_default and (args.default or args.large)) else [
         ("smoke", "config/smoke.yaml", job_counts, 1) if args.smoke else
         ("study24", "benchmarks/study24.yaml", job_counts, 1)]
     if args.default:
         studies.append(("default", None, [2], args.default))
+    if args.large:
+        studies.append(("study1000", "benchmarks/study1000.yaml", [2], 1))
 
     fresh_process()  # fill Numba's cache if the sources changed since the last run
     imports, first, run, overhead = fresh_process()

@@ -8,6 +8,7 @@ write_netcdf(ds, path)                -> atomic netCDF writing
 zoom(run_ds, time, window, dt=...)    -> compliant re-simulation from a run's state
 """
 
+import atexit
 import gc
 from contextlib import contextmanager
 from importlib.metadata import PackageNotFoundError, version
@@ -45,6 +46,19 @@ except PackageNotFoundError:  # running from a source tree without installation
 
 _first_run_done = False
 
+#: Freeze Python's heap when the process exits (registered by the first :func:`run`). The
+#: interpreter's shut-down walks every object still alive with the cyclic collector, several
+#: times: with NumPy, Numba, xarray and pandas loaded that took 0.35-0.4 s of a script that
+#: runs the paper's case in 0.65 s. Frozen, they are skipped, and freed with the process.
+#: Python does not promise to finalize objects that still exist at exit (``__del__`` of
+#: garbage in reference cycles then); set to False to keep its last collections anyway.
+freeze_at_exit = True
+
+
+def _freeze_at_exit():
+    if freeze_at_exit:
+        gc.freeze()
+
 
 def run(config, progress=False):
     """Simulate one run; see :func:`simcore.simulate.run`."""
@@ -56,6 +70,7 @@ def run(config, progress=False):
     with _collector_paused():  # the first run loads the kernels, xarray, ...
         ds = _run(config, progress=progress)
     _first_run_done = True
+    atexit.register(_freeze_at_exit)
     return ds
 
 

@@ -331,3 +331,22 @@ def test_a_long_warm_up_says_that_it_compiles(monkeypatch):
     monkeypatch.setattr(simulate, "COMPILE_NOTICE_AFTER", 0.05)
     monkeypatch.setattr(simulate, "_warm", set())
     assert simulate.warm_up() >= 0.5
+
+
+AT_EXIT = r"""
+import atexit, gc, sys
+atexit.register(lambda: print("frozen", gc.get_freeze_count() > 0))  # runs after simcore's
+import simcore
+simcore.run(simcore.load_config(overrides=["solver.t_end=2e-4"]))
+simcore.freeze_at_exit = sys.argv[1] == "1"
+"""
+
+
+@pytest.mark.parametrize("freeze", [True, False])
+def test_the_first_run_freezes_the_heap_at_exit_unless_told_not_to(freeze):
+    """The interpreter's shut-down skips the objects alive at exit (simcore.freeze_at_exit):
+    frozen by the handler the first run registers, not with the setting off."""
+    proc = subprocess.run([sys.executable, "-c", AT_EXIT, "1" if freeze else "0"],
+                          capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().splitlines()[-1] == f"frozen {freeze}"
