@@ -49,13 +49,13 @@ COMPILE_NOTICE_AFTER = 3.0
 def _compile_notice(stream) -> threading.Timer:
     """A started timer that tells ``stream``, after :data:`COMPILE_NOTICE_AFTER` seconds, that
     the kernels are being compiled (a cache load takes well under a second; a compilation
-    30-60 s in which nothing else would be printed)."""
+    10-60 s in which nothing else would be printed)."""
     def say():
         import numba
 
         timer.said = True
         stream.write("simcore: compiling the simulation kernels (first run after an install or "
-                     "an edit of the kernels; 30-60 s, then cached in "
+                     "an edit of the kernels; 10-60 s, then cached in "
                      f"{numba.config.CACHE_DIR}) ...\n")
         stream.flush()
 

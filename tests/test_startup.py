@@ -1,6 +1,6 @@
 """A new process's first run: what it imports and what it loads, with the results unchanged.
 
-The start-up savings (README, "Performance") come from not importing what a run does not use:
+The start-up savings (docs/performance.md) come from not importing what a run does not use:
 SciPy's ``scipy.linalg`` package (Numba's BLAS check is served by the ``cython_blas`` module
 alone, :func:`simcore.numba_cache.preload_scipy_blas`) and ``dask.array`` (the run's dataset is
 built from xarray Variables made on the fast path, :func:`simcore.io.dataset_of_arrays`). The run

@@ -8,8 +8,8 @@ finds it. A few steps of the paper's case (an impact at 1.5 ms) go through the s
 through the impact analysis, which has kernels of its own, and one short compliant zoom of that
 impact (the kernels of the compliant model, which the simulate jobs use for ``F_max_zoom``).
 The compliant kernels are compiled meanwhile by a second process, so that two cores share a
-cold compilation (and the run's own warm-up hands the velocity jump's kernels to a third,
-``simcore.parallel_compile``: 45.8 and 54.7 s before, 41.6 and 44.0 s with it, alternating).
+cold compilation (and the run's own warm-up shares its part with a third,
+``simcore.parallel_compile``): about 21 s on a 2-core machine with an empty cache.
 
 After a success it leaves a stamp file in the Numba cache folder (:func:`warm_stamp`); while the
 stamp matches the kernel sources, the next study skips the warm-up (which otherwise costs 2-3 s
