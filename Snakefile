@@ -43,4 +43,4 @@ onstart:
 onsuccess:
     for line in failed_points(SUMMARY_NC):
         print(f"WARNING: failed run (marked missing in {SUMMARY_NC}): {line}", file=sys.stderr)
-    quick_exit()
+    freeze_heap()

@@ -37,8 +37,9 @@ MAIN_TASKS = ("velocity", "smooth")
 LOOP_NEEDS = ("position", "contact_velocities", "energy")
 #: the helper's program
 HELPER = "from simcore.parallel_compile import helper_main; helper_main()"
-#: longest wait for the helper's position correction [s] (it takes 5-10 s)
-WAIT_LIMIT = 300.0
+#: shortest limit of the wait for the helper's share [s] (see :func:`compile_with_helper`;
+#: that share takes about 8 s on a 2-core machine)
+WAIT_LIMIT = 30.0
 
 
 def in_cache(dispatcher) -> bool | None:
@@ -133,10 +134,17 @@ class Helper:
                 self._buffer += chunk
                 *lines, self._buffer = self._buffer.split(b"\n")
                 for line in lines:
-                    words = line.decode().split()
-                    if len(words) == 3 and words[0] == "done":
-                        self.done[words[1]] = float(words[2])
+                    self._read(line)
         return True
+
+    def _read(self, line: bytes) -> None:
+        """Take a ``done <name> <seconds>`` line; anything else is ignored."""
+        words = line.decode(errors="replace").split()
+        if len(words) == 3 and words[0] == "done":
+            try:
+                self.done[words[1]] = float(words[2])
+            except ValueError:
+                pass
 
     def stop(self) -> None:
         """End the helper (whatever it has not finished, this process compiles itself)."""
@@ -168,15 +176,23 @@ def start_helper() -> Helper | None:
 def compile_with_helper(helper: Helper | None) -> None:
     """This process's share of a cold compilation: :data:`MAIN_TASKS`, then the wait for the
     helper's share of the loop's callees (:data:`LOOP_NEEDS`), then the loop itself (while the
-    helper compiles the initial acceleration). Nothing to do without a helper."""
+    helper compiles the initial acceleration). Nothing to do without a helper.
+
+    The helper's share takes about as long as this process's: it is waited for at most
+    :data:`WAIT_LIMIT` seconds, or twice the time this process's own tasks took if that is
+    longer; a helper that has ended, failed or is slower than that is not waited for, and the
+    loop's compilation compiles what is missing. An error here is the caller's to catch (the
+    run then compiles everything itself, :func:`simcore.simulate.warm_up`)."""
     if helper is None:
         return
+    start = time.monotonic()
     tasks = compile_tasks()
     for name in MAIN_TASKS:
         compile_task(tasks[name])
+    deadline = time.monotonic() + max(WAIT_LIMIT, 2.0 * (time.monotonic() - start))
     for name in LOOP_NEEDS:
-        if not helper.wait_for(name):
-            break  # the helper failed or is slow: the loop compiles what is missing
+        if not helper.wait_for(name, limit=deadline - time.monotonic()):
+            break  # ended, failed or slow: the loop compiles what is missing
     compile_task(tasks["loop"])
 
 

@@ -97,9 +97,14 @@ def warm_up(config: dict | None = None, notify=None) -> float:
     # a cold compilation of the nonsmooth loop is shared with a second process
     helper = start_helper() if kind == "nonsmooth" else None
     try:
-        compile_with_helper(helper)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
+            # (an optimisation only: should it fail, the run below compiles whatever is
+            # missing, and reports a real error itself)
+            try:
+                compile_with_helper(helper)
+            except Exception:  # noqa: BLE001
+                pass
             try:
                 _simulate(model, cfg, t_end=2 * float(cfg["solver"]["dt"]),
                           on_nonconvergence="warn")

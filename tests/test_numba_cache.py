@@ -8,7 +8,9 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
+from numba import njit
 
 from simcore import numba_cache
 
@@ -140,13 +142,17 @@ def test_cache_saves_of_several_processes_keep_every_entry(tmp_path):
 
 
 
+
 def _toy_stage(x, i):
     return x[i] * x[i] + 1.0
 
 
+_stage = njit(_toy_stage)
+
+
 def _toy_loop(x, out):
     for i in range(x.shape[0]):
-        out[i] = stage(x, i)
+        out[i] = _stage(x, i)
     return out.sum()
 
 
@@ -155,16 +161,42 @@ def test_a_loop_kernel_is_linked():
     runs for it, without falling back on Numba's optimisation, and the loop computes what the
     Python function computes. (That the paper case keeps its speed and figures is measured by
     benchmarks/bench_core.py and tested by the crank-slider tests.)"""
-    import numpy as np
-    from numba import njit
-
     from simcore.kernels import jit
 
-    global stage
-    stage = njit(_toy_stage)
+    assert jit.LINK_ONLY_INSTALLED
     x = np.linspace(0.0, 1.0, 7)
     expected = _toy_loop(x, np.zeros(7))
     linked = njit(jit.link_only(_toy_loop))
     before = len(jit.LINKED)
     assert linked(x, np.zeros(7)) == expected
     assert jit.LINKED[before:] == ["_toy_loop"] and not jit.LINK_FAILED
+
+
+def test_a_noinline_callee_is_left_as_it_is():
+    """``noinline`` excludes ``alwaysinline`` (LLVM refuses the pair): the linking passes over
+    such a callee (llvmlite reports attributes as bytes)."""
+    import llvmlite.binding as llvm
+
+    from simcore.kernels import jit
+
+    module = llvm.parse_assembly("define void @a() noinline { ret void }\n"
+                                 "define void @b() { ret void }\n")
+    assert [jit._has_noinline(f) for f in module.functions] == [True, False]
+
+
+COMPLIANT_LINKED = """
+import simcore
+from simcore.kernels import jit
+from simcore.simulate import warm_up
+warm_up(simcore.load_config(overrides=["model.contact_model=compliant", "solver.dt=1e-6"]))
+print(",".join(jit.LINKED), ",".join(jit.LINK_FAILED) or "-")
+"""
+
+
+@pytest.mark.slow
+def test_the_compliant_loop_is_linked(tmp_path):
+    """With an empty cache the compliant model's time loop is linked too, none falls back."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    out = subprocess.run([sys.executable, "-c", COMPLIANT_LINKED], env=env, check=True,
+                         capture_output=True, text=True).stdout.split()
+    assert out == ["integrate_compliant_chunk", "-"]

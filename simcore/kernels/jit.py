@@ -115,20 +115,29 @@ def _link(library, loops) -> None:
     """Inline the direct callees of ``loops`` into them and clean up, nothing more."""
     import llvmlite.binding as llvm
 
-    module = library._final_module
-    # (the called function is a call instruction's last operand)
-    callees = {list(ins.operands)[-1].name for loop in loops for block in loop.blocks
-               for ins in block.instructions if ins.opcode == "call"}
-    for f in module.functions:
-        if (f.name in callees and not f.is_declaration
-                and "noinline" not in {str(a) for a in f.attributes}):
-            f.add_function_attribute("alwaysinline")
+    # everything that may be missing in another Numba or llvmlite first, before the module
+    # is touched (a failure then leaves it as Numba made it, for Numba's own optimisation)
+    builder = library._codegen._pass_builder(opt=0)
     passes = llvm.create_new_module_pass_manager()
     passes.add_always_inliner_pass()
     passes.add_sroa_pass()
     passes.add_instruction_combine_pass()
     passes.add_simplify_cfg_pass()
-    passes.run(module, library._codegen._pass_builder(opt=0))
+    module = library._final_module
+    # (the called function is a call instruction's last operand)
+    callees = {list(ins.operands)[-1].name for loop in loops for block in loop.blocks
+               for ins in block.instructions if ins.opcode == "call"}
+    inline = [f for f in module.functions
+              if f.name in callees and not f.is_declaration and not _has_noinline(f)]
+    for f in inline:
+        f.add_function_attribute("alwaysinline")
+    passes.run(module, builder)
+
+
+def _has_noinline(function) -> bool:
+    """Whether an LLVM function carries ``noinline`` (which excludes ``alwaysinline``)."""
+    names = {a.decode() if isinstance(a, bytes) else str(a) for a in function.attributes}
+    return "noinline" in names
 
 
 LINK_ONLY_INSTALLED = _install_link_only()

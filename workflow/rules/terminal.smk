@@ -82,10 +82,11 @@ def _terse_terminal():
 _terse_terminal()
 
 
-def quick_exit():
-    """Freeze the objects of Snakemake's process at the end of the study: its shut-down would
-    walk them (Snakemake, simcore's configuration, pandas) with the cyclic collector several
-    times; frozen, they are skipped and freed with the process."""
+def freeze_heap():
+    """Freeze the objects of Snakemake's process (called last in the Snakefile's onsuccess):
+    its shut-down would walk them (Snakemake, simcore's configuration, pandas) with the cyclic
+    collector several times; frozen, they are skipped and freed with the process (about 0.5 s
+    of the study's end). What Snakemake makes after this point is collected as usual."""
     import gc
 
     gc.freeze()
