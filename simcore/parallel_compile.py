@@ -52,19 +52,18 @@ def in_cache(dispatcher) -> bool | None:
     return os.path.exists(index)
 
 
-def compile_tasks(config: dict | None = None) -> dict:
+def compile_tasks() -> dict:
     """The kernels a nonsmooth run calls from Python or its time loop calls, as (kernel,
-    arguments) by task name: the crank-slider of ``config`` (default: the paper's case) with
-    the work arrays, settings and state a run makes. Only the arguments' types matter; nothing
-    is run."""
+    arguments) by task name: the paper's crank-slider with the work arrays, settings and state
+    a run makes. Only the arguments' types matter, and they do not depend on the model's
+    values (any run's kernels are these); nothing is run."""
     import numpy as np
 
     from . import kernels as nb
     from .config import load_config
     from .mechanism import crank_slider
 
-    cfg = config if config is not None else load_config()
-    model, _ = crank_slider(cfg["model"])
+    model, _ = crank_slider(load_config()["model"])
     arr = model.arrays()
     q, v = model.initial_state()
     n, nc, nbil = q.size, arr.ct_type.size, model.constraint_rows()
@@ -73,7 +72,7 @@ def compile_tasks(config: dict | None = None) -> dict:
                          np.zeros(nc), np.zeros(nc), np.zeros(nc), np.zeros(nc))
     # the types of Model.simulate's StepSettings
     st = nb.StepSettings(1e-4, 0.0, 1e-5, 50, 1.0, -1, 0.0, 1e-3, 1e-3)
-    tasks = {name: call for name, call in nb.loop_stage_calls(st, arr, state, work).items()}
+    tasks = nb.loop_stage_calls(st, arr, state, work)
     # the start of Model.simulate
     tasks["contact_velocities"] = (nb.contact_velocities_into,
                                    (q, v, arr, np.zeros(nc), np.zeros(nc), np.zeros(nc),
