@@ -43,7 +43,7 @@ import numpy as np
 import xarray as xr
 from numba import njit
 
-from simcore.numba_cache import configure_cache
+from simcore.startup.numba_cache import configure_cache
 
 # The analysis kernels (here and in analysis.forces) are cached in the folder of the simulation
 # kernels, whatever was imported first: Numba picks a kernel's cache folder when the kernel is

@@ -107,7 +107,7 @@ def zoom_step(zoom_model: dict, run_dt: float, speeds, steps_per_contact: int) -
     ``steps_per_contact``, at most ``run_dt``.
 
     The contact time is the shorter of a ball hitting the stiffer race at the crank pin's speed
-    (every contact of the mechanism is integrated in the zoom, :func:`simcore.limits.
+    (every contact of the mechanism is integrated in the zoom, :func:`simcore.config.limits.
     hertz_contact_time`) and at the approach speed of each impact the zoom serves, both with the
     zoom's model (so a stiffer ``model.youngs_modulus`` override gives a shorter step).
 
@@ -122,7 +122,7 @@ def zoom_step(zoom_model: dict, run_dt: float, speeds, steps_per_contact: int) -
     steps_per_contact : int
         N, steps per Hertz contact time.
     """
-    from simcore.limits import hertz_contact_time
+    from simcore.config.limits import hertz_contact_time
 
     t_contact = hertz_contact_time(zoom_model)
     for v in speeds:
@@ -165,8 +165,8 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
         ``dt_zoom`` [s] (NaN where not zoomed) and attributes ``zoom_top``,
         ``zoom_steps_per_contact`` (0 for a fixed ``dt``), ``zoom_window``.
     """
-    from simcore.compliant_zoom import zoom_config, zoom_trajectory
     from simcore.config import output_every
+    from simcore.study.zoom import zoom_config, zoom_trajectory
 
     zoom_top = int(zoom_top)
     if zoom_top < 0:

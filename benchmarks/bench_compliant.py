@@ -36,7 +36,7 @@ def main() -> None:
     import simcore
     from simcore import kernels as nb
     from simcore.config import load_config
-    from simcore.mechanism import crank_slider
+    from simcore.model.mechanism import crank_slider
 
     cfg = load_config(overrides=["model.youngs_modulus=2.1e11"])
     model, _ = crank_slider(cfg["model"])

@@ -4,7 +4,7 @@ Prints, in one run:
 
 - cold compile: a new process with an empty Numba cache (a temporary ``NUMBA_CACHE_DIR``):
   imports, then the first (compiling) 1-step run of the paper case, whose compile a second
-  process shares (``simcore.parallel_compile``): wall time, and the CPU time of both;
+  process shares (``simcore.startup.parallel_compile``): wall time, and the CPU time of both;
 - a new process with a warm cache: the first run of the paper case in all, from the interpreter's
   start to the returned dataset (``simcore.run``, the API) and to the written file
   (``python -m simcore run``, the CLI), with where the time goes (``benchmarks/first_run.py``,
@@ -301,7 +301,7 @@ def main() -> None:
     import numba
 
     import simcore
-    from simcore.mechanism import crank_slider
+    from simcore.model.mechanism import crank_slider
 
     numba.set_num_threads(1)
     cfg = simcore.load_config()

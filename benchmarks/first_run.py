@@ -24,14 +24,14 @@ test is not changed):
   arrays), over every call of the run, with its call count;
 - ``build_model``: the crank-slider model built from the configuration (both its builds: the
   warm-up's and the run's);
-- ``warm_up``: :func:`simcore.simulate.warm_up` (a two-step run that loads the kernels; it holds
+- ``warm_up``: :func:`simcore.runner.warm_up` (a two-step run that loads the kernels; it holds
   the Numba figures above, apart from ``typeof`` of the later calls);
 - ``integrate``: the time loop of the run (``wall_time_s``);
 - ``dataset``: :func:`simcore.io.trajectory_dataset` (the xarray Dataset of the run);
 - ``import_xarray``, ``import_dask`` (``import_dask_array`` when xarray asks for it),
   ``import_netcdf4``: imports made during the run, wherever they happen;
 - ``import_wait``: how long the run waited for the I/O layer's import when it ran in a
-  background thread during the integration (:func:`simcore.simulate.import_meanwhile`; then
+  background thread during the integration (:func:`simcore.runner.import_meanwhile`; then
   ``import_background`` is 1 and ``import_xarray`` is that thread's time, overlapping the
   integration);
 - ``write``: :func:`simcore.io.write_netcdf` (CLI only).
@@ -146,7 +146,7 @@ def _instrument_numba():
 
 
 def _wrap_import_meanwhile(simulate):
-    """Time the run's wait for the import :func:`simcore.simulate.import_meanwhile` starts."""
+    """Time the run's wait for the import :func:`simcore.runner.import_meanwhile` starts."""
     original = simulate.import_meanwhile
 
     def timed(name):
@@ -211,7 +211,7 @@ def main(argv=None) -> None:
 
     stages["import_simcore"] = time.perf_counter() - t
     stages["xarray_at_import"] = "xarray" in sys.modules
-    import simcore.simulate as simulate
+    import simcore.runner as simulate
 
     _wrap(simulate, "crank_slider", "build_model")
     _wrap(simulate, "warm_up", "warm_up")

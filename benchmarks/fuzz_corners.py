@@ -51,7 +51,7 @@ def draw(rng, t_end):
 def independent_energy(ds, cfg):
     """Kinetic + gravitational + cage-spring energy from the stored q and v [J] (not the
     kernel's own sum)."""
-    from simcore.mechanism import crank_slider
+    from simcore.model.mechanism import crank_slider
 
     model = crank_slider(cfg["model"])[0]
     mass = np.asarray(model.mass)
@@ -87,7 +87,7 @@ def regions(cfg):
 
 def main(n=300, t_end=0.1, seed=11):
     import simcore
-    from simcore.audit import ENERGY_FLOOR_J
+    from simcore.model.audit import ENERGY_FLOOR_J
 
     rng = np.random.default_rng(seed)
     table = {}

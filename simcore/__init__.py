@@ -61,9 +61,9 @@ def _freeze_at_exit():
 
 
 def run(config, progress=False):
-    """Simulate one run; see :func:`simcore.simulate.run`."""
+    """Simulate one run; see :func:`simcore.runner.run`."""
     global _first_run_done
-    from .simulate import run as _run
+    from .runner import run as _run
 
     if _first_run_done:
         return _run(config, progress=progress)
@@ -84,8 +84,8 @@ def write_netcdf(ds, path, complevel=4, keep=None):
 
 def zoom(run_ds, time, window=2e-3, dt=1e-6, overrides=(), output_dt=None,
          until_released=True, progress=False, watch_contacts=None, watch_onset=None):
-    """Compliant zoom on a run; see :func:`simcore.compliant_zoom.zoom`."""
-    from .compliant_zoom import zoom as _zoom
+    """Compliant zoom on a run; see :func:`simcore.study.zoom.zoom`."""
+    from .study.zoom import zoom as _zoom
 
     return _zoom(run_ds, time, window=window, dt=dt, overrides=overrides, output_dt=output_dt,
                  until_released=until_released, progress=progress,

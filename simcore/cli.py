@@ -91,8 +91,8 @@ def _zoom_main(args) -> int:
     except (OSError, ValueError) as exc:
         print(f"error: RUN: cannot read {args.run}: {exc}", file=sys.stderr)
         return 2
-    from .compliant_zoom import start_index, zoom, zoom_config
     from .io import write_netcdf
+    from .study.zoom import start_index, zoom, zoom_config
 
     try:  # every check before any work
         zoom_config(run_ds, window=args.window, dt=args.dt, overrides=args.overrides)
@@ -183,7 +183,7 @@ def _main(argv=None) -> int:
     import warnings
 
     from .config import ConfigError, load_config
-    from .limits import check_memory_of_config, check_run_of_config
+    from .config.limits import check_memory_of_config, check_run_of_config
 
     warnings.formatwarning = _one_line_warning
     try:
@@ -213,7 +213,7 @@ def _main(argv=None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     from .model import SolverError
-    from .simulate import run
+    from .runner import run
 
     start = time.perf_counter()
     try:

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from simcore.mechanism import ball_in_ring, ball_on_plane, pinched_balls
+from simcore.model.mechanism import ball_in_ring, ball_on_plane, pinched_balls
 
 G = 9.81
 

@@ -13,8 +13,8 @@ from scipy.integrate import solve_ivp
 
 import simcore
 from simcore.config import ConfigError, load_config
-from simcore.mechanism import ball_in_ring, ball_on_plane, crank_slider
 from simcore.model import damping_factor, hertz_stiffness
+from simcore.model.mechanism import ball_in_ring, ball_on_plane, crank_slider
 
 E_STEEL = 2.1e11
 

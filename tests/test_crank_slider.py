@@ -6,7 +6,7 @@ import pytest
 import simcore
 from simcore import kernels as nb
 from simcore.io import generalized
-from simcore.mechanism import crank_slider
+from simcore.model.mechanism import crank_slider
 
 
 def _run(**overrides):

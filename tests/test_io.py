@@ -12,7 +12,7 @@ import xarray as xr
 
 import simcore
 from simcore.io import failed_run_dataset, generalized, open_run, state_at, write_netcdf
-from simcore.mechanism import crank_slider
+from simcore.model.mechanism import crank_slider
 
 ROOT = Path(__file__).resolve().parents[1]
 LABELS = ("race", "body", "axis", "stage")

@@ -14,7 +14,7 @@ from simcore.kernels.contact import (
 )
 from simcore.kernels.joints import bilateral_cached
 from simcore.kernels.springs import smooth_forces_into, spring_damping_into
-from simcore.mechanism import ball_on_plane, crank_slider, pinched_balls
+from simcore.model.mechanism import ball_on_plane, crank_slider, pinched_balls
 
 
 @pytest.fixture(scope="module")
@@ -444,7 +444,7 @@ def _loaded_compliant_step():
     from simcore.io import generalized
     from simcore.kernels.compliant_step import compliant_smooth_step
     from simcore.kernels.generalized_alpha import alpha_coefficients
-    from simcore.mechanism import crank_slider
+    from simcore.model.mechanism import crank_slider
 
     run = simcore.run(simcore.load_config(overrides=["solver.t_end=0.002"]))
     model, _ = crank_slider(simcore.load_config()["model"])

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from simcore import numba_cache
+from simcore.startup import numba_cache
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -66,7 +66,7 @@ def twice():
 INIT = """
 from pathlib import Path
 
-from simcore.numba_cache import configure_cache
+from simcore.startup.numba_cache import configure_cache
 
 {keyed}CACHE_DIR = configure_cache(Path(__file__).parent)
 """
@@ -187,7 +187,7 @@ def test_a_noinline_callee_is_left_as_it_is():
 COMPLIANT_LINKED = """
 import simcore
 from simcore.kernels import jit
-from simcore.simulate import warm_up
+from simcore.runner import warm_up
 warm_up(simcore.load_config(overrides=["model.contact_model=compliant", "solver.dt=1e-6"]))
 print(",".join(jit.LINKED), ",".join(jit.LINK_FAILED) or "-")
 """

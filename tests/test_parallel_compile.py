@@ -1,4 +1,4 @@
-"""The helper process of a cold compilation (simcore.parallel_compile)."""
+"""The helper process of a cold compilation (simcore.startup.parallel_compile)."""
 
 import os
 import subprocess
@@ -9,14 +9,14 @@ import pytest
 
 import simcore
 from simcore import kernels as nb
-from simcore import parallel_compile
-from simcore.simulate import warm_up
+from simcore.runner import warm_up
+from simcore.startup import parallel_compile
 
 #: after the helper's tasks, this process's own and a run's warm-up: how the run got each of
 #: the helper's kernels (cache hits, misses) and how many specialisations each task's kernel has
 RUN_AND_REPORT = """
-import simcore, simcore.simulate as s
-from simcore import parallel_compile as pc
+import simcore, simcore.runner as s
+from simcore.startup import parallel_compile as pc
 s.start_helper = lambda: None
 tasks = pc.compile_tasks()
 for name in pc.MAIN_TASKS:
@@ -55,9 +55,9 @@ def test_the_run_loads_what_the_helper_compiled(tmp_path):
 #: whether each task's argument types are among the specialisations the run itself made or
 #: loaded of the kernels it calls from Python
 RUN_TYPES = """
-import simcore, simcore.simulate as s
+import simcore, simcore.runner as s
 from numba import typeof
-from simcore import parallel_compile as pc
+from simcore.startup import parallel_compile as pc
 s.start_helper = lambda: None
 s.warm_up(simcore.load_config())
 tasks = pc.compile_tasks()
@@ -83,7 +83,7 @@ def test_the_tasks_have_the_run_s_argument_types():
 def test_a_failing_share_leaves_the_compilation_to_the_run(monkeypatch):
     """An error in this process's share of a shared compile does not reach the run: the
     warm-up goes on and the run compiles (here: loads) what it needs."""
-    import simcore.simulate as sim
+    import simcore.runner as sim
 
     def failing(helper):
         raise RuntimeError("the helper's protocol broke")

@@ -17,10 +17,10 @@ import pytest
 import xarray as xr
 
 import simcore
-from simcore.audit import ENERGY_FLOOR_J, EnergyAudit
 from simcore.config import ConfigError, load_config
-from simcore.limits import OMEGA_DT_MAX, memory_estimate, spring_scales, values_per_step
-from simcore.mechanism import crank_slider
+from simcore.config.limits import OMEGA_DT_MAX, memory_estimate, spring_scales, values_per_step
+from simcore.model.audit import ENERGY_FLOOR_J, EnergyAudit
+from simcore.model.mechanism import crank_slider
 
 ROOT = Path(__file__).resolve().parents[1]
 REPRO = ["model.clearance=0.002", "model.cage_stiffness=4e6", "model.cage_damping=0",
@@ -153,7 +153,7 @@ def test_paper_case_passes_and_the_reproduction_is_refused():
     with pytest.raises(ConfigError, match=r"^solver\.dt: 0\.0003 is not allowed; allowed: <= "):
         simcore.run(cfg)
     ok = load_config(overrides=REPRO + [f"solver.dt={0.9 * scales.dt_limit}"])
-    from simcore.limits import check_run, check_run_of_config
+    from simcore.config.limits import check_run, check_run_of_config
 
     assert check_run(ok) == [] and check_run_of_config(ok) == []
     # the command line's model-free check gives the same limit as the built model's
@@ -390,7 +390,7 @@ def test_summary_on_a_local_dask_cluster_equals_the_synchronous_one(tmp_path):
 
 
 def test_repair_finds_unreadable_and_orphaned_files_and_a_dry_run_touches_nothing(tmp_path):
-    from simcore.repair import looking_only, repair_outputs
+    from simcore.study.repair import looking_only, repair_outputs
 
     def nc(path):
         xr.Dataset({"a": ("x", np.arange(1000.0))}).to_netcdf(path)
@@ -421,7 +421,7 @@ def test_hertz_contact_time_matches_an_integrated_impact():
     from scipy.integrate import solve_ivp
 
     from simcore.config import load_config
-    from simcore.limits import hertz_contact_time
+    from simcore.config.limits import hertz_contact_time
 
     model = load_config(overrides=["model.youngs_modulus=2.1e11"])["model"]
     E, nu = model["youngs_modulus"], model["poisson_ratio"]
@@ -443,7 +443,7 @@ def test_hertz_contact_time_matches_an_integrated_impact():
 
 def test_compliant_step_must_resolve_the_contact():
     from simcore.config import load_config
-    from simcore.limits import check_run_of_config, hertz_contact_time
+    from simcore.config.limits import check_run_of_config, hertz_contact_time
 
     steel = ["model.contact_model=compliant", "model.youngs_modulus=2.1e11"]
     cfg = load_config(overrides=steel + ["solver.dt=1e-4"])

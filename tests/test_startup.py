@@ -2,7 +2,8 @@
 
 The start-up savings (docs/performance.md) come from not importing what a run does not use:
 SciPy's ``scipy.linalg`` package (Numba's BLAS check is served by the ``cython_blas`` module
-alone, :func:`simcore.numba_cache.preload_scipy_blas`) and ``dask.array`` (the run's dataset is
+alone, :func:`simcore.startup.numba_cache.preload_scipy_blas`) and ``dask.array`` (the run's
+dataset is
 built from xarray Variables made on the fast path, :func:`simcore.io.dataset_of_arrays`). The run
 file is written without the question to dask's scheduler that imports ``distributed``
 (:func:`simcore.io.to_netcdf4`), and xarray learns dask's array type only once ``dask.array`` is
@@ -24,7 +25,7 @@ import xarray as xr
 import simcore
 from simcore import kernels as nb
 from simcore.io import dataset_of_arrays, parameter_coords, write_netcdf
-from simcore.mechanism import ball_in_ring, ball_on_plane, crank_slider, pinched_balls
+from simcore.model.mechanism import ball_in_ring, ball_on_plane, crank_slider, pinched_balls
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -67,7 +68,7 @@ def test_first_run_imports_neither_scipy_linalg_nor_dask_nor_distributed(tmp_pat
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout.strip().splitlines()[-1])
     assert out["steps"] == 2
-    # xarray was imported during the run (in the background, simcore.simulate.import_meanwhile)
+    # xarray was imported during the run (in the background, simcore.runner.import_meanwhile)
     assert not out["xarray_before"] and out["dataset_type"].startswith("xarray")
     assert not out["scipy_linalg"], "Numba's BLAS check imported the scipy.linalg package"
     assert not out["dask_array"], "building the run's dataset imported dask.array"
@@ -110,7 +111,7 @@ def test_xarray_sees_dask_arrays_with_the_deferred_type():
 
 
 def test_import_meanwhile_imports_and_leaves_a_failure_to_the_caller():
-    from simcore.simulate import import_meanwhile
+    from simcore.runner import import_meanwhile
 
     assert import_meanwhile("json") is None  # imported already: no thread
     name = "simcore_test_no_such_module"
@@ -307,7 +308,7 @@ def test_a_long_warm_up_says_that_it_compiles(monkeypatch):
     import io
     import time
 
-    from simcore import simulate
+    from simcore import runner as simulate
 
     def slow(model, cfg, **kwargs):  # stands for a compilation
         time.sleep(0.5)

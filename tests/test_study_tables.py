@@ -49,7 +49,7 @@ def test_failed_run_gives_an_empty_table():
 def test_zoom_step_setting_reaches_the_table(run_ds):
     """analysis.zoom_steps_per_contact (schema default 40) sets the zoom's step: twice the steps,
     half the step."""
-    from simcore.limits import hertz_contact_time
+    from simcore.config.limits import hertz_contact_time
 
     default = simcore.validate_config({})["analysis"]["zoom_steps_per_contact"]
     assert default == 40

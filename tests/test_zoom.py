@@ -90,7 +90,7 @@ def test_impact_table_gets_zoom_forces(run_ds):
 def test_simulation_stops_once_the_contacts_have_opened_again():
     """stop_when_released: a ball thrown at a plane (no gravity) stops the run soon after it
     leaves the plane, long before the requested end."""
-    from simcore.mechanism import ball_on_plane
+    from simcore.model.mechanism import ball_on_plane
 
     model = ball_on_plane(radius=0.01, mass=0.0327, height=0.01 + 1e-6, e_N=1.0, gravity=0.0,
                           speed=(0.0, -1.0))
@@ -122,8 +122,8 @@ def test_zoom_step_follows_the_hertz_contact_time(run_ds):
     """dt = t_Hertz / N: a 100 times stiffer material shortens a Hertz contact by 100^(2/5)
     (t ~ K^(-2/5)), a faster impact by (v ratio)^(1/5); the run's own step caps it."""
     from analysis.zoom import STEPS_PER_CONTACT, zoom_step
-    from simcore.compliant_zoom import zoom_config
-    from simcore.limits import hertz_contact_time
+    from simcore.config.limits import hertz_contact_time
+    from simcore.study.zoom import zoom_config
 
     soft = zoom_config(run_ds)["model"]
     stiff = zoom_config(run_ds, overrides=["model.youngs_modulus=2.1e11"])["model"]
@@ -140,7 +140,7 @@ def test_zoom_step_follows_the_hertz_contact_time(run_ds):
 
 def test_impact_table_records_the_zoom_step(run_ds):
     from analysis.zoom import STEPS_PER_CONTACT
-    from simcore.limits import hertz_contact_time
+    from simcore.config.limits import hertz_contact_time
 
     imp = analysis.extract_impacts(run_ds)
     table = add_zoom_forces(run_ds, imp, zoom_top=1)
@@ -204,14 +204,14 @@ def test_zoom_stops_when_the_balls_are_free_and_reports_the_full_window_numbers(
 
     imp = analysis.extract_impacts(run_ds)
     calls = []
-    zoom_trajectory = simcore.compliant_zoom.zoom_trajectory
+    zoom_trajectory = simcore.study.zoom.zoom_trajectory
 
     def recording(run, time, **kw):
         out = zoom_trajectory(run, time, **kw)
         calls.append((time, kw, out[0].time.size))
         return out
 
-    monkeypatch.setattr(simcore.compliant_zoom, "zoom_trajectory", recording)
+    monkeypatch.setattr(simcore.study.zoom, "zoom_trajectory", recording)
     table = add_zoom_forces(run_ds, imp, zoom_top=3)
     monkeypatch.undo()
     stopped = 0
@@ -241,7 +241,7 @@ def test_watch_contacts_waits_for_the_onset_of_its_group():
     """A group's episode starts at its onset contact: a ball thrown at a plane with its only
     contact watched stops after the rebound; the same run watching for an onset that never
     comes (an empty onset) runs to its end. A wrong shape is refused naming the key."""
-    from simcore.mechanism import ball_on_plane
+    from simcore.model.mechanism import ball_on_plane
 
     model = ball_on_plane(radius=0.01, mass=0.0327, height=0.01 + 1e-6, e_N=1.0, gravity=0.0,
                           speed=(0.0, -1.0))

@@ -13,11 +13,11 @@
   loop of the compliant model with output sampling.
 
 The model is handed over as one :class:`~.bundles.ModelArrays` (a namedtuple of arrays).
-Numba's cache is keyed by a hash of these sources (:mod:`simcore.numba_cache`) before any of
+Numba's cache is keyed by a hash of these sources (:mod:`simcore.startup.numba_cache`) before any of
 them is imported, so an edit in one module cannot leave stale code of another in the cache.
 """
 
-from ..numba_cache import configure_cache
+from ..startup.numba_cache import configure_cache
 
 CACHE_DIR = configure_cache()
 

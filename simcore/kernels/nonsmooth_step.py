@@ -906,7 +906,7 @@ def loop_stage_calls(st, ma, state, work):
     """The calls :func:`integrate_chunk` makes to its three stages, as (kernel, arguments) by
     stage name ("smooth", "position", "velocity"): the loop's own objects, so that each stage
     can be compiled for the loop's argument types ahead of the loop
-    (:mod:`simcore.parallel_compile`). Plain Python; keep it in step with the loop's calls
+    (:mod:`simcore.startup.parallel_compile`). Plain Python; keep it in step with the loop's calls
     (``tests/test_parallel_compile.py`` checks that the types are the loop's)."""
     q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
     nu_c, gap = work.contact[0], work.contact[1]

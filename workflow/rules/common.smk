@@ -129,9 +129,9 @@ ALL_IMPACTS = expand(f"{RES}/impacts/{{p}}.nc", p=list(paramspace.instance_patte
 
 def _repair():
     """Before Snakemake decides what to run: remove outputs that cannot be opened and the
-    impact tables of missing runs, so that the next run remakes them (simcore.repair). Only in
+    impact tables of missing runs, so that the next run remakes them (simcore.study.repair). Only in
     the main process (not inside cluster jobs); a dry run, lint or report only reports."""
-    from simcore.repair import looking_only, repair_outputs
+    from simcore.study.repair import looking_only, repair_outputs
 
     if not workflow.is_main_process:
         return
@@ -233,10 +233,10 @@ def _reference_point():
 
 
 def _check_limits():
-    """Step size and memory of every run of the grid (simcore.limits), before any job."""
+    """Step size and memory of every run of the grid (simcore.config.limits), before any job."""
     import warnings
 
-    from simcore.limits import check_run
+    from simcore.config.limits import check_run
 
     for point in GRID.to_dict("records"):
         cfg = run_config({key: float(value) for key, value in point.items()})

@@ -9,7 +9,7 @@ through the impact analysis, which has kernels of its own, and one short complia
 impact (the kernels of the compliant model, which the simulate jobs use for ``F_max_zoom``).
 The compliant kernels are compiled meanwhile by a second process, so that two cores share a
 cold compilation (and the run's own warm-up shares its part with a third,
-``simcore.parallel_compile``): about 21 s on a 2-core machine with an empty cache.
+``simcore.startup.parallel_compile``): about 21 s on a 2-core machine with an empty cache.
 
 After a success it leaves a stamp file in the Numba cache folder (:func:`warm_stamp`); while the
 stamp matches the kernel sources, the next study skips the warm-up (which otherwise costs 2-3 s
@@ -25,7 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 #: the files that define Numba kernels: Numba checks a cached kernel against its file's
 #: modification time and size, so the stamp does too (and the cache folder of
-#: simcore.numba_cache is named after the kernel sources' contents)
+#: simcore.startup.numba_cache is named after the kernel sources' contents)
 KERNEL_SOURCES = ("simcore/kernels/*.py", "analysis/forces.py", "analysis/filtering.py")
 
 
@@ -35,7 +35,7 @@ def warm_stamp() -> Path:
     cache folder, so that clearing the cache clears it too."""
     from importlib.metadata import version
 
-    from simcore.numba_cache import cache_dir_for
+    from simcore.startup.numba_cache import cache_dir_for
 
     digest = hashlib.sha1(f"{sys.version} numba {version('numba')}".encode())
     for pattern in KERNEL_SOURCES:
@@ -49,7 +49,7 @@ def warm_stamp() -> Path:
 #: run by a second process: the kernels of the compliant model (those of the zooms), compiled
 #: while this process compiles the nonsmooth ones and the analysis'
 COMPLIANT_WARM_UP = (
-    "import simcore, simcore.simulate as s; "
+    "import simcore, simcore.runner as s; "
     "s.warm_up(simcore.load_config(overrides=['model.contact_model=compliant', "
     "'solver.dt=1e-6']))"
 )
@@ -61,7 +61,8 @@ if __name__ == "__main__":
     start = time.perf_counter()
     # Two cores compile at once: the compliant kernels in a second process (they share some
     # callees with the nonsmooth ones, which both compile; their cache saves are serialised by
-    # simcore.numba_cache.lock_cache_writes). Should that process fail, the zoom below compiles
+    # simcore.startup.numba_cache.lock_cache_writes). Should that process fail, the zoom below
+    # compiles
     # them here.
     compliant = subprocess.Popen([sys.executable, "-c", COMPLIANT_WARM_UP],
                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .config import ConfigError, output_every, parse_override, validate_config
-from .mechanism import crank_slider
+from ..config import ConfigError, output_every, parse_override, validate_config
+from ..model.mechanism import crank_slider
 
 DEFAULT_WINDOW = 2e-3   # [s]
 DEFAULT_DT = 1e-6       # [s]
@@ -94,7 +94,7 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
     simcore.ConfigError
         Bad settings or a time outside the run (one line naming the key), before any work.
     """
-    from .io import trajectory_dataset
+    from ..io import trajectory_dataset
 
     traj, model, layout, cfg = zoom_trajectory(
         run_ds, time, window=window, dt=dt, overrides=overrides, output_dt=output_dt,
@@ -118,7 +118,7 @@ def zoom_trajectory(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, override
     configuration that made it (what :func:`zoom` turns into its dataset). Same parameters and
     errors as :func:`zoom`; for code that reads a few arrays of many zooms
     (:func:`analysis.zoom.add_zoom_forces`)."""
-    from .io import GENERALIZED_PARTS, state_at
+    from ..io import GENERALIZED_PARTS, state_at
 
     for name, parts in GENERALIZED_PARTS.items():  # a run file has q and v in parts
         if name not in run_ds and not all(part in run_ds for part in parts):

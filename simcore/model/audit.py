@@ -46,7 +46,7 @@ ENERGY_FLOOR_J = 1e-9
 
 def drive_rate(model) -> float:
     """Prescribed crank speed of the model's drive [rad/s]; 0 without a prescribed rotation."""
-    from .kernels import JOINT_ANGLE
+    from ..kernels import JOINT_ANGLE
 
     for kind, _bi, _bj, geom in model.joints:
         if kind == JOINT_ANGLE:

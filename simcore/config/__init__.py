@@ -1,6 +1,6 @@
 """Configuration: one JSON schema for runs and the study, defaults, overrides, clear errors.
 
-The schema (``simcore/schema/config.schema.json``) is the single source of the keys, their
+The schema (``simcore/config/schema/config.schema.json``) is the single source of the keys, their
 defaults, units and allowed ranges; the Snakemake workflow validates against the same file.
 """
 

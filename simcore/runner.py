@@ -4,7 +4,7 @@ The first run in a process first compiles the Numba kernels, or loads them from 
 (``__pycache__`` next to the sources): seconds to a minute. :func:`warm_up` does that with a
 run of two steps, so that the run's ``wall_time_s`` measures the integration alone; the time it
 took is recorded apart, as ``compile_time_s``. A cold compilation of the nonsmooth model is
-shared with a second process (:mod:`simcore.parallel_compile`). The first run in a process
+shared with a second process (:mod:`simcore.startup.parallel_compile`). The first run in a process
 imports the I/O layer (xarray) in a background thread while it integrates
 (:func:`import_meanwhile`).
 """
@@ -18,10 +18,10 @@ import time
 import warnings
 
 from .config import load_config, output_every, validate_config
-from .limits import check_run
-from .mechanism import crank_slider
+from .config.limits import check_run
 from .model import SolverError  # noqa: F401  (re-exported)
-from .parallel_compile import compile_with_helper, start_helper, stop_helper
+from .model.mechanism import crank_slider
+from .startup.parallel_compile import compile_with_helper, start_helper, stop_helper
 
 _warm: set[str] = set()  # contact models whose kernels this process has compiled or loaded
 
@@ -179,9 +179,9 @@ def run(config: dict, progress: bool = False):
     simcore.ConfigError
         Also for a step size that cannot resolve the model (``solver.on_unresolved_dt``) and for
         a run whose arrays would exceed ``solver.max_memory_gb``: checked after building the
-        model, before any array of the time loop is allocated (:mod:`simcore.limits`).
+        model, before any array of the time loop is allocated (:mod:`simcore.config.limits`).
     simcore.SolverError
-        When a step does not converge, or creates energy (:mod:`simcore.audit`), and
+        When a step does not converge, or creates energy (:mod:`simcore.model.audit`), and
         ``solver.on_nonconvergence`` is ``"error"``.
     """
     cfg = validate_config(config)

@@ -16,7 +16,7 @@ import hashlib
 import os
 from pathlib import Path
 
-KERNELS_DIR = Path(__file__).parent / "kernels"
+KERNELS_DIR = Path(__file__).parent.parent / "kernels"
 
 
 def kernel_source_key(folder: str | Path = KERNELS_DIR, length: int = 12) -> str:
@@ -71,7 +71,8 @@ def lock_cache_writes() -> bool:
     file number, writing the index and then the data file. Each file is replaced atomically, but
     the sequence is not: two processes that save different specialisations of one function at
     the same moment (the study's warm-up processes and a cold run's compile helper,
-    :mod:`simcore.parallel_compile`, both compile shared callees) can choose the same data file,
+    :mod:`simcore.startup.parallel_compile`, both compile shared callees) can choose the same
+    data file,
     and the index can then name the other specialisation's machine code, in a cache folder that
     stays in use until the kernels are edited. Here the whole sequence runs under an exclusive
     ``flock`` on a lock file beside the index (``<index>.lock``), so saves of one function

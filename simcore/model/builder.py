@@ -3,7 +3,7 @@
 The builder collects bodies, joints, spring-dampers and contacts, checks their inputs and hands
 flat arrays (one :class:`simcore.kernels.ModelArrays` bundle) to the Numba kernels of
 :mod:`simcore.kernels`. Scenes (the crank-slider bearing,
-the validation cases) are builder functions on top of it, see :mod:`simcore.mechanism`.
+the validation cases) are builder functions on top of it, see :mod:`simcore.model.mechanism`.
 """
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .numba_cache import preload_scipy_blas
+from ..startup.numba_cache import preload_scipy_blas
 
 preload_scipy_blas()  # before Numba's first kernel call: 0.2 s less in a new process
 
-from . import kernels as nb  # noqa: E402
+from .. import kernels as nb  # noqa: E402
 from .audit import EnergyAudit  # noqa: E402
 
 CONTACT_MODELS = ("nonsmooth", "compliant")
@@ -429,7 +429,8 @@ class Model:
             Onset contacts of each group, the shape of ``watch_contacts`` (default: the group's
             own contacts).
         energy_tol : float
-            Energy audit (:mod:`simcore.audit`): a step creating more than this fraction of the
+            Energy audit (:mod:`simcore.model.audit`): a step creating more than this fraction
+            of the
             run's energy scale counts as not converged.
         """
         dt = _finite("solver.dt", dt, positive=True)

@@ -11,7 +11,8 @@ position correction first, then the start's kernels); this process compiles
 the position correction (:meth:`Helper.wait_for`), and then runs, finding in the cache what the
 helper has compiled. The tasks compile each kernel for the argument types a run gives it
 (:func:`compile_tasks`), so the run's look-up finds the same entry. The two processes save their
-entries one after the other (:func:`simcore.numba_cache.lock_cache_writes`): Numba's own saving
+entries one after the other (:func:`simcore.startup.numba_cache.lock_cache_writes`): Numba's
+own saving
 of an entry is not safe between processes.
 
 The split is measured (docs/method.md, "The kernels"): the two lists take about the same time,
@@ -36,7 +37,7 @@ MAIN_TASKS = ("velocity", "smooth")
 #: the loop
 LOOP_NEEDS = ("position", "contact_velocities", "energy")
 #: the helper's program
-HELPER = "from simcore.parallel_compile import helper_main; helper_main()"
+HELPER = "from simcore.startup.parallel_compile import helper_main; helper_main()"
 #: shortest limit of the wait for the helper's share [s] (see :func:`compile_with_helper`;
 #: that share takes about 8 s on a 2-core machine)
 WAIT_LIMIT = 30.0
@@ -59,9 +60,9 @@ def compile_tasks() -> dict:
     values (any run's kernels are these); nothing is run."""
     import numpy as np
 
-    from . import kernels as nb
-    from .config import load_config
-    from .mechanism import crank_slider
+    from .. import kernels as nb
+    from ..config import load_config
+    from ..model.mechanism import crank_slider
 
     model, _ = crank_slider(load_config()["model"])
     arr = model.arrays()
@@ -157,7 +158,7 @@ def start_helper() -> Helper | None:
     """Start the helper process when the time loop is not in the cache, more than one core is
     there to run it and cache saves are locked between processes; returns it, or None when
     nothing was started."""
-    from . import kernels as nb
+    from .. import kernels as nb
     from .numba_cache import lock_cache_writes
 
     if in_cache(nb.integrate_chunk) is not False or usable_cores() < 2:
@@ -181,7 +182,7 @@ def compile_with_helper(helper: Helper | None) -> None:
     :data:`WAIT_LIMIT` seconds, or twice the time this process's own tasks took if that is
     longer; a helper that has ended, failed or is slower than that is not waited for, and the
     loop's compilation compiles what is missing. An error here is the caller's to catch (the
-    run then compiles everything itself, :func:`simcore.simulate.warm_up`)."""
+    run then compiles everything itself, :func:`simcore.runner.warm_up`)."""
     if helper is None:
         return
     start = time.monotonic()

@@ -30,7 +30,7 @@ mode, and its damping ratio ``zeta = gamma_max / (2 omega_max)`` (= c / sqrt(k m
 
 Rigid contacts have no time scale of their own: an impact is a velocity jump, resolved by the
 impact law at any step size. What the step must still resolve there is the motion between
-impacts, i.e. the spring/mass modes above; the energy audit (:mod:`simcore.audit`) catches any
+impacts, i.e. the spring/mass modes above; the energy audit (:mod:`simcore.model.audit`) catches any
 step that creates energy anyway.
 
 Memory
@@ -48,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import ConfigError
+from . import ConfigError
 
 #: largest omega * dt of an oscillating spring/mass mode (see the module docstring)
 OMEGA_DT_MAX = 2.0
@@ -182,7 +182,7 @@ class _Counts:
 class _CageRing:
     """Stand-in of the crank-slider for :func:`spring_scales`: its springs are the cage
     springs between neighbouring balls (bodies 3 .. 3 + n - 1), see
-    :func:`simcore.mechanism.crank_slider`."""
+    :func:`simcore.model.mechanism.crank_slider`."""
 
     def __init__(self, model: dict):
         n = int(model["n_balls"])
@@ -248,7 +248,7 @@ def check_run(cfg: dict, model=None) -> list[str]:
         One line, before any allocation.
     """
     if model is None:
-        from .mechanism import crank_slider
+        from ..model.mechanism import crank_slider
 
         model = crank_slider(cfg["model"])[0]
     solver = cfg["solver"]

@@ -310,7 +310,7 @@ def _attrs(units: str, long_name: str, **extra) -> dict:
 
 def history_line(what: str) -> str:
     """One CF ``history`` line: UTC time stamp, package and version, what made the file."""
-    from . import __version__
+    from .. import __version__
 
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
     return f"{stamp} bearingsim {__version__}: {what}"
@@ -352,7 +352,7 @@ def _flatten(cfg: dict) -> dict:
 
 
 def _global_attrs(cfg: dict, title: str, what: str) -> dict:
-    from . import __version__
+    from .. import __version__
 
     attrs = {
         "Conventions": CONVENTIONS,
@@ -378,7 +378,7 @@ def trajectory_dataset(traj, model, layout, cfg: dict, compile_time_s: float = 0
     traj : simcore.model.Trajectory
         Plain arrays of the run.
     model, layout
-        The model and its layout (:func:`simcore.mechanism.crank_slider`).
+        The model and its layout (:func:`simcore.model.mechanism.crank_slider`).
     cfg : dict
         The validated configuration.
     compile_time_s : float

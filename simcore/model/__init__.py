@@ -1,0 +1,22 @@
+"""Model building: the planar multibody builder, the time-loop driver, the energy audit and the
+scenes built with them (the crank-slider bearing and the validation cases).
+
+- :mod:`.builder`: :class:`Model` (bodies, joints, spring-dampers, contacts) and the flat
+  arrays it hands to :mod:`simcore.kernels`;
+- :mod:`.audit`: the energy audit of a run;
+- :mod:`.mechanism`: the crank-slider with its ball bearing, and the validation scenes.
+"""
+
+from .builder import (
+    CONTACT_KINDS,
+    CONTACT_MODELS,
+    DAMPING_LAWS,
+    Model,
+    SolverError,
+    Trajectory,
+    damping_factor,
+    hertz_stiffness,
+)
+
+__all__ = ["CONTACT_KINDS", "CONTACT_MODELS", "DAMPING_LAWS", "Model", "SolverError",
+           "Trajectory", "damping_factor", "hertz_stiffness"]
