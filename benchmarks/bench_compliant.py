@@ -36,16 +36,18 @@ def main() -> None:
     import simcore
     from simcore import kernels as nb
     from simcore.config import load_config
+    from simcore.model import SolverSettings
     from simcore.model.mechanism import crank_slider
 
     cfg = load_config(overrides=["model.youngs_modulus=2.1e11"])
     model, _ = crank_slider(cfg["model"])
     dt = 1e-6
-    model.simulate(dt, 20 * dt, contact_model="compliant", output_every=10)  # load kernels
+    fast = dict(contact_model="compliant", output_every=10)
+    model.simulate(SolverSettings(dt, 20 * dt, **fast))  # load kernels
     walls, cpus = [], []
     for _ in range(args.repeats):
         c0 = time.process_time()
-        traj = model.simulate(dt, args.t_end, contact_model="compliant", output_every=10)
+        traj = model.simulate(SolverSettings(dt, args.t_end, **fast))
         cpus.append(time.process_time() - c0)
         walls.append(traj.wall_time_s)
     n_steps = round(args.t_end / dt)

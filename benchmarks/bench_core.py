@@ -301,18 +301,18 @@ def main() -> None:
     import numba
 
     import simcore
+    from simcore.model import SolverSettings
     from simcore.model.mechanism import crank_slider
 
     numba.set_num_threads(1)
     cfg = simcore.load_config()
     model, _ = crank_slider(cfg["model"])
     s = cfg["solver"]
-    model.simulate(s["dt"], 10 * s["dt"])  # load the kernels
+    model.simulate(SolverSettings(s["dt"], 10 * s["dt"]))  # load the kernels
     walls, cpus = [], []
     for _ in range(args.repeats):
         c0 = time.process_time()
-        traj = model.simulate(s["dt"], s["t_end"], rho_inf=s["rho_inf"], tol=s["tol"],
-                              max_iter=s["max_iter"], proximal=s["proximal"])
+        traj = model.simulate(SolverSettings.from_config(cfg))
         cpus.append(time.process_time() - c0)
         walls.append(traj.wall_time_s)
     n_steps = traj.time.size - 1

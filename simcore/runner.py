@@ -17,9 +17,9 @@ import threading
 import time
 import warnings
 
-from .config import load_config, output_every, validate_config
+from .config import load_config, validate_config
 from .config.limits import check_run
-from .model import SolverError  # noqa: F401  (re-exported)
+from .model import SolverError, SolverSettings  # noqa: F401  (SolverError re-exported)
 from .model.mechanism import crank_slider
 from .startup.parallel_compile import compile_with_helper, start_helper, stop_helper
 
@@ -28,18 +28,14 @@ _warm: set[str] = set()  # contact models whose kernels this process has compile
 
 def _simulate(model, cfg: dict, t_end: float | None = None, on_nonconvergence=None,
               progress: bool = False):
-    """``model.simulate`` with the solver settings of ``cfg`` (the one place that lists them,
-    shared by :func:`run` and :func:`warm_up`, so that both compile the same kernels)."""
-    solver = cfg["solver"]
-    m = cfg["model"]
-    return model.simulate(solver["dt"], solver["t_end"] if t_end is None else t_end,
-                          rho_inf=solver["rho_inf"], tol=solver["tol"],
-                          max_iter=solver["max_iter"], proximal=solver["proximal"],
-                          on_nonconvergence=on_nonconvergence or solver["on_nonconvergence"],
-                          progress=progress, contact_model=m["contact_model"],
-                          damping_law=m["damping_law"],
-                          friction_regularization=m["friction_regularization"],
-                          output_every=output_every(cfg), energy_tol=solver["energy_tol"])
+    """``model.simulate`` with the solver settings of ``cfg`` (shared by :func:`run` and
+    :func:`warm_up`, so that both compile the same kernels)."""
+    changes = {"progress": progress}
+    if t_end is not None:
+        changes["t_end"] = t_end
+    if on_nonconvergence is not None:
+        changes["on_nonconvergence"] = on_nonconvergence
+    return model.simulate(SolverSettings.from_config(cfg, **changes))
 
 
 #: seconds after which a warm-up still at work says on stderr that it compiles

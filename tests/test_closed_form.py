@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from simcore.model import SolverSettings
 from simcore.model.mechanism import ball_in_ring, ball_on_plane, pinched_balls
 
 G = 9.81
@@ -15,7 +16,8 @@ def _impacts(traj, threshold=1e-6):
 
 def test_bouncing_ball_impact_times_and_rebound():
     h, e_N, tol = 1e-3, 0.5, 1e-5
-    traj = ball_on_plane(radius=0.1, mass=1.0, height=1.0, e_N=e_N).simulate(h, 1.2, tol=tol)
+    model = ball_on_plane(radius=0.1, mass=1.0, height=1.0, e_N=e_N)
+    traj = model.simulate(SolverSettings(h, 1.2, tol=tol))
     # closed form: fall of 0.9 m, then flights of 2 e^k v1 / g
     v1 = np.sqrt(2 * G * 0.9)
     t_exact = np.cumsum([v1 / G, 2 * e_N * v1 / G, 2 * e_N**2 * v1 / G])
@@ -49,8 +51,8 @@ def test_bouncing_ball_impact_times_and_rebound():
 def test_spinning_ball_rolls(spin, x_roll, w_roll):
     m, R, mu = 1.0, 0.1, 0.2
     theta = 0.4 * m * R**2
-    traj = ball_on_plane(radius=R, mass=m, height=1.0, spin=spin, mu=mu, e_N=0.0).simulate(
-        1e-3, 1.2)
+    model = ball_on_plane(radius=R, mass=m, height=1.0, spin=spin, mu=mu, e_N=0.0)
+    traj = model.simulate(SolverSettings(1e-3, 1.2))
     xdot, w = traj.v[:, 0], traj.v[:, 2]
     # closed form: rolling speed from conservation of angular momentum about the contact point
     assert w_roll == pytest.approx(theta * spin / (theta + m * R**2), rel=1e-4)
@@ -80,8 +82,8 @@ def test_spinning_ball_rolls(spin, x_roll, w_roll):
 
 def test_ball_in_ring_keeps_speed_and_never_penetrates():
     h, tol = 1e-4, 1e-5
-    traj = ball_in_ring(ring_radius=0.05, radius=0.005, speed=(1.0, 0.37), e_N=1.0).simulate(
-        h, 0.5, tol=tol)
+    model = ball_in_ring(ring_radius=0.05, radius=0.005, speed=(1.0, 0.37), e_N=1.0)
+    traj = model.simulate(SolverSettings(h, 0.5, tol=tol))
     n_bounces = len(_impacts(traj, 1e-9))
     assert n_bounces >= 5
     speed = np.hypot(traj.v[:, 0], traj.v[:, 1])
@@ -97,7 +99,7 @@ def test_ball_in_ring_keeps_speed_and_never_penetrates():
 def test_pinched_balls_converge_and_carry_the_load(n_balls):
     h, tol, load = 1e-4, 1e-5, 50.0
     model = pinched_balls(n_balls=n_balls, load=load)
-    traj = model.simulate(h, 0.02, tol=tol)
+    traj = model.simulate(SolverSettings(h, 0.02, tol=tol))
     assert traj.converged.all()
     assert traj.gap_N.min() >= -tol * h
     # balance of the outer race: the upward impulses from the balls carry its weight
@@ -122,7 +124,7 @@ def test_vn_free_is_the_velocity_before_the_jump():
     normal velocity is Lambda_N / m exactly, and without impulse nothing jumps (gravity is the
     same force at q~ and q_{n+1})."""
     m, h = 2.0, 1e-3
-    traj = ball_on_plane(radius=0.1, mass=m, height=0.5, e_N=0.7).simulate(h, 0.8)
+    traj = ball_on_plane(radius=0.1, mass=m, height=0.5, e_N=0.7).simulate(SolverSettings(h, 0.8))
     jump = traj.vn_post[1:, 0] - traj.vn_free[1:, 0]
     np.testing.assert_allclose(jump, traj.lambda_N[1:, 0] / m, atol=1e-12)
     hits = _impacts(traj)

@@ -13,7 +13,7 @@ from scipy.integrate import solve_ivp
 
 import simcore
 from simcore.config import ConfigError, load_config
-from simcore.model import damping_factor, hertz_stiffness
+from simcore.model import SolverSettings, damping_factor, hertz_stiffness
 from simcore.model.mechanism import ball_in_ring, ball_on_plane, crank_slider
 
 E_STEEL = 2.1e11
@@ -40,8 +40,8 @@ def _contact_episode(traj, dt, contact=0):
 def _drop(v=1.0, m=0.0327, R=0.01, e_N=1.0, law="flores", dt=1e-7, rho_inf=1.0, mu=0.0):
     model = ball_on_plane(radius=R, mass=m, height=R + 1e-6, e_N=e_N, gravity=0.0,
                           speed=(0.0, -v), youngs_modulus=E_STEEL, mu=mu)
-    traj = model.simulate(dt, 2e-4, contact_model="compliant", damping_law=law,
-                          rho_inf=rho_inf, tol=1e-8)
+    traj = model.simulate(SolverSettings(dt, 2e-4, contact_model="compliant", damping_law=law,
+                                         rho_inf=rho_inf, tol=1e-8))
     return model, traj
 
 
@@ -79,7 +79,8 @@ def test_undamped_ball_hitting_the_inside_of_a_ring():
     v, m, ring, r = 1.0, 2.7e-3, 0.05, 0.0055
     model = ball_in_ring(ring_radius=ring, radius=r, speed=(0.0, v), e_N=1.0, mass=m,
                          start=(0.0, ring - r - 1e-6), youngs_modulus=E_STEEL)
-    traj = model.simulate(1e-7, 1.5e-4, contact_model="compliant", rho_inf=1.0, tol=1e-8)
+    traj = model.simulate(SolverSettings(1e-7, 1.5e-4, contact_model="compliant", rho_inf=1.0,
+                                         tol=1e-8))
     K = model.arrays().ct_hertz[0, 0]
     assert K == pytest.approx(hertz_stiffness("inside", ring, r, E_STEEL, 0.3))
     F_exact, delta, t_c = _hertz(m, v, K)
@@ -127,7 +128,7 @@ def test_resting_ball_carries_its_weight():
     m, R, g = 0.01, 0.005, 9.81
     model = ball_on_plane(radius=R, mass=m, height=R, e_N=0.5, gravity=g,
                           youngs_modulus=E_STEEL)
-    traj = model.simulate(1e-6, 0.02, contact_model="compliant", output_every=100)
+    traj = model.simulate(SolverSettings(1e-6, 0.02, contact_model="compliant", output_every=100))
     K = model.arrays().ct_hertz[0, 0]
     assert traj.F_N[-1, 0] == pytest.approx(m * g, rel=1e-3)
     assert traj.lambda_N[-1, 0] == pytest.approx(m * g * 1e-4, rel=1e-3)
@@ -145,8 +146,8 @@ def test_spinning_ball_rolls_at_the_closed_form_speed():
     theta = 0.4 * m * R**2
     model = ball_on_plane(radius=R, mass=m, height=1.0, spin=spin, mu=mu, e_N=0.0,
                           youngs_modulus=E_STEEL)
-    traj = model.simulate(1e-5, 1.2, contact_model="compliant", damping_law="hunt_crossley",
-                          output_every=10)
+    traj = model.simulate(SolverSettings(1e-5, 1.2, contact_model="compliant",
+                                         damping_law="hunt_crossley", output_every=10))
     xdot, w = traj.v[:, 0], traj.v[:, 2]
     np.testing.assert_allclose(xdot[-1], -1.4286, rtol=1e-3)
     np.testing.assert_allclose(w[-1], 14.286, rtol=1e-3)

@@ -12,6 +12,7 @@ import xarray as xr
 
 import simcore
 from simcore.io import failed_run_dataset, generalized, open_run, state_at, write_netcdf
+from simcore.model import SolverSettings
 from simcore.model.mechanism import crank_slider
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -74,8 +75,8 @@ def test_generalized_coordinates_are_those_of_the_kernels():
     ds = generalized(simcore.run(cfg))
     model, _ = crank_slider(cfg["model"])
     s = cfg["solver"]
-    traj = model.simulate(s["dt"], s["t_end"], rho_inf=s["rho_inf"], tol=s["tol"],
-                          max_iter=s["max_iter"], proximal=s["proximal"])
+    traj = model.simulate(SolverSettings(s["dt"], s["t_end"], rho_inf=s["rho_inf"], tol=s["tol"],
+                                         max_iter=s["max_iter"], proximal=s["proximal"]))
     nbody = len(model.body_names)
     np.testing.assert_array_equal(ds.q.values, traj.q.reshape(-1, nbody, 3))
     np.testing.assert_array_equal(ds.v.values, traj.v.reshape(-1, nbody, 3))

@@ -14,6 +14,7 @@ from simcore.kernels.contact import (
 )
 from simcore.kernels.joints import bilateral_cached
 from simcore.kernels.springs import smooth_forces_into, spring_damping_into
+from simcore.model import SolverSettings
 from simcore.model.mechanism import ball_on_plane, crank_slider, pinched_balls
 
 
@@ -205,7 +206,7 @@ def test_initial_acceleration_solves_the_saddle_point_system(bearing):
 def test_stage_kernels_on_a_pinched_ball():
     """smooth_step, position_step, velocity_step, solve_velocity_problem, integrate_chunk."""
     model = pinched_balls(n_balls=1, load=10.0)
-    traj = model.simulate(1e-4, 2e-3)  # drives integrate_chunk and the three stages
+    traj = model.simulate(SolverSettings(1e-4, 2e-3))  # drives integrate_chunk and the three stages
     assert traj.converged.all()
     # the velocity problem alone: one frictionless contact, approaching at 1 m/s, e_N = 0.5
     D = np.array([[2.0]])
@@ -453,8 +454,8 @@ def _loaded_compliant_step():
     q0 = g["q"].isel(time=i).values.ravel()
     v0 = g["v"].isel(time=i).values.ravel()
     h = 3e-6
-    traj = model.simulate(h, 300 * h, contact_model="compliant", q0=q0, v0=v0, t0=0.0015,
-                          output_every=300)
+    traj = model.simulate(SolverSettings(h, 300 * h, contact_model="compliant", output_every=300),
+                                         q0=q0, v0=v0, t0=0.0015)
     st, cs = traj.extras["step_state"], traj.extras["compliant_state"]
     assert (cs.gap < 0.0).sum() >= 2  # loaded contacts
     arr = model.arrays(compliant=True)

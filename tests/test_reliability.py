@@ -19,6 +19,7 @@ import xarray as xr
 import simcore
 from simcore.config import ConfigError, load_config
 from simcore.config.limits import OMEGA_DT_MAX, memory_estimate, spring_scales, values_per_step
+from simcore.model import SolverSettings
 from simcore.model.audit import ENERGY_FLOOR_J, EnergyAudit
 from simcore.model.mechanism import crank_slider
 
@@ -167,7 +168,7 @@ def test_paper_case_passes_and_the_reproduction_is_refused():
 def test_memory_estimate_counts_the_arrays_of_a_run():
     cfg = load_config(overrides=["solver.t_end=0.001"])
     model, _ = crank_slider(cfg["model"])
-    traj = model.simulate(1e-4, 0.001)
+    traj = model.simulate(SolverSettings(1e-4, 0.001))
     arrays = [traj.time, traj.q, traj.v, traj.lambda_N, traj.lambda_T, traj.nu_N, traj.gap_N,
               traj.vn_pre, traj.vn_post, traj.energy, traj.iterations, traj.drive_torque,
               traj.extras["energy_audit"].error, traj.extras["energy_audit"].tolerance]

@@ -25,6 +25,7 @@ import xarray as xr
 import simcore
 from simcore import kernels as nb
 from simcore.io import dataset_of_arrays, parameter_coords, write_netcdf
+from simcore.model import SolverSettings
 from simcore.model.mechanism import ball_in_ring, ball_on_plane, crank_slider, pinched_balls
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -284,7 +285,7 @@ def test_runs_in_threads_give_the_serial_results():
 
     def one(mu):
         model = _paper_model(mu=mu)
-        return model.simulate(1e-4, 3e-3)
+        return model.simulate(SolverSettings(1e-4, 3e-3))
 
     serial = [one(mu) for mu in (0.0, 0.05)]
     with ThreadPoolExecutor(2) as pool:

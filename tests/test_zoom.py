@@ -10,6 +10,7 @@ from analysis.zoom import add_zoom_forces
 from simcore.cli import main
 from simcore.config import ConfigError, load_config
 from simcore.io import generalized
+from simcore.model import ReleaseStop, SolverSettings
 
 
 @pytest.fixture(scope="module")
@@ -88,14 +89,14 @@ def test_impact_table_gets_zoom_forces(run_ds):
 
 
 def test_simulation_stops_once_the_contacts_have_opened_again():
-    """stop_when_released: a ball thrown at a plane (no gravity) stops the run soon after it
+    """ReleaseStop: a ball thrown at a plane (no gravity) stops the run soon after it
     leaves the plane, long before the requested end."""
     from simcore.model.mechanism import ball_on_plane
 
     model = ball_on_plane(radius=0.01, mass=0.0327, height=0.01 + 1e-6, e_N=1.0, gravity=0.0,
                           speed=(0.0, -1.0))
-    traj = model.simulate(1e-7, 1e-2, contact_model="compliant", stop_when_released=True,
-                          chunk=100)
+    settings = SolverSettings(1e-7, 1e-2, contact_model="compliant", chunk=100)
+    traj = model.simulate(settings, release=ReleaseStop())
     assert traj.F_N.max() > 0.0 and traj.F_N[-1, 0] == 0.0
     assert traj.time[-1] < 2e-4
     assert traj.v[-1, 1] > 0.99
@@ -245,11 +246,11 @@ def test_watch_contacts_waits_for_the_onset_of_its_group():
 
     model = ball_on_plane(radius=0.01, mass=0.0327, height=0.01 + 1e-6, e_N=1.0, gravity=0.0,
                           speed=(0.0, -1.0))
-    kw = dict(contact_model="compliant", stop_when_released=True, chunk=100)
-    traj = model.simulate(1e-7, 5e-4, watch_contacts=[True], watch_onset=[True], **kw)
+    settings = SolverSettings(1e-7, 5e-4, contact_model="compliant", chunk=100)
+    traj = model.simulate(settings, release=ReleaseStop([True], [True]))
     assert traj.F_N.max() > 0.0 and traj.F_N[-1, 0] == 0.0 and traj.time[-1] < 2e-4
-    whole = model.simulate(1e-7, 5e-4, watch_contacts=[True], watch_onset=[False], **kw)
+    whole = model.simulate(settings, release=ReleaseStop([True], [False]))
     assert whole.time[-1] == pytest.approx(5e-4)
     np.testing.assert_array_equal(whole.F_N[:len(traj.time)], traj.F_N)
     with pytest.raises(ValueError, match="^watch_contacts"):
-        model.simulate(1e-7, 5e-4, watch_contacts=[True, False], **kw)
+        model.simulate(settings, release=ReleaseStop([True, False]))

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..config import ConfigError, output_every, parse_override, validate_config
+from ..model import ReleaseStop, SolverSettings
 from ..model.mechanism import crank_slider
 
 DEFAULT_WINDOW = 2e-3   # [s]
@@ -131,14 +132,9 @@ def zoom_trajectory(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, override
     if q0.size != 3 * len(model.body_names):
         raise ConfigError("run: its bodies do not match the model its attributes describe")
     t0 = float(run_ds["time"].values[i])
-    s, m = cfg["solver"], cfg["model"]
     every = output_every(cfg)
-    traj = model.simulate(s["dt"], s["t_end"], rho_inf=s["rho_inf"], tol=s["tol"],
-                          max_iter=s["max_iter"], on_nonconvergence=s["on_nonconvergence"],
-                          progress=progress, chunk=max(100, every), contact_model="compliant",
-                          damping_law=m["damping_law"],
-                          friction_regularization=m["friction_regularization"],
-                          output_every=every, q0=q0, v0=v0, t0=t0,
-                          stop_when_released=until_released, watch_contacts=watch_contacts,
-                          watch_onset=watch_onset)
+    settings = SolverSettings.from_config(cfg, progress=progress, chunk=max(100, every),
+                                          contact_model="compliant")
+    release = ReleaseStop(watch_contacts, watch_onset) if until_released else None
+    traj = model.simulate(settings, q0=q0, v0=v0, t0=t0, release=release)
     return traj, model, layout, cfg

@@ -1,0 +1,514 @@
+"""The Python driver of the time loop: solver settings in one object, a run in named stages.
+
+:func:`simulate` integrates a :class:`~simcore.model.builder.Model` with the decoupled nonsmooth
+generalized-alpha scheme, or with compliant (Hertz) contacts in the generalized-alpha smooth
+step. The stages of a run:
+
+1. :func:`_start` -- the model's arrays, the initial state and its acceleration;
+2. :func:`_allocate` -- the output arrays (one row per output time, t0 included);
+3. :class:`_Loop` -- the kernels integrate a chunk of steps at a time; between chunks the
+   driver checks the chunk (convergence, the energy audit, a finite state), shows progress and
+   decides an early stop;
+4. :func:`_finish` -- the rows of an early stop are trimmed and the run's records attached.
+
+The kernels (:mod:`simcore.kernels`) take and return plain arrays; nothing here imports xarray.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import kernels as nb
+from .audit import EnergyAudit
+from .hertz import DAMPING_LAWS
+
+CONTACT_MODELS = ("nonsmooth", "compliant")
+ON_NONCONVERGENCE = ("error", "warn")
+#: names of the three sub-problems of a step, in the order of the ``iterations`` columns
+STAGES = ("smooth", "position", "velocity")
+
+
+class SolverError(RuntimeError):
+    """A sub-problem of a step did not converge (with ``on_nonconvergence = "error"``)."""
+
+
+def _finite(name, value, positive=False):
+    value = float(value)
+    if not np.isfinite(value):
+        raise ValueError(f"{name}: {value!r} is not allowed; allowed: a finite number")
+    if positive and value <= 0.0:
+        raise ValueError(f"{name}: {value!r} is not allowed; allowed: > 0")
+    return value
+
+
+def _choice(name, value, allowed):
+    if value not in allowed:
+        raise ValueError(f"{name}: {value!r} is not allowed; allowed: " + ", ".join(allowed))
+    return value
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    """Every setting of a run's time integration, checked when the object is made.
+
+    Parameters
+    ----------
+    dt : float
+        Time step h [s], > 0.
+    t_end : float
+        Duration [s] (from the start time), >= dt; the number of steps is round(t_end / dt),
+        rounded up to whole output intervals.
+    rho_inf : float
+        Spectral radius at infinity, in [0, 1] [-].
+    tol : float
+        Newton tolerance (docs/method.md: m/s for velocities, |g|/h for gaps, relative for the
+        smooth residual).
+    max_iter : int
+        Iteration cap per sub-problem, >= 1.
+    proximal : float
+        Proximal regularisation eta of active contact rows [-] (nonsmooth).
+    on_nonconvergence : {"error", "warn"}
+        Raise :class:`SolverError` at the first unconverged step, or warn and flag it.
+    contact_model : {"nonsmooth", "compliant"}
+        Impacts as impulses (the paper's scheme) or Hertz contact forces.
+    damping_law : {"flores", "hunt_crossley", "lankarani_nikravesh"}
+        Hysteresis damping of the compliant law.
+    friction_regularization : float
+        Slip speed below which the compliant Coulomb friction is linear [m/s], > 0.
+    output_every : int
+        Compliant: steps per output row (peaks and impulses are kept per interval).
+        Nonsmooth: must be 1.
+    v_pre_min : float
+        Floor of the onset approach speed in the compliant damping term [m/s].
+    energy_tol : float
+        Energy audit (:mod:`simcore.model.audit`): a step creating more than this fraction of
+        the run's energy scale counts as not converged [-].
+    chunk : int
+        Steps per kernel call (the checks, the progress bar and an early stop act between
+        calls).
+    progress : bool
+        Print a progress bar on stderr (when it is a terminal).
+    """
+
+    dt: float
+    t_end: float
+    rho_inf: float = 0.0
+    tol: float = 1e-5
+    max_iter: int = 50
+    proximal: float = 1e-6
+    on_nonconvergence: str = "error"
+    contact_model: str = "nonsmooth"
+    damping_law: str = "flores"
+    friction_regularization: float = 1e-4
+    output_every: int = 1
+    v_pre_min: float = 1e-3
+    energy_tol: float = 0.005
+    chunk: int = 500
+    progress: bool = False
+
+    def __post_init__(self):
+        dt = _finite("solver.dt", self.dt, positive=True)
+        t_end = _finite("solver.t_end", self.t_end, positive=True)
+        if t_end < dt:
+            raise ValueError(f"solver.t_end: {t_end} is not allowed; allowed: >= solver.dt")
+        _choice("solver.on_nonconvergence", self.on_nonconvergence, ON_NONCONVERGENCE)
+        _choice("model.contact_model", self.contact_model, CONTACT_MODELS)
+        _choice("model.damping_law", self.damping_law, DAMPING_LAWS)
+        v_reg = _finite("model.friction_regularization", self.friction_regularization,
+                        positive=True)
+        every = int(self.output_every)
+        if every < 1 or (not self.compliant and every != 1):
+            raise ValueError(f"solver.output_dt: {every} steps per output is not allowed; "
+                             "allowed: 1 for the nonsmooth model (its impulse filter needs every "
+                             "step), a whole number >= 1 of steps for compliant")
+        object.__setattr__(self, "dt", dt)
+        object.__setattr__(self, "t_end", t_end)
+        object.__setattr__(self, "friction_regularization", v_reg)
+        object.__setattr__(self, "output_every", every)
+
+    @classmethod
+    def from_config(cls, cfg, **changes) -> SolverSettings:
+        """The settings of a validated configuration (its ``solver`` and ``model`` sections);
+        ``changes`` replace single fields (e.g. ``t_end``)."""
+        from ..config import output_every
+
+        solver, model = cfg["solver"], cfg["model"]
+        values = dict(dt=solver["dt"], t_end=solver["t_end"], rho_inf=solver["rho_inf"],
+                      tol=solver["tol"], max_iter=solver["max_iter"],
+                      proximal=solver["proximal"],
+                      on_nonconvergence=solver["on_nonconvergence"],
+                      contact_model=model["contact_model"], damping_law=model["damping_law"],
+                      friction_regularization=model["friction_regularization"],
+                      output_every=output_every(cfg), energy_tol=solver["energy_tol"])
+        values.update(changes)
+        return cls(**values)
+
+    @property
+    def compliant(self) -> bool:
+        return self.contact_model == "compliant"
+
+    @property
+    def n_steps(self) -> int:
+        """Steps of the run: round(t_end / dt), rounded up to whole output intervals."""
+        n = int(round(self.t_end / self.dt))
+        return n + (-n) % self.output_every
+
+    @property
+    def output_dt(self) -> float:
+        """Time between output rows [s]."""
+        return self.dt * self.output_every
+
+
+@dataclass(frozen=True)
+class ReleaseStop:
+    """Stop a compliant run early once its contacts have let go.
+
+    Without groups, the run stops at the end of the first chunk where every contact that closed
+    during the run is open again. With ``watch_contacts``, groups of contacts are watched, shape
+    (nc,) for one group or (groups, nc) (e.g. the contacts of one ball): a group's episode
+    starts at the first output row where one of its onset contacts (``watch_onset``) carries a
+    force and ends at the first later row where none of the group's contacts carries one; the
+    run stops at the end of the first chunk after which every group's episode has ended. A
+    group whose onset never comes runs the whole window. A force at row 0 alone (none at row 1)
+    is no onset: a zoom starts from a nonsmooth run's state, where a contact about to be struck
+    can sit within the solver's tolerance.
+
+    Parameters
+    ----------
+    watch_contacts : array of bool, optional
+        Groups of contacts to watch.
+    watch_onset : array of bool, optional
+        Onset contacts of each group, the shape of ``watch_contacts`` (default: the group's
+        own contacts).
+    """
+
+    watch_contacts: object = None
+    watch_onset: object = None
+
+
+@dataclass
+class Trajectory:
+    """Plain-array result of :func:`simulate` (one row per output time, t0 included).
+
+    Nonsmooth runs: one row per step, the impulses of the step's velocity jump. Compliant runs:
+    one row per output interval; ``lambda_N``/``lambda_T`` are the impulses over the interval,
+    ``F_N`` the largest normal force in it and ``F_T`` the friction force at that peak,
+    ``gap_N`` the smallest gap in it, ``vn_pre``/``vn_post`` the normal velocity at its start
+    and end (``vn_free`` = ``vn_post``: nothing jumps), ``nu_N`` zero."""
+
+    time: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    lambda_N: np.ndarray
+    lambda_T: np.ndarray
+    nu_N: np.ndarray
+    gap_N: np.ndarray
+    vn_pre: np.ndarray
+    vn_post: np.ndarray
+    vn_free: np.ndarray
+    energy: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+    drive_torque: np.ndarray
+    F_N: np.ndarray | None = None
+    F_T: np.ndarray | None = None
+    contact_model: str = "nonsmooth"
+    wall_time_s: float = 0.0
+    first_unconverged_step: int = -1
+    extras: dict = field(default_factory=dict)
+
+    #: the per-row arrays, trimmed together by an early stop
+    ROW_FIELDS = ("time", "q", "v", "lambda_N", "lambda_T", "nu_N", "gap_N", "vn_pre",
+                  "vn_post", "vn_free", "energy", "iterations", "converged", "drive_torque",
+                  "F_N", "F_T")
+
+    def keep_rows(self, n_keep: int) -> None:
+        """Keep the first ``n_keep`` rows of every per-row array."""
+        for name in self.ROW_FIELDS:
+            value = getattr(self, name)
+            if value is not None:
+                setattr(self, name, value[:n_keep])
+
+
+class _ReleaseWatch:
+    """The group watch of :class:`ReleaseStop`: fed the force rows chunk by chunk; says when
+    every group's episode ended."""
+
+    def __init__(self, groups, onset, nc):
+        groups = np.atleast_2d(np.asarray(groups, dtype=bool))
+        onset = groups if onset is None else np.atleast_2d(np.asarray(onset, dtype=bool))
+        if groups.shape[1] != nc or onset.shape != groups.shape:
+            raise ValueError(f"watch_contacts: shape {groups.shape} is not allowed; allowed: "
+                             f"(nc,) or (groups, nc) booleans with nc = {nc}, watch_onset the "
+                             "same shape")
+        self.groups = groups
+        self.onset = onset
+        self.onset_row = np.full(groups.shape[0], -1)
+        self.done = ~groups.any(axis=1)  # an empty group has nothing to wait for
+
+    def released(self, F_N, row0, row1) -> bool:
+        """Take the rows ``row0 .. row1 - 1`` of ``F_N`` (rows, nc); True once every group's
+        episode has ended."""
+        F = np.asarray(F_N[row0:row1]) > 0.0
+        for g in np.flatnonzero(~self.done):
+            if self.onset_row[g] < 0:
+                on = F[:, self.onset[g]]
+                if row0 == 0 and on.shape[0] > 1:
+                    on[0] &= on[1]  # a force at the first row alone is no onset
+                first = np.flatnonzero(on.any(axis=1))
+                if first.size == 0:
+                    continue
+                self.onset_row[g] = row0 + first[0]
+            start = self.onset_row[g] - row0 + 1  # rows after the onset
+            free = np.flatnonzero(~F[max(start, 0):, self.groups[g]].any(axis=1))
+            if free.size:
+                self.done[g] = True
+        return bool(self.done.all())
+
+
+class _AllReleased:
+    """The plain :class:`ReleaseStop`: every contact that closed during the run is open."""
+
+    def __init__(self, nc, closed):
+        self.ever_closed = np.zeros(nc, dtype=bool)
+        self.closed = closed  # the compliant state's per-contact flags, updated by the kernel
+
+    def released(self, F_N, row0, row1) -> bool:
+        self.ever_closed |= (F_N[row0:row1] > 0.0).any(axis=0)
+        return bool(self.ever_closed.any() and not (self.closed[self.ever_closed] > 0).any())
+
+
+@dataclass
+class _Start:
+    """What the time loop starts from: the model's arrays, the step state, the kernels' work
+    arrays and the initial contact quantities."""
+
+    arrays: object
+    state: object
+    work: object
+    gap: np.ndarray
+    vn: np.ndarray
+    v_pre: np.ndarray
+    F_N: np.ndarray | None
+    F_T: np.ndarray | None
+    drive_row: int
+
+
+def _start(model, settings: SolverSettings, q0, v0, t0) -> _Start:
+    """Stage 1: the model's arrays, the initial state and its generalized-alpha acceleration
+    (the smooth equations at t0, compliant contact forces included)."""
+    compliant = settings.compliant
+    arr = model.arrays(settings.damping_law, compliant=compliant)
+    q, v = model.initial_state()
+    if q0 is not None:
+        q = np.array(q0, dtype=np.float64).copy()
+        v = np.array(v0, dtype=np.float64).copy()
+    ndof, nc, nbil = q.size, arr.ct_type.size, model.constraint_rows()
+    # the start uses the time loop's own kernels and work arrays (nothing else to compile)
+    work = (nb.compliant_work(ndof, nbil, nc) if compliant
+            else nb.nonsmooth_work(ndof, nbil, nc))
+    gap0, vn0, vt0 = np.zeros(nc), np.zeros(nc), np.zeros(nc)
+    nb.contact_velocities_into(q, v, arr, gap0, vn0, vt0, np.zeros(6), np.zeros(6),
+                               work.smooth.trig)
+    v_pre = np.maximum(-vn0, settings.v_pre_min)
+    f_contact = np.zeros(ndof)  # the compliant contact forces at the start
+    FN0 = FT0 = None
+    if compliant:
+        FN0, FT0 = np.zeros(nc), np.zeros(nc)
+        nb.contact_forces(q, v, arr, v_pre, settings.friction_regularization, f_contact,
+                          np.zeros((1, 1)), np.zeros((1, 1)), False, FN0, FT0, gap0.copy(),
+                          vn0.copy(), vt0.copy(), np.zeros((6, nc)))
+    vdot, lam_s = np.zeros(ndof), np.zeros(nbil)
+    try:
+        nb.initial_acceleration(q, v, float(t0), arr, f_contact, vdot, lam_s, work.smooth)
+    except np.linalg.LinAlgError as exc:
+        raise SolverError(f"the joints at t = 0 are redundant or singular: {exc}") from None
+    state = nb.StepState(q, v, vdot.copy(), vdot, lam_s, np.zeros(nbil), np.zeros(nc),
+                         np.zeros(nc), vn0, vt0)
+    return _Start(arr, state, work, gap0, vn0.copy(), v_pre, FN0, FT0, model.drive_row())
+
+
+def _allocate(model, settings: SolverSettings, start: _Start, t0: float) -> Trajectory:
+    """Stage 2: the output arrays, row 0 filled with the initial state."""
+    n_out = settings.n_steps // settings.output_every + 1
+    ndof, nc = start.state.q.size, start.gap.size
+    rows = lambda *shape: np.zeros((n_out, *shape))  # noqa: E731
+    out = Trajectory(
+        time=float(t0) + np.arange(n_out) * settings.output_dt,
+        q=rows(ndof), v=rows(ndof), lambda_N=rows(nc), lambda_T=rows(nc), nu_N=rows(nc),
+        gap_N=rows(nc), vn_pre=rows(nc), vn_post=rows(nc), vn_free=rows(nc),
+        energy=np.zeros(n_out), iterations=np.zeros((n_out, 3), np.int64),
+        converged=np.ones(n_out, np.int8), drive_torque=np.zeros(n_out),
+        contact_model=settings.contact_model)
+    st = start.state
+    out.q[0], out.v[0], out.gap_N[0] = st.q, st.v, start.gap
+    # no jump at t = 0: the initial normal velocity before, after and free
+    out.vn_pre[0] = out.vn_post[0] = out.vn_free[0] = start.vn
+    if start.drive_row >= 0:
+        out.drive_torque[0] = st.lam_s[start.drive_row]
+    out.energy[0] = nb.total_energy(st.q, st.v, start.arrays)
+    if settings.compliant:
+        out.F_N, out.F_T = rows(nc), rows(nc)
+        out.F_N[0], out.F_T[0] = start.F_N, start.F_T
+        out.energy[0] += nb.elastic_energy(st.q, start.arrays)
+    return out
+
+
+def _kernel_settings(settings: SolverSettings, drive_row: int, t0: float):
+    return nb.StepSettings(settings.dt, float(settings.rho_inf), float(settings.tol),
+                           int(settings.max_iter), float(settings.proximal), int(drive_row),
+                           float(t0), settings.friction_regularization,
+                           float(settings.v_pre_min))
+
+
+def _compliant_state(start: _Start):
+    nc = start.gap.size
+    return nb.CompliantState(
+        v_pre=start.v_pre, closed=(start.gap < 0.0).astype(np.int8), FN=start.F_N,
+        FT=start.F_T, gap=start.gap.copy(), vn=start.vn.copy(), vt=start.state.vt.copy(),
+        FN_max=np.zeros(nc), FT_at_max=np.zeros(nc), LN=np.zeros(nc), LT=np.zeros(nc),
+        gap_min=np.full(nc, np.inf), vn_start=start.vn.copy(),
+        it_max=np.zeros(3, np.int64), ok=np.ones(1, np.int8))
+
+
+class _Loop:
+    """Stage 3: the chunks of the time loop and the checks between them."""
+
+    def __init__(self, model, settings: SolverSettings, start: _Start, out: Trajectory,
+                 t0: float, release: ReleaseStop | None):
+        self.settings, self.out, self.t0 = settings, out, float(t0)
+        self.state = start.state
+        self.first_bad = -1
+        kset = _kernel_settings(settings, start.drive_row, t0)
+        every = settings.output_every
+        if settings.compliant:
+            self.cstate = _compliant_state(start)
+            outputs = nb.CompliantOutputs(out.q, out.v, out.F_N, out.F_T, out.lambda_N,
+                                          out.lambda_T, out.gap_N, out.vn_pre, out.vn_post,
+                                          out.energy, out.iterations, out.converged,
+                                          out.drive_torque)
+            self.chunk = max(1, int(settings.chunk) // every) * every
+            self._advance = lambda k, k_next: nb.integrate_compliant_chunk(
+                k, k_next, every, kset, start.arrays, start.state, self.cstate, outputs,
+                start.work)
+        else:
+            self.cstate = None
+            outputs = nb.ChunkOutputs(out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N,
+                                      out.gap_N, out.vn_pre, out.vn_post, out.vn_free,
+                                      out.energy, out.iterations, out.converged,
+                                      out.drive_torque)
+            self.chunk = int(settings.chunk)
+            self._advance = lambda k, k_next: nb.integrate_chunk(
+                k, k_next, kset, start.arrays, start.state, outputs, start.work)
+        self.release = self._release_watch(release, start.gap.size)
+        self.audit = EnergyAudit(model, settings.output_dt, out.time.size - 1,
+                                 settings.energy_tol, t0=t0)
+
+    def _release_watch(self, release, nc):
+        if release is None or not self.settings.compliant:
+            return None
+        if release.watch_contacts is not None:
+            return _ReleaseWatch(release.watch_contacts, release.watch_onset, nc)
+        return _AllReleased(nc, self.cstate.closed)
+
+    def _time(self, step: int) -> float:
+        return self.t0 + step * self.settings.dt
+
+    def run(self) -> int:
+        """Integrate chunk by chunk; returns the number of steps done."""
+        n_steps, every = self.settings.n_steps, self.settings.output_every
+        show = self.settings.progress and sys.stderr.isatty()
+        k = 0
+        while k < n_steps:
+            k_next = min(n_steps, k + self.chunk)
+            bad = self._advance_chunk(k, k_next)
+            self._check_chunk(bad, k // every, k_next // every)
+            if not np.all(np.isfinite(self.state.q)):
+                raise SolverError(f"non-finite state at step {k_next} "
+                                  f"(t = {self._time(k_next):.6g} s)")
+            k_prev, k = k, k_next
+            if show:
+                self._show_progress(k)
+            if self.release is not None and self.release.released(
+                    self.out.F_N, k_prev // every, k // every + 1):
+                break
+        if show:
+            sys.stderr.write("\n")
+        return k
+
+    def _advance_chunk(self, k, k_next) -> int:
+        """The kernels' steps ``k + 1 .. k_next``; the first unconverged step, or -1."""
+        try:
+            return self._advance(k, k_next)
+        except np.linalg.LinAlgError as exc:
+            # a singular Newton matrix: report it as what it is, a failed step
+            raise SolverError(f"singular Newton matrix between steps {k + 1} and {k_next} "
+                              f"(t = {self._time(k + 1):.6g} to {self._time(k_next):.6g} s): "
+                              f"{exc}") from None
+
+    def _check_chunk(self, bad: int, row0: int, row1: int) -> None:
+        """The energy audit and the convergence of the chunk's steps: the first failure of
+        the run stops it or is flagged (``on_nonconvergence``)."""
+        out, every = self.out, self.settings.output_every
+        gain = self.audit.check(out.energy, out.drive_torque, out.converged, row0, row1)
+        if gain >= 0 and self.first_bad < 0 and (bad < 0 or gain * every < bad):
+            self.first_bad = gain * every
+            self._fail(self.audit.message(gain))
+        if bad >= 0 and self.first_bad < 0:
+            self.first_bad = int(bad)
+            self._fail(self._unconverged_message(bad))
+
+    def _unconverged_message(self, bad: int) -> str:
+        every = self.settings.output_every
+        row = (bad + 1 + every - 1) // every
+        stages = [s for s, it in zip(STAGES, self.out.iterations[row], strict=True)
+                  if it >= self.settings.max_iter]
+        return (f"solver did not converge at step {bad + 1} (t = {self._time(bad + 1):.6g} s); "
+                f"stage(s) at the iteration cap: {', '.join(stages) or 'fallback'} "
+                f"(solver.max_iter = {self.settings.max_iter}, solver.tol = {self.settings.tol})")
+
+    def _fail(self, message: str) -> None:
+        if self.settings.on_nonconvergence == "error":
+            raise SolverError(message)
+        # stacklevel 6: the caller of Model.simulate
+        warnings.warn(message + "; flagged in `converged`", RuntimeWarning, stacklevel=6)
+
+    def _show_progress(self, k: int) -> None:
+        frac = k / self.settings.n_steps
+        bar = "#" * int(30 * frac)
+        sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f}%  t = {self._time(k):.4f} s")
+        sys.stderr.flush()
+
+
+def _finish(loop: _Loop, steps_done: int, wall_time_s: float) -> Trajectory:
+    """Stage 4: trim the rows of an early stop, attach the run's records."""
+    out, settings = loop.out, loop.settings
+    out.extras["step_state"] = loop.state
+    if settings.compliant:
+        out.extras["compliant_state"] = loop.cstate
+        out.vn_free[:] = out.vn_post
+        if steps_done < settings.n_steps:  # stopped early: keep the rows written
+            n_keep = steps_done // settings.output_every + 1
+            out.keep_rows(n_keep)
+            loop.audit.error = loop.audit.error[:n_keep]
+            loop.audit.tolerance = loop.audit.tolerance[:n_keep]
+    out.wall_time_s = wall_time_s
+    out.first_unconverged_step = loop.first_bad
+    out.extras["energy_audit"] = loop.audit
+    return out
+
+
+def simulate(model, settings: SolverSettings, q0=None, v0=None, t0: float = 0.0,
+             release: ReleaseStop | None = None) -> Trajectory:
+    """Integrate ``model`` with ``settings``; see :meth:`simcore.model.Model.simulate`."""
+    start = _start(model, settings, q0, v0, t0)
+    out = _allocate(model, settings, start, t0)
+    loop = _Loop(model, settings, start, out, t0, release)
+    began = time.perf_counter()
+    steps_done = loop.run()
+    return _finish(loop, steps_done, time.perf_counter() - began)
