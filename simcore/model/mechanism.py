@@ -38,6 +38,101 @@ def _combine(parts):
     return mass, com, izz
 
 
+@dataclass(frozen=True)
+class BearingSpec:
+    """The pieces of the ball bearing, as the ``model`` section gives them (SI units).
+
+    Both scenes with a bearing (:func:`crank_slider`, :func:`bearing_alone`) build it from
+    this one description with :func:`add_bearing`."""
+
+    inner_radius: float     # r_A, inner race contact radius [m]
+    ball_radius: float      # r_B [m]
+    clearance: float        # g = r_C - r_A - 2 r_B [m]
+    n_balls: int
+    ball_mass: float        # [kg]
+    ball_inertia: float     # [kg m^2]
+    mu: float               # ball-race friction [-]
+    e_N: float              # normal restitution [-]
+    e_T: float              # tangential restitution [-]
+    cage_stiffness: float   # [N/m]
+    cage_damping: float     # [N s/m]
+
+    @classmethod
+    def from_model(cls, model: dict) -> BearingSpec:
+        """The bearing of a validated ``model`` section."""
+        keys = ("inner_radius", "ball_radius", "clearance", "ball_mass", "ball_inertia", "mu",
+                "e_N", "e_T", "cage_stiffness", "cage_damping")
+        return cls(n_balls=int(model["n_balls"]), **{k: float(model[k]) for k in keys})
+
+    @property
+    def outer_radius(self) -> float:
+        """r_C = r_A + 2 r_B + g [m]."""
+        return self.inner_radius + 2.0 * self.ball_radius + self.clearance
+
+    @property
+    def pitch_radius(self) -> float:
+        """Radius of the ball centres with the rings concentric, r_A + r_B + g/2 [m]."""
+        return self.inner_radius + self.ball_radius + 0.5 * self.clearance
+
+
+def add_bearing(m: Model, spec: BearingSpec, inner: tuple, outer: tuple, centre: tuple,
+                phase: float = 0.0, centre_velocity: tuple = (0.0, 0.0), cage_speed: float = 0.0,
+                spin: float = 0.0) -> list[int]:
+    """Add the balls, their contacts with both races and the cage to ``m``.
+
+    Parameters
+    ----------
+    m : Model
+        The model to add to.
+    spec : BearingSpec
+        The bearing.
+    inner, outer : tuple (body, (x, y))
+        The body that carries each race (-1: the ground) and the race centre in that body's
+        frame [m].
+    centre : tuple
+        World position of both race centres at the start (rings concentric) [m].
+    phase : float
+        Angle of ball 0 on the pitch circle [rad]; the others follow at 2 pi / n_balls.
+    centre_velocity : tuple
+        Velocity of the bearing centre at the start [m/s]; every ball moves with it, plus
+    cage_speed : float
+        the cage's rotation about the centre [rad/s], and
+    spin : float
+        each ball's own rotation [rad/s].
+
+    Returns
+    -------
+    list of int
+        The balls' body indices. Added in this order: the balls (``ball0`` ...), their contacts
+        with the inner race (``ballk-inner``), then with the outer race (``ballk-outer``), then
+        the cage springs between neighbours (closed ring, rest length the chord
+        2 R_p sin(pi/n) of the pitch circle R_p).
+    """
+    n = spec.n_balls
+    pitch = spec.pitch_radius
+    balls = []
+    for k in range(n):
+        ang = phase + 2.0 * np.pi * k / n
+        cx, cy = np.cos(ang), np.sin(ang)
+        balls.append(m.add_body(
+            f"ball{k}", spec.ball_mass, spec.ball_inertia,
+            q0=(centre[0] + pitch * cx, centre[1] + pitch * cy, 0.0),
+            v0=(centre_velocity[0] - cage_speed * pitch * cy,
+                centre_velocity[1] + cage_speed * pitch * cx, spin)))
+    law = dict(mu=spec.mu, e_N=spec.e_N, e_T=spec.e_T)
+    for k, b in enumerate(balls):
+        m.add_contact("outside", inner[0], inner[1], spec.inner_radius, b, (0.0, 0.0),
+                      spec.ball_radius, name=f"ball{k}-inner", **law)
+    for k, b in enumerate(balls):
+        m.add_contact("inside", outer[0], outer[1], spec.outer_radius, b, (0.0, 0.0),
+                      spec.ball_radius, name=f"ball{k}-outer", **law)
+    chord = 2.0 * pitch * np.sin(np.pi / n)
+    for k in range(n):
+        m.add_spring(balls[k], (0.0, 0.0), balls[(k + 1) % n], (0.0, 0.0),
+                     spec.cage_stiffness, spec.cage_damping, rest_length=chord)
+    return balls
+
+
 def crank_slider(model: dict) -> tuple[Model, BearingLayout]:
     """The crank-slider whose crank-rod joint is a ball bearing with radial clearance.
 
@@ -62,9 +157,7 @@ def crank_slider(model: dict) -> tuple[Model, BearingLayout]:
     """
     L1, L2 = model["crank_length"], model["rod_length"]
     w0 = model["omega0"]
-    rA, rB, g = model["inner_radius"], model["ball_radius"], model["clearance"]
-    rC = rA + 2.0 * rB + g
-    n = int(model["n_balls"])
+    spec = BearingSpec.from_model(model)
     m = Model(gravity=model["gravity"], youngs_modulus=model["youngs_modulus"],
               poisson_ratio=model["poisson_ratio"])
 
@@ -88,34 +181,60 @@ def crank_slider(model: dict) -> tuple[Model, BearingLayout]:
         m.add_prescribed_rotation(crank, 0.0, w0)
 
     # balls: zero slip at both races, measured at r_A and r_C (docs/model.md)
-    pitch = rA + rB + 0.5 * g
-    vA, vC = w0 * rA, w_rod * rC                  # race surface speeds about the pin
-    cage = 0.5 * (vA + vC) / pitch
-    spin = 0.5 * (vC - vA) / rB
-    pin_v = (0.0, w0 * L1)
-    balls = []
-    for k in range(n):
-        ang = 2.0 * np.pi * k / n
-        cx, cy = np.cos(ang), np.sin(ang)
-        balls.append(m.add_body(
-            f"ball{k}", model["ball_mass"], model["ball_inertia"],
-            q0=(L1 + pitch * cx, pitch * cy, 0.0),
-            v0=(pin_v[0] - cage * pitch * cy, pin_v[1] + cage * pitch * cx, spin)))
+    vA, vC = w0 * spec.inner_radius, w_rod * spec.outer_radius  # race speeds about the pin
+    cage = 0.5 * (vA + vC) / spec.pitch_radius
+    spin = 0.5 * (vC - vA) / spec.ball_radius
     pin = (L1 - sc, 0.0)
     big_end = (-sr, 0.0)
-    common = dict(mu=model["mu"], e_N=model["e_N"], e_T=model["e_T"])
-    for k, b in enumerate(balls):
-        m.add_contact("outside", crank, pin, rA, b, (0.0, 0.0), rB, name=f"ball{k}-inner",
-                      **common)
-    for k, b in enumerate(balls):
-        m.add_contact("inside", rod, big_end, rC, b, (0.0, 0.0), rB, name=f"ball{k}-outer",
-                      **common)
-    chord = 2.0 * pitch * np.sin(np.pi / n)
-    for k in range(n):
-        m.add_spring(balls[k], (0.0, 0.0), balls[(k + 1) % n], (0.0, 0.0),
-                     model["cage_stiffness"], model["cage_damping"], rest_length=chord)
-    layout = BearingLayout(crank, rod, slider, balls, pin, big_end, rC, pitch, cage, spin)
+    balls = add_bearing(m, spec, (crank, pin), (rod, big_end), (L1, 0.0),
+                        centre_velocity=(0.0, w0 * L1), cage_speed=cage, spin=spin)
+    layout = BearingLayout(crank, rod, slider, balls, pin, big_end, spec.outer_radius,
+                           spec.pitch_radius, cage, spin)
     return m, layout
+
+
+def bearing_alone(model: dict, load: float, phase: float = 0.0,
+                  fixed: str = "inner") -> tuple[Model, list[int]]:
+    """The bearing of :func:`crank_slider` on its own, one race fixed, the other loaded.
+
+    Parameters
+    ----------
+    model : dict
+        The ``model`` section of a validated configuration: the bearing's radii, balls, cage
+        and contact laws, the material and ``gravity`` (> 0) are read from it.
+    load : float
+        Radial load [N], > 0: the free race is a body of mass ``load / gravity`` hanging on the
+        balls, so its weight is the load (its inertia is the race's, ``outer_inertia`` or
+        ``inner_inertia``). The balls keep their own weight.
+    phase : float
+        Angle of ball 0 [rad]. The free race moves along -y, so with ``fixed = "inner"`` the
+        balls near +y carry the load (load angle pi/2 of the inner race relative to the outer):
+        ``phase = pi/2`` puts a ball under the load, ``pi/2 + pi/n_balls`` two balls astride it.
+    fixed : {"inner", "outer"}
+        The race held by the ground; the other one may translate (its rotation is held at 0 by
+        a prescribed rotation of rate 0).
+
+    Returns
+    -------
+    Model, list of int
+        The model (free race body 0, named ``"outer"`` or ``"inner"``) and the balls' indices.
+        Start: rings concentric at the origin, everything at rest.
+    """
+    if fixed not in ("inner", "outer"):
+        raise ValueError(f"fixed: {fixed!r} is not allowed; allowed: 'inner', 'outer'")
+    gravity = float(model["gravity"])
+    if gravity <= 0.0 or not load > 0.0:
+        raise ValueError(f"load: {load!r} with model.gravity = {gravity!r} is not allowed; "
+                         "allowed: load > 0 and gravity > 0 (the load is the free race's weight)")
+    spec = BearingSpec.from_model(model)
+    m = Model(gravity=gravity, youngs_modulus=model["youngs_modulus"],
+              poisson_ratio=model["poisson_ratio"])
+    free = "outer" if fixed == "inner" else "inner"
+    body = m.add_body(free, load / gravity, model[f"{free}_inertia"])
+    m.add_prescribed_rotation(body, 0.0, 0.0)
+    races = {free: (body, (0.0, 0.0)), fixed: (-1, (0.0, 0.0))}
+    balls = add_bearing(m, spec, races["inner"], races["outer"], (0.0, 0.0), phase=phase)
+    return m, balls
 
 
 # ------------------------------------------------------------------------------------------
