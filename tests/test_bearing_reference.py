@@ -30,6 +30,7 @@ import pytest
 
 from analysis.load_distribution import ball_loads, ball_stiffness
 from simcore.config import load_config
+from simcore.model import SolverSettings
 from simcore.model.mechanism import bearing_alone, crank_slider
 
 LOAD = 1000.0  # [N]
@@ -47,7 +48,7 @@ def _settle(E, clearance, straddle):
     m, balls = bearing_alone(model, LOAD, phase)
     dt, duration, tol = CASES[E]
     every = int(round(1e-3 / dt))
-    run = m.simulate(dt, duration, contact_model="compliant", output_every=every)
+    run = m.simulate(SolverSettings(dt, duration, contact_model="compliant", output_every=every))
     K_s = ball_stiffness(model["ball_radius"], model["inner_radius"], clearance, E,
                          model["poisson_ratio"])[2]
     reference = ball_loads(LOAD, phase + 2 * np.pi * np.arange(Z) / Z, clearance, K_s,
@@ -151,7 +152,9 @@ def test_crank_slider_quasi_static_limit(omega0, series_tol):
     Z, g = model["n_balls"], model["clearance"]
     m, layout = crank_slider(model)
     dt = 2e-5
-    run = m.simulate(dt, 3 * 2 * np.pi / omega0, contact_model="compliant", output_every=10)
+    settings = SolverSettings(dt, 3 * 2 * np.pi / omega0, contact_model="compliant",
+                              output_every=10)
+    run = m.simulate(settings)
     assert run.converged.all()
     t = run.time
     steady = t >= 2 * np.pi / omega0  # after the first revolution
