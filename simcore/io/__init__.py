@@ -28,16 +28,14 @@ the smoke study:
 
 from __future__ import annotations
 
-import sys
-
+from ..startup.patches import dataset_of_arrays, to_netcdf4
 from .dataset import (
-    dataset_of_arrays,
     failed_run_dataset,
     global_attributes,
     history_line,
     trajectory_dataset,
 )
-from .netcdf import keep_variables, netcdf_encoding, to_netcdf4, write_netcdf
+from .netcdf import keep_variables, netcdf_encoding, write_netcdf
 from .read import GENERALIZED_PARTS, generalized, open_run, state_at
 from .variables import (
     CONVENTIONS,
@@ -49,52 +47,6 @@ from .variables import (
     VARIABLES,
     parameter_coords,
 )
-
-
-def _defer_dask_array_type() -> bool:
-    """Let xarray ask for dask's array type without importing ``dask.array`` first.
-
-    xarray checks every Variable it makes (the netCDF encoder makes one per variable written)
-    with ``isinstance(data, array_type("dask"))``, and the first check imports ``dask.array``
-    to learn that type: 0.15-0.2 s of a new process's first write, for a run that has NumPy
-    arrays only. No dask array can exist before ``dask.array`` is imported, so xarray's record
-    of dask (``xarray.namedarray.pycompat._cached_duck_array_modules["dask"]``) is given a
-    stand-in whose ``type`` is ``dask.array.Array`` once that module is imported (by the user,
-    or by xarray for a chunked dataset) and empty until then; anything else asked of it (the
-    version) is answered by xarray's own record, made then. The answers are those of xarray's
-    record at every moment. Nothing is changed where xarray has made its record already or
-    keeps it elsewhere.
-
-    Returns
-    -------
-    bool
-        True when the stand-in was put in place.
-    """
-    try:
-        from xarray.namedarray import pycompat
-
-        cache = pycompat._cached_duck_array_modules
-        record = pycompat.DuckArrayModule
-    except (ImportError, AttributeError):
-        return False
-    if not isinstance(cache, dict) or "dask" in cache:
-        return False
-
-    class DaskArrayType:
-        @property
-        def type(self):
-            array = getattr(sys.modules.get("dask.array"), "Array", None)
-            return (array,) if isinstance(array, type) else ()
-
-        def __getattr__(self, name):
-            cache["dask"] = real = record("dask")
-            return getattr(real, name)
-
-    cache["dask"] = DaskArrayType()
-    return True
-
-
-DASK_ARRAY_TYPE_DEFERRED = _defer_dask_array_type()
 
 __all__ = ["write_netcdf", "trajectory_dataset", "dataset_of_arrays", "failed_run_dataset",
            "generalized", "open_run", "state_at", "parameter_coords", "history_line",

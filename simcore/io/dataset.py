@@ -14,6 +14,7 @@ import numpy as np
 import xarray as xr
 
 from ..config import output_every
+from ..startup.patches import dataset_of_arrays
 from .variables import (
     CONVENTIONS,
     COORDINATES,
@@ -210,40 +211,3 @@ def failed_run_dataset(cfg: dict, message: str) -> xr.Dataset:
                               f"simcore.run failed: {message}")
     attrs.update({"failed": 1, "error": message})
     return xr.Dataset(coords=parameter_coords(cfg["model"]), attrs=attrs)
-
-
-def dataset_of_arrays(data: dict, coords: dict, attrs: dict) -> xr.Dataset:
-    """``xr.Dataset(data, coords=coords, attrs=attrs)`` for entries ``(dims, values[, attrs])``
-    whose values are NumPy arrays, lists or numbers: the same dataset, built a faster way.
-
-    The ordinary constructor asks of every value whether it is a dask array, which imports
-    ``dask.array`` (0.2-0.3 s), and of every dimension coordinate whether it is a dask
-    collection, which imports ``dask`` (about 0.1 s); a run has NumPy arrays only, and the
-    first run in a new process would pay for both imports. Here each entry becomes an
-    ``xr.Variable`` made on xarray's fast path (which takes a NumPy array as it is), and each
-    dimension coordinate gets the index the ordinary constructor gives it, a
-    ``xarray.indexes.PandasIndex`` of ``pandas.Index(values)`` that keeps the coordinate's
-    dtype, with its variable made by that index. Values of dtype object, datetime, timedelta
-    or float16 (which the ordinary constructor converts) go to the ordinary constructor.
-    """
-    import pandas as pd
-
-    def variable(spec):
-        dims, values, *rest = spec
-        values = np.asarray(values)
-        if values.dtype.kind in "OMm" or values.dtype == np.float16:
-            return None
-        return xr.Variable(dims, values, rest[0] if rest else None, fastpath=True)
-
-    data_vars = {k: variable(v) for k, v in data.items()}
-    coord_vars = {k: variable(v) for k, v in coords.items()}
-    if any(v is None for v in (*data_vars.values(), *coord_vars.values())):
-        return xr.Dataset(data, coords=coords, attrs=attrs)
-    indexes = {}
-    for name, var in list(coord_vars.items()):
-        if var.dims == (name,):  # a dimension coordinate
-            index = xr.indexes.PandasIndex(pd.Index(var.values), name, coord_dtype=var.dtype)
-            indexes[name] = index
-            coord_vars.update(index.create_variables({name: var}))
-    return xr.Dataset(data_vars, coords=xr.Coordinates(coord_vars, indexes=indexes),
-                      attrs=attrs)

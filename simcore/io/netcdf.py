@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import os
 import tempfile
-from numbers import Number
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
+from ..startup.patches import to_netcdf4
 from .variables import RUN_VARIABLES, STORAGE
 
 
@@ -117,61 +117,6 @@ def netcdf_encoding(ds: xr.Dataset, complevel: int = 4) -> dict:
         if enc:
             encoding[name] = enc
     return encoding
-
-
-_ATTRIBUTE_TYPES = (str, Number, np.ndarray, np.number, list, tuple, bytes)
-
-
-def _plainly_writable(ds: xr.Dataset) -> bool:
-    """True when no variable of ``ds`` is chunked (a dask array), ``ds`` names no unlimited
-    dimension, and its names and attributes are of the kinds ``to_netcdf`` accepts (non-empty
-    strings; numbers, strings, arrays, lists)."""
-    if ds.encoding.get("unlimited_dims") is not None:
-        return False
-    for name, var in ds.variables.items():
-        if not isinstance(name, str) or not name or var.chunks is not None:
-            return False
-    for attrs in [ds.attrs] + [var.attrs for var in ds.variables.values()]:
-        for key, value in attrs.items():
-            if not isinstance(key, str) or not key or not isinstance(value, _ATTRIBUTE_TYPES):
-                return False
-    return True
-
-
-def to_netcdf4(ds: xr.Dataset, target: str | Path, encoding: dict) -> None:
-    """``ds.to_netcdf(target, engine="netcdf4", encoding=encoding)``, the same file written
-    with less to import, for a ``target`` that nothing else writes meanwhile (the fresh
-    temporary file of :func:`write_netcdf`).
-
-    ``Dataset.to_netcdf`` asks dask twice which scheduler is active: to decide whether to close
-    the file between the writes of chunked arrays, and to choose the kind of lock that guards
-    the file (a ``distributed`` lock under a ``distributed`` client). Asking imports
-    ``distributed`` when it is installed: 0.15-0.3 s in a new process, for a dataset without
-    chunked arrays, which neither question concerns. For such a dataset
-    (:func:`_plainly_writable`) this opens xarray's netCDF4 store as ``to_netcdf`` does (mode
-    "w", the default format) with the locks ``to_netcdf`` takes in a process without a
-    ``distributed`` client (the netCDF library's and one for the file) and stores the dataset
-    in it with ``Dataset.dump_to_store``, the step ``to_netcdf`` takes next, which writes the
-    arrays there and then. Any other dataset (dask arrays, unlimited dimensions, names or
-    attributes ``to_netcdf`` would refuse), or an xarray whose internals differ, goes through
-    ``to_netcdf`` itself.
-    """
-    target = os.fspath(target)
-    try:
-        from xarray.backends import NetCDF4DataStore
-        from xarray.backends.locks import SerializableLock, combine_locks
-        from xarray.backends.netCDF4_ import NETCDF4_PYTHON_LOCK
-    except ImportError:
-        NetCDF4DataStore = None
-    if NetCDF4DataStore is None or not _plainly_writable(ds):
-        ds.to_netcdf(target, engine="netcdf4", encoding=encoding)
-        return
-    lock = combine_locks([NETCDF4_PYTHON_LOCK, SerializableLock(target)])
-    store = NetCDF4DataStore.open(target, mode="w", format=None, lock=lock)
-    try:
-        ds.dump_to_store(store, encoding=encoding)
-    finally:
-        store.close()
 
 
 def _raise_if_disk_full(exc: BaseException, path: Path, nbytes: int) -> None:
