@@ -87,7 +87,7 @@ if __name__ == "__main__":
     simcore.zoom(run, 1.5e-3, window=2e-5, dt=1e-6)
     print(f"simulation kernels: {run.attrs['compile_time_s']:.1f} s; nonsmooth run and analysis "
           f"of {impacts.sizes.get('impact', 0)} impact(s) {nonsmooth_done - start:.1f} s; "
-          f"compliant kernels (second process) ready {zoom_start - start:.1f} s; "
+          f"compliant kernels ready {zoom_start - start:.1f} s; "
           f"zoom {time.perf_counter() - zoom_start:.1f} s; "
           f"total {time.perf_counter() - start:.1f} s (python {sys.version.split()[0]})")
     stamp = warm_stamp()
