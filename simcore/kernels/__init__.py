@@ -6,8 +6,9 @@
   shared by both contact models;
 - :mod:`.linalg`: small dense algebra; :mod:`.generalized_alpha`: coefficients, initial
   acceleration and the smooth stage shared by both models;
-- :mod:`.nonsmooth_step`: position correction, velocity jump and the time loop of the
-  nonsmooth model;
+- :mod:`.position_correction`, :mod:`.velocity_jump`: the nonsmooth model's position
+  correction and velocity jump; :mod:`.nonsmooth_step`: its time loop (with the retries of a
+  failed step);
 - :mod:`.hertz`: the compliant contact law (Hertz force with hysteresis damping, regularised
   Coulomb friction) with exact tangents; :mod:`.compliant_step`: joint projection and the time
   loop of the compliant model with output sampling.
@@ -80,6 +81,7 @@ from .nonsmooth_step import (  # noqa: E402
     STAGE_POSITION,
     STAGE_SMOOTH,
     STAGE_VELOCITY,
+    RetrySettings,
     integrate_chunk,
     loop_stage_calls,
     nonsmooth_work,
@@ -92,7 +94,8 @@ from .springs import smooth_forces, spring_damping, spring_state, total_energy  
 __all__ = [
     "CACHE_DIR", "CONTACT_INSIDE", "CONTACT_OUTSIDE", "CONTACT_PLANE", "JOINT_ANGLE",
     "JOINT_PRISMATIC", "JOINT_REVOLUTE", "STAGE_POSITION", "STAGE_SMOOTH", "STAGE_VELOCITY",
-    "ChunkOutputs", "CompliantOutputs", "CompliantState", "ModelArrays", "StepSettings",
+    "ChunkOutputs", "CompliantOutputs", "CompliantState", "ModelArrays", "RetrySettings",
+    "StepSettings",
     "StepState", "alpha_coefficients", "loop_stage_calls",
     "bilateral", "block_factor_work", "joint_support", "pair_support", "place_row",
     "scale_pair_blocks", "store6",

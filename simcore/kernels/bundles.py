@@ -47,7 +47,8 @@ CompliantOutputs = namedtuple("CompliantOutputs", [
     "q", "v", "F_N", "F_T", "Lambda_N", "Lambda_T", "gap_N", "vn_pre", "vn_post", "energy",
     "iterations", "converged", "drive_torque"])
 
-#: Per-step outputs (row k + 1 written by step k), see :class:`simcore.model.Trajectory`.
+#: Per-step outputs (row k + 1 written by step k), see :class:`simcore.model.Trajectory`;
+#: ``halvings`` (int8): the times the step was halved (0: taken whole).
 ChunkOutputs = namedtuple("ChunkOutputs", [
     "q", "v", "lambda_N", "lambda_T", "nu_N", "gap_N", "vn_pre", "vn_post", "vn_free",
-    "energy", "iterations", "converged", "drive_torque"])
+    "energy", "iterations", "converged", "drive_torque", "halvings"])

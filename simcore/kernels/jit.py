@@ -31,6 +31,15 @@ kernel = njit(cache=True, error_model="numpy", _nrt=True, no_cfunc_wrapper=True,
 step_kernel = njit(cache=True, error_model="numpy", _nrt=False, no_cfunc_wrapper=True,
                    nogil=True)
 
+#: A named stage of a kernel (a part of a step kernel given a name of its own): inlined into
+#: its caller in Numba's own representation, before typing, so that it is compiled as part
+#: of the caller and not as a function of its own. Compiled on its own, each of these took 0.5
+#: to 2 s of a cold compile: its library re-optimises all its callees, and the work bundle it
+#: takes (some forty arrays) fills its argument list and its Python wrapper. Only kernels
+#: call it (it is never compiled for Python).
+stage = njit(inline="always", error_model="numpy", _nrt=False, no_cfunc_wrapper=True,
+             nogil=True)
+
 
 def loop_kernel(func):
     """:data:`step_kernel` for a time loop: its compiled callees are linked in as they are.

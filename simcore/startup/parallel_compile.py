@@ -75,8 +75,9 @@ def compile_tasks() -> dict:
     rows = 2  # output rows of a one-step chunk
     out = nb.ChunkOutputs(*(np.zeros((rows, size)) for size in (n, n) + (nc,) * 7),
                           np.zeros(rows), np.zeros((rows, 3), np.int64), np.ones(rows, np.int8),
-                          np.zeros(rows))
-    tasks["loop"] = (nb.integrate_chunk, (0, 1, st, arr, state, out, work))
+                          np.zeros(rows), np.zeros(rows, np.int8))
+    retry = nb.RetrySettings(4, 0.005, 1e-9, 0.0)  # the types of Model.simulate's
+    tasks["loop"] = (nb.integrate_chunk, (0, 1, st, arr, state, out, work, retry))
     return tasks
 
 
