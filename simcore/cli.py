@@ -57,6 +57,8 @@ def summary_lines(ds) -> list[str]:
                      f"   ({paper_max[stage]} / {paper_mean[stage]})")
     lines.append(f"unconverged steps: {int((ds['converged'].values[1:] == 0).sum())}"
                  " (a step creating energy counts as unconverged)")
+    if "n_retried_steps" in ds.attrs and ds.attrs.get("contact_model") != "compliant":
+        lines.append(f"retried steps (taken again as substeps): {ds.attrs['n_retried_steps']}")
     if "energy_max_gain_J" in ds.attrs:
         lines.append(f"energy audit: largest gain of a step {ds.attrs['energy_max_gain_J']:.3g} J "
                      f"({ds.attrs['energy_max_gain_relative']:.2g} of the energy scale; "

@@ -101,10 +101,17 @@ def mechanism_series(q: np.ndarray, v: np.ndarray, layout) -> dict:
 
 
 def solver_records(traj) -> dict:
-    """Energy, drive torque and the solver's iterations and convergence flags."""
+    """Energy, drive torque and the solver's iterations, convergence flags and halvings."""
+    halvings = traj.halvings if traj.halvings is not None else np.zeros_like(traj.converged)
     return {"energy": traj.energy, "drive_torque": traj.drive_torque,
             "iterations": traj.iterations.astype(np.int32),
-            "converged": traj.converged.astype(np.int8)}
+            "converged": traj.converged.astype(np.int8),
+            "halvings": halvings.astype(np.int8)}
+
+
+def n_retried_steps(traj) -> int:
+    """Steps of the run taken again as substeps after a failure (halvings > 0)."""
+    return 0 if traj.halvings is None else int(np.count_nonzero(traj.halvings))
 
 
 def stored_types(iterations: np.ndarray) -> dict:
@@ -154,6 +161,7 @@ def run_attributes(traj, layout, cfg: dict, compile_time_s: float, compliant: bo
         "wall_time_s": float(traj.wall_time_s),
         "compile_time_s": float(compile_time_s),
         "n_unconverged_steps": int(np.sum(traj.converged == 0)),
+        "n_retried_steps": n_retried_steps(traj),
     })
     audit = traj.extras.get("energy_audit")
     if audit is not None:

@@ -136,6 +136,12 @@ VARIABLES: dict[str, RunVariable] = {
         "energy (energy audit)", "int8",
         "0 marks a step the impact table flags as untrusted.",
         extra=(("flag_values", np.array([0, 1], dtype=np.int8)), ("flag_meanings", "no yes"))),
+    "halvings": RunVariable(
+        TIME, "1", "times the step was halved: 0 taken whole, L taken again as 2^L substeps of "
+        "dt/2^L after a failure (impulses and drive torque: the step's sums and mean; "
+        "iterations: the largest of its substeps)", "int8",
+        "The retries of a failed step (docs/method.md); 0 throughout a compliant run.",
+        "0: the compliant model's steps are not halved"),
     "energy_error": RunVariable(
         TIME, "J", "energy created by the step ending at time: energy change minus drive work "
         "(<= 0 when the step only dissipates)", "float32",
@@ -158,10 +164,10 @@ RUN_VARIABLES = tuple(VARIABLES)
 #: Default of ``study.keep``: what the impact analysis (``Lambda_N``, ``vn_free``,
 #: ``converged``), the compliant zoom (the restart state), the summary (``iterations``,
 #: ``crank_angle``), the figures (``slider_x``, ``journal_x``, ``journal_y``) and the README's
-#: examples read; ``F_N`` for compliant runs.
+#: examples read; which steps were retried (``halvings``); ``F_N`` for compliant runs.
 DEFAULT_KEEP = ("Lambda_N", "vn_free", "position", "angle", "velocity", "angular_velocity",
                 "crank_angle", "slider_x", "journal_x", "journal_y", "iterations", "converged",
-                "F_N")
+                "halvings", "F_N")
 
 
 class RunCoordinate(NamedTuple):

@@ -24,13 +24,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import kernels as nb
-from .audit import EnergyAudit
+from .audit import ENERGY_FLOOR_J, EnergyAudit, drive_rate
 from .hertz import DAMPING_LAWS
 
 CONTACT_MODELS = ("nonsmooth", "compliant")
 ON_NONCONVERGENCE = ("error", "warn")
 #: names of the three sub-problems of a step, in the order of the ``iterations`` columns
 STAGES = ("smooth", "position", "velocity")
+#: largest ``solver.max_halvings``: a step taken as at most 2^10 substeps
+MAX_HALVINGS = 10
 
 
 class SolverError(RuntimeError):
@@ -88,6 +90,11 @@ class SolverSettings:
     energy_tol : float
         Energy audit (:mod:`simcore.model.audit`): a step creating more than this fraction of
         the run's energy scale counts as not converged [-].
+    max_halvings : int
+        Nonsmooth: a step whose sub-problems do not converge, or that creates energy by the
+        audit's criterion, is taken again from its start as 2, 4, ... 2^max_halvings substeps
+        (docs/method.md); only a step that fails at the smallest one is flagged or stops the
+        run. 0: never retried; at most :data:`MAX_HALVINGS`.
     chunk : int
         Steps per kernel call (the checks, the progress bar and an early stop act between
         calls).
@@ -108,6 +115,7 @@ class SolverSettings:
     output_every: int = 1
     v_pre_min: float = 1e-3
     energy_tol: float = 0.005
+    max_halvings: int = 4
     chunk: int = 500
     progress: bool = False
 
@@ -126,6 +134,12 @@ class SolverSettings:
             raise ValueError(f"solver.output_dt: {every} steps per output is not allowed; "
                              "allowed: 1 for the nonsmooth model (its impulse filter needs every "
                              "step), a whole number >= 1 of steps for compliant")
+        halvings = self.max_halvings
+        if (isinstance(halvings, bool) or int(halvings) != halvings
+                or not 0 <= halvings <= MAX_HALVINGS):
+            raise ValueError(f"solver.max_halvings: {halvings!r} is not allowed; allowed: a "
+                             f"whole number in [0, {MAX_HALVINGS}]")
+        object.__setattr__(self, "max_halvings", int(halvings))
         object.__setattr__(self, "dt", dt)
         object.__setattr__(self, "t_end", t_end)
         object.__setattr__(self, "friction_regularization", v_reg)
@@ -144,7 +158,8 @@ class SolverSettings:
                       on_nonconvergence=solver["on_nonconvergence"],
                       contact_model=model["contact_model"], damping_law=model["damping_law"],
                       friction_regularization=model["friction_regularization"],
-                      output_every=output_every(cfg), energy_tol=solver["energy_tol"])
+                      output_every=output_every(cfg), energy_tol=solver["energy_tol"],
+                      max_halvings=solver["max_halvings"])
         values.update(changes)
         return cls(**values)
 
@@ -195,7 +210,10 @@ class ReleaseStop:
 class Trajectory:
     """Plain-array result of :func:`simulate` (one row per output time, t0 included).
 
-    Nonsmooth runs: one row per step, the impulses of the step's velocity jump. Compliant runs:
+    Nonsmooth runs: one row per step, the impulses of the step's velocity jump; ``halvings``:
+    the times the step was halved (0: taken whole; L: taken as 2^L substeps of dt / 2^L, its
+    impulses summed; what the other rows hold then:
+    :func:`simcore.kernels.nonsmooth_step.integrate_chunk`). Compliant runs:
     one row per output interval; ``lambda_N``/``lambda_T`` are the impulses over the interval,
     ``F_N`` the largest normal force in it and ``F_T`` the friction force at that peak,
     ``gap_N`` the smallest gap in it, ``vn_pre``/``vn_post`` the normal velocity at its start
@@ -215,6 +233,7 @@ class Trajectory:
     iterations: np.ndarray
     converged: np.ndarray
     drive_torque: np.ndarray
+    halvings: np.ndarray | None = None
     F_N: np.ndarray | None = None
     F_T: np.ndarray | None = None
     contact_model: str = "nonsmooth"
@@ -225,7 +244,7 @@ class Trajectory:
     #: the per-row arrays, trimmed together by an early stop
     ROW_FIELDS = ("time", "q", "v", "lambda_N", "lambda_T", "nu_N", "gap_N", "vn_pre",
                   "vn_post", "vn_free", "energy", "iterations", "converged", "drive_torque",
-                  "F_N", "F_T")
+                  "halvings", "F_N", "F_T")
 
     def keep_rows(self, n_keep: int) -> None:
         """Keep the first ``n_keep`` rows of every per-row array."""
@@ -344,7 +363,7 @@ def _allocate(model, settings: SolverSettings, start: _Start, t0: float) -> Traj
         gap_N=rows(nc), vn_pre=rows(nc), vn_post=rows(nc), vn_free=rows(nc),
         energy=np.zeros(n_out), iterations=np.zeros((n_out, 3), np.int64),
         converged=np.ones(n_out, np.int8), drive_torque=np.zeros(n_out),
-        contact_model=settings.contact_model)
+        halvings=np.zeros(n_out, np.int8), contact_model=settings.contact_model)
     st = start.state
     out.q[0], out.v[0], out.gap_N[0] = st.q, st.v, start.gap
     # no jump at t = 0: the initial normal velocity before, after and free
@@ -401,10 +420,13 @@ class _Loop:
             outputs = nb.ChunkOutputs(out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N,
                                       out.gap_N, out.vn_pre, out.vn_post, out.vn_free,
                                       out.energy, out.iterations, out.converged,
-                                      out.drive_torque)
+                                      out.drive_torque, out.halvings)
+            # the energy audit's criterion, for the kernel's retries (EnergyAudit.check's)
+            retry = nb.RetrySettings(settings.max_halvings, float(settings.energy_tol),
+                                     ENERGY_FLOOR_J, drive_rate(model))
             self.chunk = int(settings.chunk)
             self._advance = lambda k, k_next: nb.integrate_chunk(
-                k, k_next, kset, start.arrays, start.state, outputs, start.work)
+                k, k_next, kset, start.arrays, start.state, outputs, start.work, retry)
         self.release = self._release_watch(release, start.gap.size)
         self.audit = EnergyAudit(model, settings.output_dt, out.time.size - 1,
                                  settings.energy_tol, t0=t0)
@@ -468,9 +490,13 @@ class _Loop:
         row = (bad + 1 + every - 1) // every
         stages = [s for s, it in zip(STAGES, self.out.iterations[row], strict=True)
                   if it >= self.settings.max_iter]
+        halvings = self.settings.max_halvings
+        retried = (f"; taken again as up to {2 ** halvings} substeps (solver.max_halvings = "
+                   f"{halvings})" if halvings and not self.settings.compliant else "")
         return (f"solver did not converge at step {bad + 1} (t = {self._time(bad + 1):.6g} s); "
                 f"stage(s) at the iteration cap: {', '.join(stages) or 'fallback'} "
-                f"(solver.max_iter = {self.settings.max_iter}, solver.tol = {self.settings.tol})")
+                f"(solver.max_iter = {self.settings.max_iter}, solver.tol = {self.settings.tol})"
+                + retried)
 
     def _fail(self, message: str) -> None:
         if self.settings.on_nonconvergence == "error":
