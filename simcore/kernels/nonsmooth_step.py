@@ -26,6 +26,7 @@ from .position_correction import PositionWork, position_step, position_work
 from .springs import total_energy
 from .velocity_jump import (
     VelocityWork,
+    _solve_velocity_problem,
     solve_velocity_problem,
     velocity_step,
     velocity_work,
@@ -85,8 +86,9 @@ def nonsmooth_work(n, nbil, nc):
 
 def loop_stage_calls(st, ma, state, work):
     """The calls :func:`integrate_chunk` makes to its three stages, as (kernel, arguments) by
-    stage name ("smooth", "position", "velocity"): the loop's own objects, so that each stage
-    can be compiled for the loop's argument types ahead of the loop
+    stage name ("smooth", "position", "velocity"; and "velocity_solver", the velocity jump's
+    call of :func:`~.velocity_jump._solve_velocity_problem`): the loop's own objects, so that
+    each can be compiled for the loop's argument types ahead of the loop
     (:mod:`simcore.startup.parallel_compile`). Plain Python; keep it in step with the loop's
     calls (``tests/test_parallel_compile.py`` checks that the types are the loop's)."""
     q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
@@ -94,6 +96,7 @@ def loop_stage_calls(st, ma, state, work):
     h = st.h
     t1 = st.t0 + h
     coef = alpha_coefficients.py_func(st.rho_inf)  # (the Python function: nothing compiled)
+    jr, jp = work.velocity.rows, work.velocity.problem
     return {
         "smooth": (smooth_step, (state.q, state.v, state.acc, state.vdot, state.lam_s, t1, h,
                                  coef, st.tol, st.max_iter, ma, q_t, v_t, acc1, vdot1, f_t,
@@ -102,22 +105,20 @@ def loop_stage_calls(st, ma, state, work):
                                      work.position)),
         "velocity": (velocity_step, (q1, v_t, t1, h, st, ma, f_t, nu_c, gap, state, v1,
                                      work.velocity)),
+        # the velocity jump's contact problem (the jump calls it with slices of these arrays,
+        # of the same types)
+        "velocity_solver": (_solve_velocity_problem, (jp.Dc, jp.cc, jr.kind, jr.mu_row,
+                                                      jp.pair_c, jp.lam_c, st.tol, st.max_iter,
+                                                      st.eta, work.velocity.solver)),
     }
 
 
 @stage
 def _copy_step_state(dst, src):
-    """Copy every array of the :class:`~.bundles.StepState` ``src`` into ``dst``."""
-    copy_vector(dst.q, src.q, src.q.shape[0])
-    copy_vector(dst.v, src.v, src.v.shape[0])
-    copy_vector(dst.acc, src.acc, src.acc.shape[0])
-    copy_vector(dst.vdot, src.vdot, src.vdot.shape[0])
-    copy_vector(dst.lam_s, src.lam_s, src.lam_s.shape[0])
-    copy_vector(dst.lam_b, src.lam_b, src.lam_b.shape[0])
-    copy_vector(dst.lamN, src.lamN, src.lamN.shape[0])
-    copy_vector(dst.lamT, src.lamT, src.lamT.shape[0])
-    copy_vector(dst.vn, src.vn, src.vn.shape[0])
-    copy_vector(dst.vt, src.vt, src.vt.shape[0])
+    """Copy every array of the :class:`~.bundles.StepState` ``src`` into ``dst`` (its arrays
+    are all of one type, so the bundle is indexed like a tuple)."""
+    for a in range(len(src)):
+        copy_vector(dst[a], src[a], src[a].shape[0])
 
 
 @stage
@@ -203,9 +204,16 @@ def _record_substep(k, j, n_sub, hs, its, st, state, out, contact, lam_best):
         out.vn_post[row, c] = vn[c]
         vn_prev[c] = vn[c]
         vt_prev[c] = vt[c]
-    for s in range(3):  # its: (smooth, position, velocity), the STAGE_* order
-        if j == 0 or its[s] > out.iterations[row, s]:
-            out.iterations[row, s] = its[s]
+    it_s, it_p, it_v = its
+    iters = out.iterations[row]
+    if j == 0:
+        iters[STAGE_SMOOTH] = it_s
+        iters[STAGE_POSITION] = it_p
+        iters[STAGE_VELOCITY] = it_v
+    else:
+        iters[STAGE_SMOOTH] = max(iters[STAGE_SMOOTH], it_s)
+        iters[STAGE_POSITION] = max(iters[STAGE_POSITION], it_p)
+        iters[STAGE_VELOCITY] = max(iters[STAGE_VELOCITY], it_v)
     dr = st.drive_row
     if dr >= 0:
         torque = state.lam_s[dr] + state.lam_b[dr] / hs
@@ -290,41 +298,37 @@ def integrate_chunk(k0, k1, st, ma, state, out, work, rs):
         if rs.max_halvings > 0:
             _save_step_start(state, rw, nu_c, nu_b)
         halvings = 0
-        n_sub = 1
-        hs = h
-        j = 0
-        ok = True
         while True:
-            # substep j of n_sub; the last ends exactly at (k + 1) h
-            t1 = (k + 1) * h if j == n_sub - 1 else k * h + (j + 1) * hs
-            it_s, ok_s = smooth_step(state.q, state.v, state.acc, state.vdot, state.lam_s, t1,
-                                     hs, coef, st.tol, st.max_iter, ma, q_t, v_t, acc1, vdot1,
-                                     f_t, K_t, C_t, Ks_t, work.smooth)
-            it_p, ok_p = position_step(q_t, t1, hs, st, ma, Ks_t, q1, nu_c, gap, pwk)
-            _normal_velocities_before_jump(v_t, pwk.GN, pwk.metric.cols, pwk.metric.ncols,
-                                           nu_b.shape[0], vn_free)
-            it_v, ok_v = velocity_step(q1, v_t, t1, hs, st, ma, f_t, nu_c, gap, state, v1,
-                                       work.velocity)
-            _accept_substep(state, work.step)
-            contact_velocities_into(state.q, state.v, ma, gap, contact[2], contact[3],
-                                    pwk.scratch.wN, pwk.scratch.wT, pwk.scratch.trig)
-            _record_substep(k, j, n_sub, hs, (it_s, it_p, it_v), st, state, out, contact,
-                            rw.lam_best)
-            if j == n_sub - 1:
-                out.energy[k + 1] = total_energy(state.q, state.v, ma)
-            ok = ok and ok_s and ok_p and ok_v
-            j += 1
+            # the step as n_sub substeps of hs (the whole step first); the last ends exactly
+            # at (k + 1) h
+            n_sub = 1 << halvings
+            hs = h / n_sub
             final = halvings >= rs.max_halvings
-            if j < n_sub and (ok or final):
-                continue
-            if final or (ok and not _creates_energy(k, h, rs, out, rw.energy_scale)):
-                break
+            ok = True
+            for j in range(n_sub):
+                t1 = (k + 1) * h if j == n_sub - 1 else k * h + (j + 1) * hs
+                it_s, ok_s = smooth_step(state.q, state.v, state.acc, state.vdot, state.lam_s,
+                                         t1, hs, coef, st.tol, st.max_iter, ma, q_t, v_t, acc1,
+                                         vdot1, f_t, K_t, C_t, Ks_t, work.smooth)
+                it_p, ok_p = position_step(q_t, t1, hs, st, ma, Ks_t, q1, nu_c, gap, pwk)
+                _normal_velocities_before_jump(v_t, pwk.GN, pwk.metric.cols,
+                                               pwk.metric.ncols, nu_b.shape[0], vn_free)
+                it_v, ok_v = velocity_step(q1, v_t, t1, hs, st, ma, f_t, nu_c, gap, state, v1,
+                                           work.velocity)
+                _accept_substep(state, work.step)
+                contact_velocities_into(state.q, state.v, ma, gap, contact[2], contact[3],
+                                        pwk.scratch.wN, pwk.scratch.wT, pwk.scratch.trig)
+                _record_substep(k, j, n_sub, hs, (it_s, it_p, it_v), st, state, out, contact,
+                                rw.lam_best)
+                ok = ok and ok_s and ok_p and ok_v
+                if not (ok or final):
+                    break  # (this level has failed)
+            if ok or final:
+                out.energy[k + 1] = total_energy(state.q, state.v, ma)
+                if final or not _creates_energy(k, h, rs, out, rw.energy_scale):
+                    break
             # the step failed: take it again from its start with twice as many substeps
             halvings += 1
-            n_sub *= 2
-            hs = h / n_sub
-            j = 0
-            ok = True
             _restore_step_start(state, rw, nu_c, nu_b)
         out.converged[k + 1] = 1 if ok else 0
         out.halvings[k + 1] = halvings

@@ -147,22 +147,18 @@ def _metric_product(Ap, fac, U, out):
 
 
 @step_kernel
-def _contact_scale(k, r_c, facA, GN0, ys, cols, nbil, ncols):
-    """The augmentation r_k = 1 / (G_k A^-1 G_k^T) of contact k, from its row at the predicted
-    configuration (``GN0``), computed when first needed (``r_c[k]`` is 0 until then): only a
-    contact that is loaded or penetrates, or becomes active, needs it."""
+def _contact_scale(k, nbil, metric):
+    """The augmentation r_k = 1 / (G_k A^-1 G_k^T) of contact k (after ``nbil`` joint rows),
+    from its row at the predicted configuration (``metric.GN0``), computed when first needed
+    (``metric.r_c[k]`` is 0 until then): only a contact that is loaded or penetrates, or
+    becomes active, needs it."""
+    r_c = metric.r_c
     if r_c[k] == 0.0:
         row0 = np.int64(0)  # (a literal 0 would compile a second specialisation)
-        d = block_gram_entry(facA, GN0, k, ys, row0, cols, nbil + k, ncols[nbil + k])
+        d = block_gram_entry(metric.facA, metric.GN0, k, metric.ys, row0, metric.cols,
+                             nbil + k, metric.ncols[nbil + k])
         r_c[k] = 1.0 / d if d > 0.0 else 1.0
     return r_c[k]
-
-
-@stage
-def _scale_of(k, nbil, metric):
-    """:func:`_contact_scale` of contact k (``nbil`` joint rows) from the ``metric``."""
-    return _contact_scale(k, metric.r_c, metric.facA, metric.GN0, metric.ys, metric.cols, nbil,
-                          metric.ncols)
 
 
 @step_kernel
@@ -191,7 +187,7 @@ def _position_residual(it, ma, metric):
     for k in range(gap.shape[0]):
         if nu_c[k] == 0.0 and gap[k] >= 0.0:
             continue  # an open contact without multiplier: its term is 0 whatever r_k
-        rk = _scale_of(k, nbil, metric)
+        rk = _contact_scale(k, nbil, metric)
         val = nu_c[k] - max(0.0, nu_c[k] - rk * gap[k])
         res = max(res, abs(val) / rk)
     _metric_product(metric.Ap, metric.facA, U, it.AU)
@@ -213,12 +209,12 @@ def _position_residual(it, ma, metric):
 
 
 @stage
-def _prepare_position(q_t, t1, h, ma, Ks_t, it, wk):
+def _prepare_position(q_t, t1, h, ma, Ks_t, it, metric, scratch, rows):
     """Everything the Newton iteration starts from: the rows' supports, the metric
     Ap = M + h^2 Ks factorised, U = 0, the warm start's multipliers made admissible, the rows
     at the predicted configuration q_t (kept in ``GN0`` for the contacts' Delassus scaling,
-    cleared for recomputation)."""
-    metric = wk.metric
+    cleared for recomputation); ``rows``: the linearised problem's rows, whose first are the
+    joints'."""
     mdiag = ma.mdiag
     ct_body = ma.ct_body
     U = it.U
@@ -233,7 +229,6 @@ def _prepare_position(q_t, t1, h, ma, Ks_t, it, wk):
     joint_support(ma.jt_type, ma.jt_body, cols, ncols)
     for k in range(nc):
         ncols[nbil + k] = pair_support(ct_body[k, 0], ct_body[k, 1], cols, nbil + k)
-    rows = wk.lin.rows
     for r in range(nbil):
         rows[r] = r  # the joints' rows, always in the linearised problem
     # Ap = M + h^2 Ks: Ks is zero outside the springs' body-pair blocks (smooth_forces), and so
@@ -257,7 +252,7 @@ def _prepare_position(q_t, t1, h, ma, Ks_t, it, wk):
             nu_c[k] = 0.0
     # the rows at the predicted configuration; the Delassus scaling r_k of a contact comes
     # from them, on first need (_contact_scale)
-    _position_rows(q_t, t1, ma, it, wk.scratch)
+    _position_rows(q_t, t1, ma, it, scratch)
     GN = it.GN
     GN0 = metric.GN0
     r_c = metric.r_c
@@ -277,7 +272,7 @@ def _guess_active_set(it, metric, active):
     nbil = it.gb.shape[0]
     for k in range(nu_c.shape[0]):
         active[k] = (nu_c[k] != 0.0 or gap[k] < 0.0) and (
-            nu_c[k] - _scale_of(k, nbil, metric) * gap[k] > 0.0)
+            nu_c[k] - _contact_scale(k, nbil, metric) * gap[k] > 0.0)
 
 
 @stage
@@ -384,7 +379,7 @@ def _solve_on_active_set(fac, it, eta_k, metric, lin):
         if ra >= nbil:
             # proximal term on the contacts, (eta / r_k)(nu - nu_k)
             k = ra - nbil
-            reg = eta_k / _scale_of(k, nbil, metric)
+            reg = eta_k / _contact_scale(k, nbil, metric)
             D[a, a] += reg
             sol[a] += reg * nu_c[k]
     lu_factor(D, m, piv)
@@ -481,16 +476,13 @@ def _newton_point(m, it, lin, new):
 
 
 @stage
-def _position_line_search(q_t, t1, res, it, ma, wk):
+def _position_line_search(q_t, t1, res, it, ma, tr, new, scratch, metric):
     """Backtracking line search on the scaled residual from the iterate ``it`` (residual
-    ``res``) towards the Newton point ``wk.new``, the trials in ``wk.trial``. Returns (theta
-    of the smallest residual, theta of the last trial, that smallest residual)."""
-    tr = wk.trial
-    metric = wk.metric
-    scratch = wk.scratch
+    ``res``) towards the Newton point ``new``, the trials in ``tr``. Returns (theta of the
+    smallest residual, theta of the last trial, that smallest residual)."""
     U, nu_b, nu_c = it.U, it.nu_b, it.nu_c
     U_try, nub_try, nuc_try = tr.U, tr.nu_b, tr.nu_c
-    U_new, nub_new, nuc_new = wk.new.U, wk.new.nu_b, wk.new.nu_c
+    U_new, nub_new, nuc_new = new.U, new.nu_b, new.nu_c
     n = U.shape[0]
     nbil = nu_b.shape[0]
     nc = nu_c.shape[0]
@@ -518,40 +510,35 @@ def _position_line_search(q_t, t1, res, it, ma, wk):
 
 
 @stage
-def _copy_iterate(dst, src):
-    """Copy every array of the :data:`PositionIterate` ``src`` into ``dst``."""
-    n = src.U.shape[0]
-    nbil = src.nu_b.shape[0]
-    nc = src.nu_c.shape[0]
-    copy_vector(dst.U, src.U, n)
-    copy_vector(dst.nu_b, src.nu_b, nbil)
-    copy_vector(dst.nu_c, src.nu_c, nc)
-    copy_vector(dst.q, src.q, n)
-    copy_vector(dst.gb, src.gb, nbil)
-    copy_matrix(dst.Gb, src.Gb, nbil, n)
-    copy_vector(dst.gap, src.gap, nc)
-    copy_matrix(dst.GN, src.GN, nc, n)
-    copy_vector(dst.AU, src.AU, n)
-
-
-@stage
-def _take_position_step(q_t, t1, theta, last_theta, best_res, it, ma, wk):
-    """Move the iterate by ``theta`` towards the Newton point; returns its residual. When
-    ``theta`` was the line search's last trial, the trial is the new iterate: its rows and
-    residual are taken as they are."""
+def _take_position_step(q_t, t1, theta, last_theta, best_res, it, ma, tr, new, scratch,
+                        metric):
+    """Move the iterate by ``theta`` towards the Newton point ``new``; returns its residual.
+    When ``theta`` was the line search's last trial, the trial ``tr`` is the new iterate: its
+    rows and residual are taken as they are."""
     if theta == last_theta:
-        _copy_iterate(it, wk.trial)
+        n = tr.U.shape[0]
+        nbil = tr.nu_b.shape[0]
+        nc = tr.nu_c.shape[0]
+        copy_vector(it.U, tr.U, n)
+        copy_vector(it.nu_b, tr.nu_b, nbil)
+        copy_vector(it.nu_c, tr.nu_c, nc)
+        copy_vector(it.q, tr.q, n)
+        copy_vector(it.gb, tr.gb, nbil)
+        copy_matrix(it.Gb, tr.Gb, nbil, n)
+        copy_vector(it.gap, tr.gap, nc)
+        copy_matrix(it.GN, tr.GN, nc, n)
+        copy_vector(it.AU, tr.AU, n)
         return best_res
     U, nu_b, nu_c = it.U, it.nu_b, it.nu_c
-    U_new, nub_new, nuc_new = wk.new.U, wk.new.nu_b, wk.new.nu_c
+    U_new, nub_new, nuc_new = new.U, new.nu_b, new.nu_c
     for i in range(U.shape[0]):
         U[i] += theta * (U_new[i] - U[i])
     for r in range(nu_b.shape[0]):
         nu_b[r] += theta * (nub_new[r] - nu_b[r])
     for k in range(nu_c.shape[0]):
         nu_c[k] += theta * (nuc_new[k] - nu_c[k])
-    _position_rows(q_t, t1, ma, it, wk.scratch)
-    return _position_residual(it, ma, wk.metric)
+    _position_rows(q_t, t1, ma, it, scratch)
+    return _position_residual(it, ma, metric)
 
 
 @step_kernel
@@ -594,8 +581,11 @@ def position_step(q_t, t1, h, st, ma, Ks_t, q1, nu_c, gap, wk):
     """
     it = PositionIterate(wk.U, wk.nu_b, nu_c, q1, wk.gb, wk.Gb, gap, wk.GN, wk.AU)
     metric = wk.metric
+    scratch = wk.scratch
     lin = wk.lin
-    _prepare_position(q_t, t1, h, ma, Ks_t, it, wk)
+    tr = wk.trial
+    new = wk.new
+    _prepare_position(q_t, t1, h, ma, Ks_t, it, metric, scratch, lin.rows)
     res = _position_residual(it, ma, metric)
     target = st.tol * h
     eta = st.eta
@@ -611,14 +601,16 @@ def position_step(q_t, t1, h, st, ma, Ks_t, q1, nu_c, gap, wk):
         fac = lin.facH if _factor_newton_matrix(it, ma, metric.Ap, lin) else metric.facA
         _linearise(fac, it, metric, lin)
         m = _pivot_active_set(fac, it, eta_k, target, metric, lin)
-        _newton_point(m, it, lin, wk.new)
-        theta, last_theta, best_res = _position_line_search(q_t, t1, res, it, ma, wk)
+        _newton_point(m, it, lin, new)
+        theta, last_theta, best_res = _position_line_search(q_t, t1, res, it, ma, tr, new,
+                                                            scratch, metric)
         if theta < 0.125:
             # the active set cycles (the full step does not reduce the residual): stiffen the
             # proximal term so that the multipliers move less per iteration
             eta_k = min(100.0 * eta_k, 1e-1)
         elif theta == 1.0:
             eta_k = max(eta, 0.01 * eta_k)  # back towards plain Newton once steps go through
-        res = _take_position_step(q_t, t1, theta, last_theta, best_res, it, ma, wk)
+        res = _take_position_step(q_t, t1, theta, last_theta, best_res, it, ma, tr, new,
+                                  scratch, metric)
         converged = res <= target
     return iters, converged

@@ -151,12 +151,12 @@ def _velocity_residual(lam, xi, kind, r, mu_row, pair, F):
     return res
 
 
-@stage
-def _residual_at(p, lam, w, xi, F):
-    """xi = D lam + c and the residual F of the problem ``p`` at ``lam``; returns its max-norm
-    (``w``: the solver's work views, for the augmentation ``w.r``)."""
+@step_kernel
+def _residual(p, lam, r, xi, F):
+    """xi = D lam + c and the residual F of the problem ``p`` at ``lam`` (augmentation ``r``);
+    returns its max-norm."""
     _affine(p.D, lam, p.c, lam.shape[0], xi)
-    return _velocity_residual(lam, xi, p.kind, w.r, p.mu_row, p.pair, F)
+    return _velocity_residual(lam, xi, p.kind, r, p.mu_row, p.pair, F)
 
 
 @step_kernel
@@ -271,7 +271,7 @@ def _velocity_line_search(p, w):
     for _ls in range(LINE_SEARCH_TRIALS):
         for i in range(m):
             w.lam_try[i] = p.lam[i] + theta * w.dl[i]
-        _residual_at(p, w.lam_try, w, w.xi_try, F_try)
+        _residual(p, w.lam_try, w.r, w.xi_try, F_try)
         merit_try = 0.0
         for i in range(m):
             merit_try += F_try[i] * F_try[i]
@@ -294,7 +294,7 @@ def _newton_velocity(p, tol, max_iter, eta, w):
     residual by a comparable amount."""
     m = p.lam.shape[0]
     lam = p.lam
-    res = _residual_at(p, lam, w, w.xi, w.F)
+    res = _residual(p, lam, w.r, w.xi, w.F)
     iters = 0
     while (res > 0.5 * tol or iters == 0) and iters < max_iter and m > 0:
         iters += 1
@@ -315,7 +315,7 @@ def _newton_velocity(p, tol, max_iter, eta, w):
             for i in range(m):
                 res = max(res, abs(w.F[i]))
         else:
-            res = _residual_at(p, lam, w, w.xi, w.F)
+            res = _residual(p, lam, w.r, w.xi, w.F)
     return iters, res
 
 
@@ -353,7 +353,7 @@ def _gauss_seidel(p, tol, max_iter, res, w):
                 bound = mu_row[i] * max(lam[pair[i]], 0.0)
                 lam[i] = min(max(lam[i] - r[i] * xi_i, -bound), bound)
             i += 1
-        res = _residual_at(p, lam, w, w.xi, w.F)
+        res = _residual(p, lam, w.r, w.xi, w.F)
         if res <= 0.5 * tol:
             break
     return sweeps, res
@@ -380,7 +380,7 @@ def _make_admissible(p, res, w):
                 lam[i] = clipped
                 moved = True
     if moved:
-        return _residual_at(p, lam, w, w.xi, w.F)
+        return _residual(p, lam, w.r, w.xi, w.F)
     return res
 
 

@@ -30,12 +30,13 @@ import sys
 import time
 
 #: what the helper process compiles, in this order (names of :func:`compile_tasks`)
-HELPER_TASKS = ("position", "contact_velocities", "energy", "initial_acceleration")
-#: what this process compiles meanwhile
-MAIN_TASKS = ("velocity", "smooth")
+HELPER_TASKS = ("velocity_solver", "position", "initial_acceleration")
+#: what this process compiles meanwhile (the smooth stage first: the velocity jump then finds
+#: its contact solver in the cache)
+MAIN_TASKS = ("smooth", "velocity", "contact_velocities", "energy")
 #: the loop's callees that the helper compiles; this process waits for them, then compiles
 #: the loop
-LOOP_NEEDS = ("position", "contact_velocities", "energy")
+LOOP_NEEDS = ("velocity_solver", "position")
 #: the helper's program
 HELPER = "from simcore.startup.parallel_compile import helper_main; helper_main()"
 #: shortest limit of the wait for the helper's share [s] (see :func:`compile_with_helper`;
