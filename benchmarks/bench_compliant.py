@@ -88,7 +88,7 @@ def main() -> None:
         for _ in range(reps):
             nb.smooth_forces(q, v, ma, f, K, C, Ks, True)
             contact_forces_into(q, v, ma, v_pre, 1e-4, f, K, C, True, w[0], w[1], w[2], w[3],
-                                w[4], w[5:11], hw)
+                                w[4], w[5:11], hw, None)
         return K, C
 
     @njit
@@ -102,13 +102,13 @@ def main() -> None:
     def loop_project(q, v, ma, pw, reps):
         q1, v1 = np.zeros(q.shape[0]), np.zeros(q.shape[0])
         for _ in range(reps):
-            project_joints_into(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1, pw)
+            project_joints_into(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1, pw, None)
 
     @njit
     def loop_energy(q, v, ma, hw, reps):
         e = 0.0
         for _ in range(reps):
-            e += nb.total_energy(q, v, ma) + elastic_energy_into(q, ma, hw.wN, hw.wT)
+            e += nb.total_energy(q, v, ma) + elastic_energy_into(q, ma, None)
         return e
 
     def cpu(fn, *a):

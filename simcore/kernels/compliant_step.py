@@ -20,13 +20,17 @@ from .bodies import BLOCKS_NEWTON, clear_pair_blocks, fill_pair_blocks
 from .generalized_alpha import (
     alpha_coefficients,
     alpha_predict,
-    smooth_residual,
     smooth_work,
     step_work,
 )
-from .hertz import contact_forces_into, elastic_energy_into, hertz_work
+from .hertz import (
+    contact_forces_into,
+    elastic_energy_into,
+    hertz_work,
+    open_contact_velocities_into,
+)
 from .jit import kernel, loop_kernel, step_kernel
-from .joints import bilateral, joint_row_count, joint_support
+from .joints import bilateral_cached, joint_row_count, joint_support
 from .linalg import (
     GENERAL,
     block_factor,
@@ -59,10 +63,12 @@ ProjectionWork = namedtuple("ProjectionWork", ["g", "G", "gm", "dgdt", "cols", "
 #: (``fac``, ``S``, ``piv`` of the smooth work) were made with, for the next steps' updates
 #: (:func:`chord_solve`): the joint rows G_f (m x n) and the coefficient c_f (1); ``reuse``
 #: (2): whether those factors may serve (0: no) and whether the last step converged (then its
-#: start accelerations ``vdot_old`` (n) extrapolate the next step's first iterate).
+#: start accelerations ``vdot_old`` (n) extrapolate the next step's first iterate); the joint
+#: rows' supports in ascending order (``jcols`` (m x 6), ``jncols`` (m)) and the joints'
+#: reaction G^T lambda (``react``, n) of the residual (:func:`_residual`).
 BranchWork = namedtuple("BranchWork", ["J2", "r2", "current", "assumed", "r0", "W", "Z",
                                        "first_w", "first_z", "G_f", "c_f", "reuse",
-                                       "vdot_old"])
+                                       "vdot_old", "jcols", "jncols", "react"])
 
 
 def projection_work(n, m):
@@ -88,7 +94,10 @@ def compliant_work(n, nbil, nc):
                                              first_z=np.zeros(nbil, dtype=np.int64),
                                              G_f=np.zeros((nbil, n)), c_f=np.zeros(1),
                                              reuse=np.zeros(2, dtype=np.int64),
-                                             vdot_old=np.zeros(n)))
+                                             vdot_old=np.zeros(n),
+                                             jcols=np.zeros((nbil, 6), dtype=np.int64),
+                                             jncols=np.zeros(nbil, dtype=np.int64),
+                                             react=np.zeros(n)))
 
 
 #: An iterate of the reused factors (:func:`compliant_smooth_step`) counts as converged once
@@ -113,14 +122,15 @@ def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
     pw = ProjectionWork(np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m),
                         np.zeros((m, 6), dtype=np.int64), np.zeros(m, dtype=np.int64),
                         np.zeros((m, m)), np.zeros(m), np.zeros(m, dtype=np.int64))
-    return project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw)
+    return project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw, None)
 
 
 @step_kernel
-def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw):
+def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw, trig):
     """Remove the joints' drift: q1 = q_t + M^-1 G^T nu with g(q1) = 0 (Newton, |g|/h <= tol;
     no iteration when the drift is already within it), then v1 = v_t + M^-1 G^T mu with
-    G(q1) v1 + dg/dt = 0. ``pw``: :data:`ProjectionWork`. Each S = G M^-1 G^T is factorised
+    G(q1) v1 + dg/dt = 0. ``pw``: :data:`ProjectionWork`; ``trig``: the bodies' sines and
+    cosines (:func:`~.bodies.body_point_cached`, or None). Each S = G M^-1 G^T is factorised
     once (LU), the last one serves the velocities too. Returns (iterations, converged)."""
     n = q_t.shape[0]
     m = joint_row_count(ma.jt_type)
@@ -145,7 +155,7 @@ def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw):
     iters = 0
     ok = False
     for it in range(max_iter + 1):
-        bilateral(q1, v_t, t1, ma, g, G, gm, dgdt)
+        bilateral_cached(q1, v_t, t1, ma, g, G, gm, dgdt, trig)
         res = 0.0
         for r in range(m):
             res = max(res, abs(g[r]))
@@ -186,6 +196,51 @@ def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw):
 
 
 @step_kernel
+def _joint_columns(ma, cols, ncols):
+    """The support of every joint row (:func:`~.joints.joint_support`), each in ascending
+    order: the order in which a loop over all columns visits them, so that a sum over a
+    support is the same number as that loop's."""
+    joint_support(ma.jt_type, ma.jt_body, cols, ncols)
+    for r in range(ncols.shape[0]):
+        for a in range(1, ncols[r]):
+            c = cols[r, a]
+            b = a
+            while b > 0 and cols[r, b - 1] > c:
+                cols[r, b] = cols[r, b - 1]
+                b -= 1
+            cols[r, b] = c
+
+
+@step_kernel
+def _residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale, cols, ncols, react):
+    """:func:`~.generalized_alpha.smooth_residual` over the joint rows' supports (``cols``,
+    ``ncols`` from :func:`_joint_columns`; G is zero elsewhere): the same numbers, the same
+    sums in the same order without their zero terms. ``react`` (n): work."""
+    n = vdot1.shape[0]
+    m = lam.shape[0]
+    for i in range(n):
+        react[i] = 0.0
+    for r in range(m):
+        for t in range(ncols[r]):
+            i = cols[r, t]
+            react[i] += G[r, i] * lam[r]
+    res_f = 0.0
+    for i in range(n):
+        rhs[i] = -(mdiag[i] * vdot1[i] - f_t[i] - react[i])
+        res_f = max(res_f, abs(rhs[i]))
+        scale = max(scale, abs(f_t[i]), abs(mdiag[i] * vdot1[i]), abs(react[i]))
+    res_c = 0.0
+    for r in range(m):
+        c = dgdt[r]
+        for t in range(ncols[r]):
+            i = cols[r, t]
+            c += G[r, i] * v_t[i]
+        rhs[n + r] = -c
+        res_c = max(res_c, abs(c))
+    return res_f, res_c, scale
+
+
+@step_kernel
 def _branch(x):
     """Friction branch of a scaled slip x = v_T / v_reg: 0 inside the band, else its sign."""
     if abs(x) < 1.0:
@@ -195,7 +250,8 @@ def _branch(x):
 
 @step_kernel
 def _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, cwork, hw):
-    """Forces (and with ``tangent`` their tangents) and joint rows at (q_t, v_t)."""
+    """Forces (and with ``tangent`` their tangents) and joint rows at (q_t, v_t); of the
+    open contacts only their gaps (:func:`~.hertz.contact_forces_into`)."""
     if tangent:
         # the contacts' tangents are added in their body pairs' blocks: clear those first
         # (smooth_forces_into clears the springs' own)
@@ -203,8 +259,8 @@ def _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, 
         clear_pair_blocks(C_t, ma.ct_body)
     smooth_forces_into(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, tangent, sw.fw, sw.iw)
     contact_forces_into(q_t, v_t, ma, v_pre, v_reg, f_t, K_t, C_t, tangent, cwork[0],
-                        cwork[1], cwork[2], cwork[3], cwork[4], cwork[5:11], hw)
-    bilateral(q_t, v_t, t1, ma, sw.g, sw.G, sw.gm, sw.dgdt)
+                        cwork[1], cwork[2], cwork[3], cwork[4], cwork[5:11], hw, sw.trig)
+    bilateral_cached(q_t, v_t, t1, ma, sw.g, sw.G, sw.gm, sw.dgdt, sw.trig)
 
 
 @step_kernel
@@ -261,6 +317,7 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
     copy_vector(lam_prev, lam, m)
     halvings = 0
     cv = h * gam * ca
+    _joint_columns(ma, bw.jcols, bw.jncols)
     # the updates may use the last step's Newton factors (see the docstring)
     chord = bw.reuse[0] == 1 and bw.c_f[0] == cv
     for it in range(max_iter + 1):
@@ -275,7 +332,8 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
         scale = 1e-300
         for k in range(cwork.shape[1]):
             scale = max(scale, cwork[0, k])
-        res_f, res_c, scale = smooth_residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale)
+        res_f, res_c, scale = _residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale,
+                                        bw.jcols, bw.jncols, bw.react)
         # an iterate of the reused factors converges only linearly: it must be well inside
         # the tolerance, where a Newton iterate (quadratic) lands after its step
         limit = CHORD_TIGHTENING if chord and it > 0 else 1.0
@@ -596,7 +654,11 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
         it_s, ok_s = compliant_smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, tol, max_iter,
                                            ma, q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, sw,
                                            cs.v_pre, st.v_reg, cwork, hw, bw)
-        it_p, ok_p = project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw)
+        # the open contacts' velocities, at the smooth stage's result
+        open_contact_velocities_into(q_t, v_t, ma, cwork[2], cwork[3], cwork[4], cwork[5:11],
+                                     hw, sw.trig)
+        it_p, ok_p = project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw,
+                                         sw.trig)
         for i in range(n):
             q[i] = q1[i]
             v[i] = v1[i]
@@ -646,7 +708,7 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
                 cs.LT[j] = 0.0
                 cs.gap_min[j] = np.inf
                 cs.vn_start[j] = cs.vn[j]
-            out.energy[row] = total_energy(q, v, ma) + elastic_energy_into(q, ma, hw.wN, hw.wT)
+            out.energy[row] = total_energy(q, v, ma) + elastic_energy_into(q, ma, sw.trig)
             for s in range(3):
                 out.iterations[row, s] = cs.it_max[s]
                 cs.it_max[s] = 0
