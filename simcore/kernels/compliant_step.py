@@ -164,7 +164,8 @@ def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw, trig):
                 s = 0.0
                 for t in range(ncols[r]):
                     i = cols[r, t]
-                    s += G[r, i] * G[c, i] / mdiag[i]
+                    if G[c, i] != 0.0:  # (a zero term adds nothing: the same sum, no division)
+                        s += G[r, i] * G[c, i] / mdiag[i]
                 S[r, c] = s
         lu_factor(S, m, piv)
         if res <= target:
