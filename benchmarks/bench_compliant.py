@@ -101,8 +101,11 @@ def main() -> None:
     @njit
     def loop_project(q, v, ma, pw, reps):
         q1, v1 = np.zeros(q.shape[0]), np.zeros(q.shape[0])
+        m = pw.g.shape[0]
+        g, G, dgdt = np.zeros(m), np.zeros((m, q.shape[0])), np.zeros(m)
+        nb.bilateral(q, v, 0.0, ma, g, G, np.zeros(m), dgdt)
         for _ in range(reps):
-            project_joints_into(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1, pw, None)
+            project_joints_into(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1, pw, None, g, G, dgdt)
 
     @njit
     def loop_energy(q, v, ma, hw, reps):

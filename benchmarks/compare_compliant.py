@@ -45,7 +45,8 @@ import numba
 numba.set_num_threads(1)
 import simcore
 from simcore.config import load_config
-from simcore.mechanism import crank_slider
+from simcore.model import SolverSettings
+from simcore.model.mechanism import crank_slider
 
 case, perturb, out = sys.argv[1], float(sys.argv[2]), sys.argv[3]
 if case in ("paper", "steady"):
@@ -59,8 +60,8 @@ if case in ("paper", "steady"):
     model, layout = crank_slider(cfg["model"])
     q0, v0 = model.initial_state()
     q0[3 * layout.balls[0]] += perturb
-    traj = model.simulate(1e-6, t_end, contact_model="compliant", output_every=every,
-                          q0=q0, v0=v0)
+    traj = model.simulate(SolverSettings(1e-6, t_end, contact_model="compliant",
+                                         output_every=every), q0=q0, v0=v0)
     time, F = traj.time, traj.F_N
 else:
     from analysis.impacts import extract_impacts
@@ -71,7 +72,7 @@ else:
     imp = extract_impacts(run, zero_tol=a["zero_tol"], zero_floor=a["zero_floor"],
                           r_eff=a["r_eff"], v_min=a["v_min"])
     t_imp = float(imp["time"].values[int(np.argmax(imp["impulse"].values))])
-    from simcore.compliant_zoom import zoom_trajectory
+    from simcore.study.zoom import zoom_trajectory
     traj = zoom_trajectory(run, t_imp, window=2000 * 3.128e-6, dt=3.128e-6,
                            until_released=False)[0]
     time, F = traj.time, traj.F_N

@@ -65,16 +65,17 @@ def contact_forces(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt
     hw = HertzWork(np.zeros(6), np.zeros(6), np.zeros((6, 6)), np.zeros(6), np.zeros(6),
                    np.zeros(6), np.zeros(6, dtype=np.int64), np.zeros((2, 6)))
     contact_forces_into(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt, WT, hw,
-                        None)
+                        None, np.zeros(ma.ct_type.shape[0], dtype=np.bool_))
     open_contact_velocities_into(q, v, ma, gap, vn, vt, WT, hw, None)
 
 
 @step_kernel
 def open_contact_velocities_into(q, v, ma, gap, vn, vt, WT, hw, trig):
-    """The normal and tangential relative velocities ``vn``, ``vt`` [m/s] and the tangential
-    Jacobian entries ``WT`` of the open contacts (``gap`` >= 0), which
-    :func:`contact_forces_into` leaves out: the time loop needs them once a step, at its end,
-    not at every Newton iterate. ``trig``: see :func:`~.contact.contact_rows_cached`."""
+    """The gaps [m], normal and tangential relative velocities ``vn``, ``vt`` [m/s] and the
+    tangential Jacobian entries ``WT`` of the open contacts (``gap`` >= 0 on entry), which
+    :func:`contact_forces_into` leaves out or skips: the time loop needs them once a step, at
+    its end, not at every Newton iterate. ``trig``: see :func:`~.contact.contact_rows_cached`.
+    """
     wN = hw.wN
     wT = hw.wT
     for k in range(ma.ct_type.shape[0]):
@@ -82,7 +83,7 @@ def open_contact_velocities_into(q, v, ma, gap, vn, vt, WT, hw, trig):
             continue
         ia = ma.ct_body[k, 0]
         ib = ma.ct_body[k, 1]
-        contact_rows_cached(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT, trig)
+        gap[k] = contact_rows_cached(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT, trig)
         vn[k] = row_dot(wN, ia, ib, v)
         vt[k] = row_dot(wT, ia, ib, v)
         for a in range(6):
@@ -91,7 +92,7 @@ def open_contact_velocities_into(q, v, ma, gap, vn, vt, WT, hw, trig):
 
 @step_kernel
 def contact_forces_into(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt, WT, hw,
-                        trig):
+                        trig, skip):
     """Add the compliant contact forces to ``f`` [N, N m] and, with ``tangent``, their
     stiffness ``K`` and damping ``C`` to the matrices (in place). Fills the per-contact normal
     force ``FN`` [N], friction force ``FT`` [N] (along t = e_z x n) and gap [m]; for the
@@ -101,7 +102,9 @@ def contact_forces_into(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, v
     the exact one: mu F / v_reg inside the band |v_T| < v_reg, 0 outside (see
     :func:`simcore.kernels.generalized_alpha.smooth_step` for how Newton copes with the
     kink). ``hw``: work arrays (:func:`hertz_work`); ``trig``: the bodies' sines and cosines
-    (:func:`~.bodies.body_point_cached`, or None)."""
+    (:func:`~.bodies.body_point_cached`, or None). A contact with ``skip`` set is known to be
+    open (see :func:`~.compliant_step.compliant_smooth_step`): no force, its gap left as it
+    is."""
     wN = hw.wN
     wT = hw.wT
     H = hw.H
@@ -110,6 +113,10 @@ def contact_forces_into(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, v
     dFdq = hw.dFdq
     idx = hw.idx
     for k in range(ma.ct_type.shape[0]):
+        if skip[k]:
+            FN[k] = 0.0
+            FT[k] = 0.0
+            continue
         g = contact_gap_cached(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, trig)
         gap[k] = g
         if g >= 0.0:  # open: no force (normal_force of delta = -g <= 0)
