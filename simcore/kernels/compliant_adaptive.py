@@ -173,7 +173,7 @@ def _attempt(t, h, coef, st, ma, state, cs, work, aw):
     aw.reuse_save[0] = work.branches.reuse[1]  # (whether the last step converged)
     it_s, ok_s, it_p, ok_p = compliant_step_into(state.q, state.v, aw.acc_c, state.vdot,
                                                  state.lam_s, t + h, h, ratio, coef, st, ma,
-                                                 cs, work)
+                                                 cs, work, True)
     return it_s, it_p, ok_s and ok_p
 
 
@@ -272,7 +272,7 @@ def integrate_compliant_adaptive(row0, row1, st, ad, ma, state, cs, out, work, a
                 aw.counts[BELOW_DT_MIN] += 1
                 if aw.t_flag[0] < 0.0:
                     aw.t_flag[0] = t + h
-            commit_step(h, state, cs, work, it_s, it_p, not flagged, st.drive_row)
+            commit_step(h, state, cs, work, it_s, it_p, not flagged, st.drive_row, True)
             aw.counts[ACCEPTED] += 1
             steps += 1
             aw.h_min[0] = min(aw.h_min[0], h)

@@ -16,8 +16,8 @@ from collections import namedtuple
 
 import numpy as np
 
-from .bodies import BLOCKS_NEWTON, clear_pair_blocks, fill_pair_blocks
-from .contact import CONTACT_PLANE
+from .bodies import BLOCKS_NEWTON, clear_pair_blocks, fill_pair_blocks, row_dot
+from .contact import CONTACT_PLANE, contact_gap_cached, contact_rows_cached
 from .generalized_alpha import (
     alpha_coefficients,
     alpha_predict,
@@ -30,7 +30,7 @@ from .hertz import (
     hertz_work,
     open_contact_velocities_into,
 )
-from .jit import kernel, loop_kernel, step_kernel
+from .jit import inline_kernel, kernel, loop_kernel, step_kernel
 from .joints import bilateral_cached, joint_row_count, joint_support
 from .linalg import (
     GENERAL,
@@ -72,15 +72,19 @@ ProjectionWork = namedtuple("ProjectionWork", ["g", "G", "gm", "dgdt", "cols", "
 #: order (``jcols`` (m x 6), ``jncols`` (m)) and the joints' reaction G^T lambda (``react``,
 #: n) of the residual (:func:`_residual`); ``xc`` (n): work; ``stats`` (2): the Newton steps
 #: and the chord iterates taken so far (a record of the cost); the open contacts a step's
-#: iterates need not evaluate (:func:`_skip_far_open`): ``q_ref`` (n) and ``g_ref`` (nc) the
-#: first iterate's coordinates and gaps, ``skip`` (nc), ``lever`` (2 x nc) the distance of each
-#: contact's point from its body's reference point [m]; ``ready`` (1): whether ``jcols``,
-#: ``jncols`` and ``lever`` are made (:func:`_prepare`).
+#: iterates need not evaluate (:func:`_skip_far_open`): ``q_ref``, ``v_ref`` (n) and ``g_ref``
+#: (nc) the state and the gaps they are measured from (the last step's result, or this step's
+#: first iterate while ``ready[1]`` is 0), ``skip`` (nc), ``lever`` (2 x nc) the distance of
+#: each contact's point from its body's reference point [m]; ``stale`` (nc): the open contacts
+#: whose velocities the last step left out (their onset speed, should they close, comes from
+#: the reference state: :func:`_lazy_onset_speeds`); ``ready`` (2): whether ``jcols``,
+#: ``jncols`` and ``lever`` are made (:func:`_prepare`) and whether the reference is the last
+#: step's result.
 BranchWork = namedtuple("BranchWork", ["J2", "r2", "current", "assumed", "r0", "W", "Z",
                                        "first_w", "first_z", "G_f", "c_f", "reuse",
                                        "vdot_old", "jcols", "jncols", "react", "inv_t", "jg",
-                                       "s_inv", "xc", "stats", "q_ref", "g_ref", "skip",
-                                       "lever", "ready"])
+                                       "s_inv", "xc", "stats", "q_ref", "v_ref", "g_ref",
+                                       "skip", "lever", "stale", "ready"])
 
 
 def projection_work(n, m):
@@ -113,10 +117,12 @@ def compliant_work(n, nbil, nc):
                                              jg=np.zeros((nbil, n)),
                                              s_inv=np.zeros((nbil, nbil)), xc=np.zeros(n),
                                              stats=np.zeros(2, dtype=np.int64),
-                                             q_ref=np.zeros(n), g_ref=np.zeros(nc),
+                                             q_ref=np.zeros(n), v_ref=np.zeros(n),
+                                             g_ref=np.zeros(nc),
                                              skip=np.zeros(nc, dtype=np.bool_),
                                              lever=np.zeros((2, nc)),
-                                             ready=np.zeros(1, dtype=np.int64)))
+                                             stale=np.zeros(nc, dtype=np.bool_),
+                                             ready=np.zeros(2, dtype=np.int64)))
 
 
 #: An iterate of the reused factors (:func:`compliant_smooth_step`) counts as converged once
@@ -259,11 +265,11 @@ def _prepare(ma, bw):
 @step_kernel
 def _skip_far_open(q_t, ma, bw):
     """Mark the contacts that are open at the iterate ``q_t`` because they were open at the
-    step's first iterate (``bw.q_ref``, gaps ``bw.g_ref``) by more than the iterates have moved
-    since: a sphere element's gap changes by at most the motion of its two points, each at most
-    |dx| + |dy| + lever |dphi| of its body (a plane turning with its body is always
-    evaluated). Such a contact has no force at this iterate, whatever its exact gap; its gap and
-    velocities at the step's result come from :func:`~.hertz.open_contact_velocities_into`."""
+    reference state (``bw.q_ref``, gaps ``bw.g_ref``: the last step's result) by more than the
+    bodies have moved since: a sphere element's gap changes by at most the motion of its two
+    points, each at most |dx| + |dy| + lever |dphi| of its body (a plane turning with its body
+    is always evaluated). Such a contact has no force at this iterate, whatever its exact gap;
+    its gap at the step's result comes from :func:`finish_contacts`."""
     for k in range(ma.ct_type.shape[0]):
         g0 = bw.g_ref[k]
         skip = g0 > 0.0 and not (ma.ct_type[k] == CONTACT_PLANE and ma.ct_body[k, 0] >= 0)
@@ -280,6 +286,38 @@ def _skip_far_open(q_t, ma, bw):
 
 
 @step_kernel
+def _lazy_onset_speeds(q_t, ma, v_pre, v_pre_min, bw, hw, trig):
+    """The onset speed of each contact that the iterate ``q_t`` closes although it was open,
+    with its velocities left out, at the last step's result (``bw.stale``): the approach speed
+    there, max(-vn, v_pre_min), from the reference state (``bw.q_ref``, ``bw.v_ref``), the same
+    number the step would have computed at its start (:func:`compliant_step_into`)."""
+    for k in range(ma.ct_type.shape[0]):
+        if not bw.stale[k] or bw.skip[k]:
+            continue
+        if contact_gap_cached(q_t, k, ma.ct_type, ma.ct_body, ma.ct_geom, trig) < 0.0:
+            ia = ma.ct_body[k, 0]
+            ib = ma.ct_body[k, 1]
+            contact_rows_cached(bw.q_ref, k, ma.ct_type, ma.ct_body, ma.ct_geom, hw.wN, hw.wT,
+                                trig)
+            v_pre[k] = max(-row_dot(hw.wN, ia, ib, bw.v_ref), v_pre_min)
+            bw.stale[k] = False
+
+
+@step_kernel
+def finish_contacts(q_t, v_t, ma, cwork, bw, hw, trig, velocities):
+    """The contacts at a step's result (q_t, v_t) beyond what its last iterate evaluated:
+    the gaps of the contacts it skipped, and with ``velocities`` the normal and tangential
+    velocities of every open contact (:func:`~.hertz.open_contact_velocities_into`; where
+    these are left out, their contacts become ``bw.stale``, see :func:`commit_step`)."""
+    for k in range(ma.ct_type.shape[0]):
+        if bw.skip[k]:
+            cwork[2, k] = contact_gap_cached(q_t, k, ma.ct_type, ma.ct_body, ma.ct_geom, trig)
+    if velocities:
+        open_contact_velocities_into(q_t, v_t, ma, cwork[2], cwork[3], cwork[4], cwork[5:11],
+                                     hw, trig)
+
+
+@inline_kernel
 def _residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale, cols, ncols, react):
     """:func:`~.generalized_alpha.smooth_residual` over the joint rows' supports (``cols``,
     ``ncols`` from :func:`_joint_columns`; G is zero elsewhere): the same numbers, the same
@@ -316,7 +354,7 @@ def _branch(x):
     return 1 if x > 0.0 else -1
 
 
-@step_kernel
+@inline_kernel
 def _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, cwork, hw,
               skip):
     """Forces (and with ``tangent`` their tangents) and joint rows at (q_t, v_t); of the
@@ -336,7 +374,7 @@ def _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, 
 @step_kernel
 def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t,
                           acc1, vdot1, f_t, K_t, C_t, Ks_t, sw, v_pre, v_reg, cwork, hw, bw,
-                          ratio):
+                          ratio, v_pre_min):
     """The generalized-alpha stage of a compliant step: Newton on ``vdot1`` with the springs'
     and the Hertz contacts' forces and their exact tangents, joints at velocity level. The
     scheme of :func:`~.generalized_alpha.smooth_step` (the nonsmooth model's) with the contact
@@ -407,16 +445,18 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
         # evaluated with it, unless its update reuses the last factors; a later iterate first
         # gets its forces alone
         tangent = it == 0 and not chord
-        # the first iterate evaluates every contact; later ones not those that cannot have
-        # closed since (_skip_far_open)
-        if it == 0:
+        # the open contacts that cannot have closed since the last step's result (or, for a
+        # first step, since this one's first iterate) are not evaluated (_skip_far_open)
+        first = it == 0 and bw.ready[1] == 0
+        if first:
             for k in range(bw.skip.shape[0]):
                 bw.skip[k] = False
         else:
             _skip_far_open(q_t, ma, bw)
+        _lazy_onset_speeds(q_t, ma, v_pre, v_pre_min, bw, hw, sw.trig)
         _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, cwork, hw,
                   bw.skip)
-        if it == 0:
+        if first:
             copy_vector(bw.q_ref, q_t, n)
             copy_vector(bw.g_ref, cwork[2], bw.g_ref.shape[0])
         # contact forces and the loads they balance cancel in f_t: the force scale of the
@@ -653,7 +693,7 @@ def _chord_operator(fac, G, c, S, piv, bw):
             bw.s_inv[a, b] = e[a]
 
 
-@step_kernel
+@inline_kernel
 def _chord_apply(fac, G, c, c_ratio, bw, rhs):
     """Solve [J, -G^T; c G, 0] [x; y] = rhs in place with the inverses of
     :func:`_chord_operator` (made from the factors of this J, G and c): x0 = J^-1 r,
@@ -786,49 +826,57 @@ def _friction_branches(J, rhs, G, cv, sol, ma, v_reg, cwork, sw, bw):
 
 
 @step_kernel
-def compliant_step_into(q, v, acc, vdot, lam_s, t1, h, ratio, coef, st, ma, cs, work):
+def compliant_step_into(q, v, acc, vdot, lam_s, t1, h, ratio, coef, st, ma, cs, work,
+                        velocities):
     """One compliant step of size ``h`` [s] ending at ``t1`` [s] from the state (q, v, acc,
     vdot, lam_s): onset speeds of the open contacts, the smooth stage
     (:func:`compliant_smooth_step`, its first iterate extrapolated over ``ratio`` = h over the
-    last step), the open contacts' velocities at its result and the joint projection. The
-    step's end state is left in ``work.step`` (q1, v1, acc1, vdot1; ``lam_s`` is updated in
-    place), its contact quantities in ``work.contacts``. Returns (smooth iterations,
-    converged, projection iterations, converged)."""
+    last step), the contacts at its result (:func:`finish_contacts`; the open ones'
+    velocities only with ``velocities``) and the joint projection. The step's end state is
+    left in ``work.step`` (q1, v1, acc1, vdot1; ``lam_s`` is updated in place), its contact
+    quantities in ``work.contacts``. Returns (smooth iterations, converged, projection
+    iterations, converged)."""
     q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
     cwork = work.contacts
     sw = work.smooth
     hw = work.hertz
-    # onset speeds of the contacts open at the start of the step
+    bw = work.branches
+    # onset speeds of the contacts open at the start of the step (of those whose velocities the
+    # last step left out, when they close: _lazy_onset_speeds)
     for j in range(ma.ct_type.shape[0]):
-        if cs.closed[j] == 0:
+        if cs.closed[j] == 0 and not bw.stale[j]:
             cs.v_pre[j] = max(-cs.vn[j], st.v_pre_min)
     it_s, ok_s = compliant_smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, st.tol,
                                        st.max_iter, ma, q_t, v_t, acc1, vdot1, f_t, K_t, C_t,
-                                       Ks_t, sw, cs.v_pre, st.v_reg, cwork, hw, work.branches,
-                                       ratio)
-    # the open contacts' velocities, at the smooth stage's result
-    open_contact_velocities_into(q_t, v_t, ma, cwork[2], cwork[3], cwork[4], cwork[5:11], hw,
-                                 sw.trig)
+                                       Ks_t, sw, cs.v_pre, st.v_reg, cwork, hw, bw, ratio,
+                                       st.v_pre_min)
+    finish_contacts(q_t, v_t, ma, cwork, bw, hw, sw.trig, velocities)
     it_p, ok_p = project_joints_into(q_t, v_t, t1, h, st.tol, st.max_iter, ma, q1, v1,
                                      work.projection, sw.trig, sw.g, sw.G, sw.dgdt)
     return it_s, ok_s, it_p, ok_p
 
 
 @step_kernel
-def commit_step(h, state, cs, work, it_s, it_p, ok, drive_row):
-    """Take the step of :func:`compliant_step_into` (size ``h`` [s]): its end state becomes the
-    state, and its contact forces (those of the converged smooth stage: the joint projection
-    moves the state by the joints' drift only, far below the indentations) are added to the
-    output interval's records (largest force and the friction at it, impulses by the
-    trapezoidal rule, smallest gap, the drive's torque impulse [N m s]) with its iteration
-    counts and convergence."""
+def commit_step(h, state, cs, work, it_s, it_p, ok, drive_row, velocities):
+    """Take the step of :func:`compliant_step_into` (size ``h`` [s]; ``velocities``: whether
+    it computed the open contacts' velocities): its end state becomes the state, and its
+    contact forces (those of the converged smooth stage: the joint projection moves the state
+    by the joints' drift only, far below the indentations) are added to the output interval's
+    records (largest force and the friction at it, impulses by the trapezoidal rule, smallest
+    gap, the drive's torque impulse [N m s]) with its iteration counts and convergence. The
+    smooth stage's result becomes the reference of the next step's contacts
+    (:func:`_skip_far_open`, :func:`_lazy_onset_speeds`)."""
     q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
     cwork = work.contacts
+    bw = work.branches
     for i in range(q1.shape[0]):
         state.q[i] = q1[i]
         state.v[i] = v1[i]
         state.acc[i] = acc1[i]
         state.vdot[i] = vdot1[i]
+        bw.q_ref[i] = q_t[i]
+        bw.v_ref[i] = v_t[i]
+    bw.ready[1] = 1
     for j in range(cs.FN.shape[0]):
         FN_old = cs.FN[j]
         FT_old = cs.FT[j]
@@ -838,6 +886,8 @@ def commit_step(h, state, cs, work, it_s, it_p, ok, drive_row):
         cs.vn[j] = cwork[3, j]
         cs.vt[j] = cwork[4, j]
         cs.closed[j] = 1 if cs.gap[j] < 0.0 else 0
+        bw.g_ref[j] = cs.gap[j]
+        bw.stale[j] = not velocities and cs.closed[j] == 0
         cs.LN[j] += 0.5 * h * (FN_old + cs.FN[j])
         cs.LT[j] += 0.5 * h * (FT_old + cs.FT[j])
         if cs.FN[j] > cs.FN_max[j]:
@@ -921,13 +971,16 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
     first_bad = -1
     for k in range(k0, k1):
         t1 = st.t0 + (k + 1) * h
+        # the open contacts' velocities are needed at the output rows only (elsewhere an
+        # onset speed is computed when its contact closes)
+        sample = (k + 1) % every == 0
         it_s, ok_s, it_p, ok_p = compliant_step_into(state.q, state.v, state.acc, state.vdot,
                                                      state.lam_s, t1, h, 1.0, coef, st, ma,
-                                                     cs, work)
+                                                     cs, work, sample)
         ok = ok_s and ok_p
-        commit_step(h, state, cs, work, it_s, it_p, ok, st.drive_row)
+        commit_step(h, state, cs, work, it_s, it_p, ok, st.drive_row, sample)
         if not ok and first_bad < 0:
             first_bad = k
-        if (k + 1) % every == 0:
+        if sample:
             write_sample((k + 1) // every, state, cs, out, ma, st.drive_row, work.smooth.trig)
     return first_bad
