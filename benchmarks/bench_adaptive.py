@@ -1,23 +1,36 @@
 """Adaptive against fixed compliant steps on steady points of the study, with steel.
 
-For each point (constant drive, E = 2.1e11 Pa, ``--revolutions`` crank revolutions) it runs
-the compliant model with fixed steps of decreasing size (``--fixed``, a sequence halving
-towards convergence) and with adaptive steps (``solver.adaptive``, largest step ``--dt-max``,
-``--tols`` local error tolerances [m]), all on the same output grid (``--output-dt``), and
-prints for each run the largest normal force per race (inner, outer) in each revolution after
-the first, its largest relative change against the finest fixed step, the steps taken (and
-rejected) and the wall and CPU time of the integration (one thread; the machine may be
-shared, so times are noisy and steps are the stable measure of cost).
+Each point runs the compliant model (constant drive, E = 2.1e11 Pa) for ``--revolutions``
+crank revolutions; the number compared is the largest normal force per race (inner, outer) in
+each revolution after the first, the study's steady statistic.
 
-Points:
+These runs are chaotic: a change of 1e-15 m in the initial position of one ball changes those
+peaks by up to some ten per cent (printed as "chaos"), far more than any step size does. So a
+whole run cannot show that the peaks converge with the step. The script therefore measures in
+two ways:
 
-- ``reference``: the study's steady reference point, clearance 4e-4 m, mu 0.01, omega0 50
-  rad/s, e_N 0.9;
-- ``small``: clearance 2e-5 m, mu 0.01, omega0 100 rad/s, e_N 0.7.
+1. Through each peak (``windows``): the fixed-step run at ``--dt-ref`` is restarted from its
+   state (positions, velocities, the contacts' onset speeds) ``--lead`` seconds before the
+   peak's output interval and integrated for ``--window`` seconds with fixed steps of
+   decreasing size (``--fixed``) and with adaptive steps (``--tols``); printed: the largest
+   force of the peak's race in the window for each, and its relative change against the finest
+   fixed step. This is where the fixed step converges and where the adaptive step must agree
+   with it.
+2. Whole runs (``runs``): the fixed step at ``--dt-ref`` and the adaptive steps over all the
+   revolutions: the per-revolution peaks, the steps taken (and rejected), Newton steps, wall
+   and CPU time of the integration, and the same fixed run with the initial state moved by
+   1e-15 m (the chaos the peaks carry whatever the steps).
+
+All runs share the output grid ``--output-dt`` (per interval the largest force is kept, so no
+peak is lost). Times are on one thread of a possibly shared machine: steps are the stable
+measure of cost.
+
+Points: ``reference`` (the study's reference point: clearance 4e-4 m, mu 0.01, omega0 50
+rad/s, e_N 0.9) and ``small`` (clearance 2e-5 m, mu 0.01, omega0 100 rad/s, e_N 0.7).
 
 Usage: python benchmarks/bench_adaptive.py [--points reference small] [--revolutions 4]
-       [--fixed 2e-6 1e-6 5e-7 2.5e-7] [--dt-max 1e-5] [--tols 1e-9] [--output-dt 1e-5]
-       [--json FILE]
+       [--dt-ref 5e-7] [--fixed 2e-6 1e-6 5e-7 2.5e-7 1.25e-7] [--tols 1e-9]
+       [--dt-max 1e-5] [--output-dt 1e-5] [--window 1e-3] [--lead 5e-4] [--json FILE]
 """
 
 from __future__ import annotations
@@ -36,9 +49,11 @@ POINTS = {
     "small": {"model.clearance": 2e-5, "model.mu": 0.01, "model.omega0": 100.0,
               "model.e_N": 0.7},
 }
+RACES = ("inner", "outer")
 
 
 def point_config(name: str):
+    """The validated configuration of a point (compliant, steel, constant drive)."""
     from simcore.config import load_config
 
     overrides = [f"{k}={v}" for k, v in POINTS[name].items()]
@@ -47,57 +62,168 @@ def point_config(name: str):
     return load_config(overrides=overrides)
 
 
-def revolution_peaks(traj, omega0: float, n_balls: int, revolutions: int) -> np.ndarray:
-    """Largest F_N per revolution (rows: revolutions 2 .. ``revolutions``) and race (columns:
-    inner, outer) [N]. A row's interval belongs to the revolution its end time falls in."""
-    rev = np.floor(traj.time[1:] * omega0 / (2.0 * math.pi) * (1.0 - 1e-12)).astype(int)
-    F = traj.F_N[1:]
+def revolution_of_rows(time_: np.ndarray, omega0: float, t0: float = 0.0) -> np.ndarray:
+    """Crank revolution (0 = the first) of each output interval, by its end time."""
+    return np.floor((time_[1:] - t0) * omega0 / (2.0 * math.pi) * (1.0 - 1e-12)).astype(int)
+
+
+def revolution_peaks(traj, omega0: float, n_balls: int, revolutions: int):
+    """Largest F_N [N] per revolution after the first (rows) and race (columns), and the
+    output row of each."""
+    rev = revolution_of_rows(traj.time, omega0)
     peaks = np.zeros((revolutions - 1, 2))
+    rows = np.zeros((revolutions - 1, 2), dtype=int)
     for r in range(1, revolutions):
-        rows = rev == r
-        peaks[r - 1, 0] = F[rows, :n_balls].max()
-        peaks[r - 1, 1] = F[rows, n_balls:].max()
-    return peaks
+        sel = np.flatnonzero(rev == r)
+        for c, cols in enumerate((slice(0, n_balls), slice(n_balls, 2 * n_balls))):
+            f = traj.F_N[1:][sel, cols].max(axis=1)
+            i = int(np.argmax(f))
+            peaks[r - 1, c] = f[i]
+            rows[r - 1, c] = sel[i] + 1
+    return peaks, rows
 
 
-def run(name: str, revolutions: int, dt: float, output_dt: float, adaptive: bool,
-        tol: float) -> dict:
+def simulate(model, dt, t_end, output_dt, adaptive, tol, dt_max, q0=None, v0=None, t0=0.0,
+             v_pre0=None):
+    """One compliant run; returns (trajectory, CPU seconds, steps, rejected steps)."""
     from simcore.model import SolverSettings
-    from simcore.model.mechanism import crank_slider
 
-    cfg = point_config(name)
-    model, _ = crank_slider(cfg["model"])
-    omega0 = cfg["model"]["omega0"]
-    t_end = revolutions * 2.0 * math.pi / omega0
-    every = max(1, round(output_dt / dt))
-    settings = SolverSettings(dt, t_end, contact_model="compliant", output_every=every,
-                              adaptive=adaptive, adaptive_tol=tol, on_nonconvergence="warn",
-                              chunk=100 * every)
+    step = dt_max if adaptive else dt
+    every = max(1, round(output_dt / step))
+    settings = SolverSettings(step, t_end, contact_model="compliant", output_every=every,
+                              adaptive=adaptive, adaptive_tol=tol or 1e-9,
+                              on_nonconvergence="warn", chunk=max(500, 10 * every))
     cpu = time.process_time()
-    traj = model.simulate(settings)
+    traj = model.simulate(settings, q0=q0, v0=v0, t0=t0, v_pre0=v_pre0)
     cpu = time.process_time() - cpu
     rec = traj.extras.get("adaptive")
     steps = rec["n_steps_accepted"] if rec else settings.n_steps
-    return {
-        "point": name, "adaptive": adaptive, "dt": dt, "tol": tol if adaptive else None,
-        "peaks": revolution_peaks(traj, omega0, cfg["model"]["n_balls"], revolutions).tolist(),
-        "steps": int(steps), "rejected": int(rec["n_steps_rejected"]) if rec else 0,
-        "dt_smallest": rec["dt_smallest_s"] if rec else dt,
-        "newton": traj.extras["newton_steps"], "chord": traj.extras["chord_iterates"],
-        "wall_s": traj.wall_time_s, "cpu_s": cpu, "flagged": int((traj.converged == 0).sum()),
-    }
+    return traj, cpu, int(steps), int(rec["n_steps_rejected"]) if rec else 0
+
+
+def restart_state(model, args, row):
+    """The fixed-step run's state at output row ``row``: (q, v, onset speeds, time), from the
+    same run stopped there (the same steps, so the same numbers)."""
+    traj = simulate(model, args.dt_ref, row * args.output_dt, args.output_dt, False, None,
+                    args.dt_max)[0]
+    return (traj.q[-1].copy(), traj.v[-1].copy(),
+            traj.extras["compliant_state"].v_pre.copy(), float(traj.time[-1]))
+
+
+def windows(name, model, ref, rows, args) -> list[dict]:
+    """Restarts through each per-revolution peak (see the module docstring): from the fixed
+    run's state (positions, velocities and the contacts' onset speeds) before the peak."""
+    n_balls = (ref.F_N.shape[1]) // 2
+    lead_rows = round(args.lead / args.output_dt)
+    starts = {}
+    out = []
+    for r in range(rows.shape[0]):
+        for c in range(2):
+            start = max(rows[r, c] - lead_rows, 1)
+            if start not in starts:
+                starts[start] = restart_state(model, args, start)
+            q0, v0, v_pre0, t0 = starts[start]
+            cols = slice(c * n_balls, (c + 1) * n_balls)
+            row = {"point": name, "revolution": r + 1, "race": RACES[c], "t0": t0,
+                   "runs": []}
+            for kind, dt, tol in ([("fixed", dt, None) for dt in args.fixed]
+                                  + [("adaptive", None, tol) for tol in args.tols]):
+                traj, cpu, steps, rej = simulate(model, dt, args.window, args.output_dt,
+                                                 kind == "adaptive", tol, args.dt_max, q0, v0,
+                                                 t0, v_pre0)
+                row["runs"].append({"kind": kind, "dt": dt, "tol": tol, "steps": steps,
+                                    "rejected": rej, "peak": float(traj.F_N[1:, cols].max()),
+                                    "flagged": int((traj.converged == 0).sum())})
+            finest = row["runs"][len(args.fixed) - 1]["peak"]
+            for run in row["runs"]:
+                run["change"] = abs(run["peak"] - finest) / finest
+            out.append(row)
+    return out
+
+
+def print_windows(rows, args) -> None:
+    print(f"  through each peak: restart {args.lead * 1e3:g} ms before its interval, "
+          f"{args.window * 1e3:g} ms; largest force of its race [N] (change against dt = "
+          f"{args.fixed[-1]:g} s), steps; 'not converged': a flagged step (the run goes on "
+          "with on_nonconvergence = warn)")
+    for row in rows:
+        cells = []
+        for run in row["runs"]:
+            label = f"dt {run['dt']:g}" if run["kind"] == "fixed" else f"tol {run['tol']:g}"
+            if run["flagged"]:
+                cells.append(f"{label}: not converged")
+                continue
+            cells.append(f"{label}: {run['peak']:.1f} ({run['change']:.1e}) {run['steps']}")
+        print(f"    rev {row['revolution']} {row['race']:<5} t0 = {row['t0']:.5f} s: "
+              + "; ".join(cells))
+
+
+def whole_runs(name, model, cfg, args) -> dict:
+    omega0, n_balls = cfg["model"]["omega0"], cfg["model"]["n_balls"]
+    t_end = args.revolutions * 2.0 * math.pi / omega0
+    res = {}
+    ref, cpu, steps, _ = simulate(model, args.dt_ref, t_end, args.output_dt, False, None,
+                                  args.dt_max)
+    peaks, rows = revolution_peaks(ref, omega0, n_balls, args.revolutions)
+    res["fixed"] = {"dt": args.dt_ref, "peaks": peaks.tolist(), "steps": steps,
+                    "rejected": 0, "newton": ref.extras["newton_steps"], "cpu_s": cpu,
+                    "wall_s": ref.wall_time_s, "flagged": int((ref.converged == 0).sum())}
+    q0, v0 = model.initial_state()
+    q0[3 * 3] += 1e-15  # the first ball's x
+    pert = simulate(model, args.dt_ref, t_end, args.output_dt, False, None, args.dt_max,
+                    q0, v0)[0]
+    res["chaos"] = {"peaks": revolution_peaks(pert, omega0, n_balls,
+                                              args.revolutions)[0].tolist()}
+    for tol in args.tols:
+        traj, cpu, steps, rej = simulate(model, None, t_end, args.output_dt, True, tol,
+                                         args.dt_max)
+        rec = traj.extras["adaptive"]
+        res[f"adaptive {tol:g}"] = {
+            "tol": tol, "dt_max": args.dt_max,
+            "peaks": revolution_peaks(traj, omega0, n_balls, args.revolutions)[0].tolist(),
+            "steps": steps, "rejected": rej, "newton": traj.extras["newton_steps"],
+            "dt_smallest": rec["dt_smallest_s"], "cpu_s": cpu, "wall_s": traj.wall_time_s,
+            "flagged": int((traj.converged == 0).sum())}
+    return res, ref, rows
+
+
+def print_runs(res, args) -> None:
+    fixed = np.array(res["fixed"]["peaks"])
+    print(f"  whole runs, {args.revolutions} revolutions: largest force per revolution "
+          "2.. (inner | outer) [N], change against the fixed step")
+    for key, r in res.items():
+        peaks = np.array(r["peaks"])
+        change = float(np.max(np.abs(peaks - fixed) / fixed))
+        inner = " ".join(f"{x:7.1f}" for x in peaks[:, 0])
+        outer = " ".join(f"{x:7.1f}" for x in peaks[:, 1])
+        label = (f"fixed dt {r['dt']:g} s" if key == "fixed" else
+                 "fixed, ball moved 1e-15 m" if key == "chaos" else
+                 f"adaptive tol {r['tol']:g} m, dt <= {r['dt_max']:g} s")
+        cost = ""
+        if "steps" in r:
+            cost = (f"; {r['steps']:,} steps, {r['rejected']:,} rejected, {r['newton']:,} "
+                    f"Newton steps; wall {r['wall_s']:.1f} s, CPU {r['cpu_s']:.1f} s; "
+                    f"flagged {r['flagged']}")
+            if "dt_smallest" in r:
+                cost += f"; smallest step {r['dt_smallest']:.3g} s"
+        print(f"    {label:<36} {inner} | {outer}  change {change:.1e}{cost}")
 
 
 def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--points", nargs="+", default=["reference", "small"])
     p.add_argument("--revolutions", type=int, default=4)
-    p.add_argument("--fixed", nargs="+", type=float, default=[2e-6, 1e-6, 5e-7, 2.5e-7])
-    p.add_argument("--dt-max", type=float, default=1e-5)
+    p.add_argument("--dt-ref", type=float, default=5e-7)
+    p.add_argument("--fixed", nargs="+", type=float,
+                   default=[2e-6, 1e-6, 5e-7, 2.5e-7, 1.25e-7])
     p.add_argument("--tols", nargs="+", type=float, default=[1e-9])
+    p.add_argument("--dt-max", type=float, default=1e-5)
     p.add_argument("--output-dt", type=float, default=1e-5)
+    p.add_argument("--window", type=float, default=1e-3)
+    p.add_argument("--lead", type=float, default=5e-4)
     p.add_argument("--json", default=None)
     args = p.parse_args()
+    args.fixed = sorted(args.fixed, reverse=True)
 
     import numba
 
@@ -108,32 +234,18 @@ def main() -> None:
     warm = crank_slider(point_config("reference")["model"])[0]
     for adaptive in (False, True):  # compile or load the kernels before timing
         warm.simulate(SolverSettings(1e-6, 1e-5, contact_model="compliant", adaptive=adaptive))
-    results = []
+    report = {}
     for name in args.points:
-        fixed = [run(name, args.revolutions, dt, args.output_dt, False, 0.0)
-                 for dt in sorted(args.fixed, reverse=True)]
-        adaptive = [run(name, args.revolutions, args.dt_max, args.output_dt, True, tol)
-                    for tol in args.tols]
-        ref = np.array(fixed[-1]["peaks"])
-        print(f"\n{name}: {POINTS[name]}, steel, constant drive, {args.revolutions} "
-              f"revolutions; largest F_N per race in revolutions 2..{args.revolutions} "
-              f"(inner | outer) [N]; change: largest relative difference to the finest fixed "
-              f"step (dt = {fixed[-1]['dt']:g} s)")
-        for r in fixed + adaptive:
-            peaks = np.array(r["peaks"])
-            r["change"] = float(np.max(np.abs(peaks - ref) / ref))
-            label = (f"adaptive tol {r['tol']:g} m, dt <= {r['dt']:g}" if r["adaptive"]
-                     else f"fixed dt {r['dt']:g} s")
-            inner = " ".join(f"{x:8.1f}" for x in peaks[:, 0])
-            outer = " ".join(f"{x:8.1f}" for x in peaks[:, 1])
-            extra = (f", {r['rejected']} rejected, smallest {r['dt_smallest']:.3g} s"
-                     if r["adaptive"] else "") + f", {r['newton']:,} Newton steps"
-            print(f"  {label:<36} {inner} | {outer}   change {r['change']:.2e}; "
-                  f"{r['steps']:,} steps{extra}; wall {r['wall_s']:.1f} s, CPU {r['cpu_s']:.1f} s; "
-                  f"flagged {r['flagged']}")
-        results += fixed + adaptive
+        cfg = point_config(name)
+        model = crank_slider(cfg["model"])[0]
+        print(f"\n{name}: {POINTS[name]}, E = 2.1e11 Pa, constant drive")
+        res, ref, rows = whole_runs(name, model, cfg, args)
+        print_runs(res, args)
+        win = windows(name, model, ref, rows, args)
+        print_windows(win, args)
+        report[name] = {"runs": res, "windows": win}
     if args.json:
-        Path(args.json).write_text(json.dumps(results, indent=1))
+        Path(args.json).write_text(json.dumps(report, indent=1))
 
 
 if __name__ == "__main__":

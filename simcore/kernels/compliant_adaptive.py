@@ -33,7 +33,11 @@ onset step's depth inside (approach speed times onset step), else the step is re
 the crossing estimated from the gaps at its start and end (no shorter than the onset step).
 Before a step, an open contact that approaches and would close within it shortens the step to
 end at its predicted closing (no shorter than its onset step), so that most onsets need no
-redone step.
+redone step. The onset speed of a contact that closes in a step (the v_pre of its damping
+term) is its approach speed where its gap crosses zero, from the gaps and normal velocities at
+the step's ends (:func:`settle_onset_speeds`; the step is redone with it), not that of the last
+open state as with a fixed step: a long step before a slow closing would otherwise set the
+damping of a loaded contact.
 
 Steps land on the output grid (every ``out_dt``): the rest of an interval is cut into equal
 steps no longer than the planned one, so that a steady plan gives steps of one size. There the
@@ -64,6 +68,8 @@ GROWTH_MIN = 1.5
 FAILED_SHRINK = 0.25
 #: an undamped Hertz impact lasts this many times delta_max over the approach speed
 HERTZ_TIME = 2.94
+#: a step is redone at most this many times for the onset speeds of its closing contacts
+MAX_ONSET_REDOS = 3
 
 #: ``counts`` entries of :data:`~.bundles.AdaptiveState`
 ACCEPTED = 0
@@ -156,6 +162,50 @@ def onset_retry(h, q, cs, cwork, ma, onset_steps, hw, trig):
 
 
 @step_kernel
+def crossing_speed(g0, g1, vn0, vn1, h):
+    """Normal velocity [m/s] where a gap that is ``g0`` >= 0 at the start of a step of size
+    ``h`` [s] and ``g1`` < 0 at its end (rates ``vn0``, ``vn1`` [m/s]) crosses zero: the root of
+    its cubic Hermite interpolant (bisection) and the interpolant's rate there."""
+    d0 = h * vn0
+    d1 = h * vn1
+    lo = 0.0
+    hi = 1.0
+    for _ in range(50):
+        s = 0.5 * (lo + hi)
+        g = ((2.0 * s - 3.0) * s * s + 1.0) * g0 + ((s - 2.0) * s + 1.0) * s * d0 \
+            + (3.0 - 2.0 * s) * s * s * g1 + (s - 1.0) * s * s * d1
+        if g > 0.0:
+            lo = s
+        else:
+            hi = s
+    s = 0.5 * (lo + hi)
+    rate = (6.0 * s * s - 6.0 * s) * g0 + (3.0 * s * s - 4.0 * s + 1.0) * d0 \
+        + (6.0 * s - 6.0 * s * s) * g1 + (3.0 * s * s - 2.0 * s) * d1
+    return rate / h
+
+
+@step_kernel
+def settle_onset_speeds(h, cs, cwork, onset, v_pre_min):
+    """Whether the onset speed of every contact that closed in the step of size ``h`` [s] is
+    its approach speed where its gap crossed zero (:func:`crossing_speed`, from the gaps and
+    normal velocities at the step's start and end), to 1e-3; those that are not get it in
+    ``onset`` for the step to be redone with. (The fixed step takes the approach speed of the
+    last open state, one step before the crossing; a long adaptive step would make that an
+    error of the acceleration times the step, which for a contact that closes slowly, a ball
+    rolling into a loaded contact, changes the damping term by as much as the force.)"""
+    settled = True
+    for k in range(cs.closed.shape[0]):
+        if cs.closed[k] != 0 or not cwork[2, k] < 0.0:
+            continue
+        speed = max(-crossing_speed(max(cs.gap[k], 0.0), cwork[2, k], cs.vn[k], cwork[3, k],
+                                    h), v_pre_min)
+        if abs(speed - cs.v_pre[k]) > 1e-3 * speed:
+            onset[k] = speed
+            settled = False
+    return settled
+
+
+@step_kernel
 def _attempt(t, h, coef, st, ma, state, cs, work, aw):
     """One step of size ``h`` [s] from time ``t`` [s], its end left in the work arrays (the
     state is unchanged but for ``lam_s`` and the smooth stage's records, which
@@ -186,6 +236,13 @@ def _undo(state, work, aw):
     for i in range(state.q.shape[0]):
         work.branches.vdot_old[i] = aw.vdot_old_save[i]
     work.branches.reuse[1] = aw.reuse_save[0]
+
+
+@step_kernel
+def _clear(onset):
+    """No onset speed given (NaN) for any contact."""
+    for k in range(onset.shape[0]):
+        onset[k] = np.nan
 
 
 @step_kernel
@@ -231,6 +288,7 @@ def integrate_compliant_adaptive(row0, row1, st, ad, ma, state, cs, out, work, a
     c_e = error_constant(coef)
     trig = work.smooth.trig
     first_bad = -1
+    redos = 0
     for row in range(row0, row1):
         t = st.t0 + row * ad.out_dt
         t_stop = st.t0 + (row + 1) * ad.out_dt
@@ -252,11 +310,13 @@ def integrate_compliant_adaptive(row0, row1, st, ad, ma, state, cs, out, work, a
             if not ok and not floor:
                 aw.counts[REJECTED_NEWTON] += 1
                 _undo(state, work, aw)
+                _clear(work.onset)
                 aw.h[0] = max(FAILED_SHRINK * h, ad.dt_min)
                 continue
             if ok and not err <= 1.0 and not floor:
                 aw.counts[REJECTED_ERROR] += 1
                 _undo(state, work, aw)
+                _clear(work.onset)
                 shrink = SAFETY * err ** (-1.0 / 3.0) if np.isfinite(err) else SHRINK_MIN
                 aw.h[0] = max(max(shrink, SHRINK_MIN) * h, ad.dt_min)
                 continue
@@ -265,8 +325,17 @@ def integrate_compliant_adaptive(row0, row1, st, ad, ma, state, cs, out, work, a
             if retry > 0.0 and not floor:
                 aw.counts[REJECTED_ONSET] += 1
                 _undo(state, work, aw)
+                _clear(work.onset)
                 aw.h[0] = max(retry, ad.dt_min)
                 continue
+            if redos < MAX_ONSET_REDOS and not settle_onset_speeds(h, cs, work.contacts,
+                                                                   work.onset, st.v_pre_min):
+                redos += 1
+                aw.counts[REJECTED_ONSET] += 1
+                _undo(state, work, aw)
+                continue  # the same step, with the onset speeds at the crossings
+            redos = 0
+            _clear(work.onset)
             flagged = not ok or not err <= 1.0
             if flagged:  # needed less than dt_min: taken at dt_min, flagged
                 aw.counts[BELOW_DT_MIN] += 1

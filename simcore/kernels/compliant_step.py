@@ -48,9 +48,12 @@ from .springs import WITH_TANGENTS, smooth_forces_into, total_energy
 #: (:func:`~.generalized_alpha.step_work`), the smooth stage's (:func:`~.generalized_alpha.
 #: smooth_work`), the contacts' (11, nc) rows of FN, FT, gap, vn, vt and tangential Jacobian
 #: entries, the Hertz law's (:func:`~.hertz.hertz_work`), the joint projection's
-#: (:data:`ProjectionWork`) and the friction branches' (:data:`BranchWork`).
+#: (:data:`ProjectionWork`) and the friction branches' (:data:`BranchWork`); ``onset`` (nc) an
+#: onset speed to use for a contact that closes in the step instead of the approach speed of
+#: the last state (NaN: none; the adaptive step's, see
+#: :func:`~.compliant_adaptive.settle_onset_speeds`).
 CompliantWork = namedtuple("CompliantWork", ["step", "smooth", "contacts", "hertz",
-                                             "projection", "branches"])
+                                             "projection", "branches", "onset"])
 
 #: Work arrays of :func:`project_joints_into`: joint rows g, G (m x n), their velocity terms,
 #: the rows' supports (cols (m x 6), ncols), S = G M^-1 G^T and its LU pivots, a right-hand
@@ -100,7 +103,7 @@ def compliant_work(n, nbil, nc):
     rows and nc contacts, made once per run in Python."""
     return CompliantWork(step=step_work(n), smooth=smooth_work(n, nbil),
                          contacts=np.zeros((11, nc)), hertz=hertz_work(),
-                         projection=projection_work(n, nbil),
+                         projection=projection_work(n, nbil), onset=np.full(nc, np.nan),
                          branches=BranchWork(J2=np.zeros((n, n)), r2=np.zeros(n + nbil),
                                              current=np.zeros(nc, dtype=np.int64),
                                              assumed=np.zeros(nc, dtype=np.int64),
@@ -829,7 +832,8 @@ def _friction_branches(J, rhs, G, cv, sol, ma, v_reg, cwork, sw, bw):
 def compliant_step_into(q, v, acc, vdot, lam_s, t1, h, ratio, coef, st, ma, cs, work,
                         velocities):
     """One compliant step of size ``h`` [s] ending at ``t1`` [s] from the state (q, v, acc,
-    vdot, lam_s): onset speeds of the open contacts, the smooth stage
+    vdot, lam_s): onset speeds of the open contacts (the approach speed of the last state, or
+    where ``work.onset`` holds one, that), the smooth stage
     (:func:`compliant_smooth_step`, its first iterate extrapolated over ``ratio`` = h over the
     last step), the contacts at its result (:func:`finish_contacts`; the open ones'
     velocities only with ``velocities``) and the joint projection. The step's end state is
@@ -844,8 +848,11 @@ def compliant_step_into(q, v, acc, vdot, lam_s, t1, h, ratio, coef, st, ma, cs, 
     # onset speeds of the contacts open at the start of the step (of those whose velocities the
     # last step left out, when they close: _lazy_onset_speeds)
     for j in range(ma.ct_type.shape[0]):
-        if cs.closed[j] == 0 and not bw.stale[j]:
-            cs.v_pre[j] = max(-cs.vn[j], st.v_pre_min)
+        if cs.closed[j] == 0:
+            if not np.isnan(work.onset[j]):
+                cs.v_pre[j] = work.onset[j]
+            elif not bw.stale[j]:
+                cs.v_pre[j] = max(-cs.vn[j], st.v_pre_min)
     it_s, ok_s = compliant_smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, st.tol,
                                        st.max_iter, ma, q_t, v_t, acc1, vdot1, f_t, K_t, C_t,
                                        Ks_t, sw, cs.v_pre, st.v_reg, cwork, hw, bw, ratio,

@@ -339,9 +339,11 @@ class _Start:
     drive_row: int
 
 
-def _start(model, settings: SolverSettings, q0, v0, t0) -> _Start:
+def _start(model, settings: SolverSettings, q0, v0, t0, v_pre0=None) -> _Start:
     """Stage 1: the model's arrays, the initial state and its generalized-alpha acceleration
-    (the smooth equations at t0, compliant contact forces included)."""
+    (the smooth equations at t0, compliant contact forces included). ``v_pre0``: the contacts'
+    onset speeds [m/s] of a restart (default: each contact's approach speed now, floored at
+    v_pre_min)."""
     compliant = settings.compliant
     arr = model.arrays(settings.damping_law, compliant=compliant)
     q, v = model.initial_state()
@@ -356,6 +358,11 @@ def _start(model, settings: SolverSettings, q0, v0, t0) -> _Start:
     nb.contact_velocities_into(q, v, arr, gap0, vn0, vt0, np.zeros(6), np.zeros(6),
                                work.smooth.trig)
     v_pre = np.maximum(-vn0, settings.v_pre_min)
+    if v_pre0 is not None:
+        v_pre = np.array(v_pre0, dtype=np.float64).copy()
+        if v_pre.shape != vn0.shape or not np.all(v_pre > 0.0):
+            raise ValueError(f"v_pre0: {v_pre0!r} is not allowed; allowed: {nc} onset speeds "
+                             "> 0 [m/s]")
     f_contact = np.zeros(ndof)  # the compliant contact forces at the start
     FN0 = FT0 = None
     if compliant:
@@ -607,9 +614,9 @@ def adaptive_records(aw, n_rows: int) -> dict:
 
 
 def simulate(model, settings: SolverSettings, q0=None, v0=None, t0: float = 0.0,
-             release: ReleaseStop | None = None) -> Trajectory:
+             release: ReleaseStop | None = None, v_pre0=None) -> Trajectory:
     """Integrate ``model`` with ``settings``; see :meth:`simcore.model.Model.simulate`."""
-    start = _start(model, settings, q0, v0, t0)
+    start = _start(model, settings, q0, v0, t0, v_pre0)
     out = _allocate(model, settings, start, t0)
     loop = _Loop(model, settings, start, out, t0, release)
     began = time.perf_counter()
