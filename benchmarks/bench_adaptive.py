@@ -16,10 +16,10 @@ two ways:
    force of the peak's race in the window for each, and its relative change against the finest
    fixed step. This is where the fixed step converges and where the adaptive step must agree
    with it.
-2. Whole runs (``runs``): the fixed step at ``--dt-ref`` and the adaptive steps over all the
-   revolutions: the per-revolution peaks, the steps taken (and rejected), Newton steps, wall
-   and CPU time of the integration, and the same fixed run with the initial state moved by
-   1e-15 m (the chaos the peaks carry whatever the steps).
+2. Whole runs (``runs``): the fixed step at ``--dt-ref`` (and at ``--whole-fixed``) and the
+   adaptive steps over all the revolutions: the per-revolution peaks, the steps taken (and
+   rejected), Newton steps, wall and CPU time of the integration, and the same fixed run with
+   the initial state moved by 1e-15 m (the chaos the peaks carry whatever the steps).
 
 All runs share the output grid ``--output-dt`` (per interval the largest force is kept, so no
 peak is lost). Times are on one thread of a possibly shared machine: steps are the stable
@@ -30,6 +30,7 @@ rad/s, e_N 0.9) and ``small`` (clearance 2e-5 m, mu 0.01, omega0 100 rad/s, e_N 
 
 Usage: python benchmarks/bench_adaptive.py [--points reference small] [--revolutions 4]
        [--dt-ref 5e-7] [--fixed 2e-6 1e-6 5e-7 2.5e-7 1.25e-7] [--tols 1e-9]
+       [--whole-fixed 1e-6 2.5e-7]
        [--dt-max 1e-5] [--output-dt 1e-5] [--window 1e-3] [--lead 5e-4] [--json FILE]
 """
 
@@ -174,6 +175,15 @@ def whole_runs(name, model, cfg, args) -> dict:
                     q0, v0)[0]
     res["chaos"] = {"peaks": revolution_peaks(pert, omega0, n_balls,
                                               args.revolutions)[0].tolist()}
+    for dt in args.whole_fixed:
+        traj, cpu, steps, _ = simulate(model, dt, t_end, args.output_dt, False, None,
+                                       args.dt_max)
+        res[f"fixed {dt:g}"] = {
+            "dt": dt, "peaks": revolution_peaks(traj, omega0, n_balls,
+                                                args.revolutions)[0].tolist(),
+            "steps": steps, "rejected": 0, "newton": traj.extras["newton_steps"],
+            "cpu_s": cpu, "wall_s": traj.wall_time_s,
+            "flagged": int((traj.converged == 0).sum())}
     for tol in args.tols:
         traj, cpu, steps, rej = simulate(model, None, t_end, args.output_dt, True, tol,
                                          args.dt_max)
@@ -196,7 +206,7 @@ def print_runs(res, args) -> None:
         change = float(np.max(np.abs(peaks - fixed) / fixed))
         inner = " ".join(f"{x:7.1f}" for x in peaks[:, 0])
         outer = " ".join(f"{x:7.1f}" for x in peaks[:, 1])
-        label = (f"fixed dt {r['dt']:g} s" if key == "fixed" else
+        label = (f"fixed dt {r['dt']:g} s" if key.startswith("fixed") else
                  "fixed, ball moved 1e-15 m" if key == "chaos" else
                  f"adaptive tol {r['tol']:g} m, dt <= {r['dt_max']:g} s")
         cost = ""
@@ -217,6 +227,8 @@ def main() -> None:
     p.add_argument("--fixed", nargs="+", type=float,
                    default=[2e-6, 1e-6, 5e-7, 2.5e-7, 1.25e-7])
     p.add_argument("--tols", nargs="+", type=float, default=[1e-9])
+    p.add_argument("--whole-fixed", nargs="*", type=float, default=[],
+                   help="more fixed steps for the whole runs (a non-chaotic point converges)")
     p.add_argument("--dt-max", type=float, default=1e-5)
     p.add_argument("--output-dt", type=float, default=1e-5)
     p.add_argument("--window", type=float, default=1e-3)
