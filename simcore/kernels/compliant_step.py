@@ -69,7 +69,7 @@ ProjectionWork = namedtuple("ProjectionWork", ["g", "G", "gm", "dgdt", "cols", "
 #: (:func:`chord_solve`): the joint rows G_f (m x n) and the coefficient c_f (1); ``reuse``
 #: (3): whether those factors may serve (0: no), whether the last step converged (then its
 #: start accelerations ``vdot_old`` (n) extrapolate the next step's first iterate) and
-#: whether the explicit inverse of those factors (:func:`_chord_operator`: ``inv_t`` (n x n,
+#: whether the explicit inverse of those factors (:func:`chord_operator`: ``inv_t`` (n x n,
 #: the transposed inverse of J's coupled block in its leading k x k), ``jg`` (m x n, J^-1
 #: G^T by rows), ``s_inv`` (m x m, S^-1)) is made; the joint rows' supports in ascending
 #: order (``jcols`` (m x 6), ``jncols`` (m)) and the joints' reaction G^T lambda (``react``,
@@ -396,7 +396,7 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
     Reused factors (a chord iteration): a step after a converged one first iterates with the
     factors of the last Newton matrix (``sw.fac``, ``sw.S``, ``sw.piv``, made with the joint
     rows ``bw.G_f``), without tangents or a factorisation, as products with their explicit
-    inverse (:func:`_chord_operator`, :func:`_chord_apply`). At the zooms' steps (tens per
+    inverse (:func:`chord_operator`, :func:`chord_apply`). At the zooms' steps (tens per
     Hertz contact time) the Newton matrix is the mass matrix to a few per mille, and changes by
     less from one step to the next, so these iterates contract by about a hundred each. Their
     iterate counts as converged only within :data:`CHORD_TIGHTENING` of the tolerance (a
@@ -500,9 +500,9 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
         if chord:
             copy_vector(sol, rhs, n + m)
             if bw.reuse[2] == 0:
-                _chord_operator(sw.fac, bw.G_f, bw.c_f[0], sw.S, sw.piv, bw)
+                chord_operator(sw.fac, bw.G_f, bw.c_f[0], sw.S, sw.piv, bw)
                 bw.reuse[2] = 1
-            _chord_apply(sw.fac, bw.G_f, bw.c_f[0], bw.c_f[0] / cv, bw, sol)
+            chord_apply(sw.fac, bw.G_f, bw.c_f[0], bw.c_f[0] / cv, bw, sol)
             bw.stats[1] += 1
             if _branches_hold(sol, cv, ma, v_reg, cwork):
                 for r in range(m):
@@ -656,10 +656,10 @@ def chord_solve(fac, G, c, S, piv, rhs, r0):
 
 
 @step_kernel
-def _chord_operator(fac, G, c, S, piv, bw):
+def chord_operator(fac, G, c, S, piv, bw):
     """The explicit inverse of the factors a Newton step left (:func:`newton_solve`: the LU
     of J's coupled block in ``fac``, that of S = c G J^-1 G^T in ``S``, ``piv``) for
-    :func:`_chord_apply`: the transposed inverse of the coupled block (``bw.inv_t``, k
+    :func:`chord_apply`: the transposed inverse of the coupled block (``bw.inv_t``, k
     solves), J^-1 G^T (``bw.jg``, by rows) and S^-1 (``bw.s_inv``).
 
     A chord iterate applies the same matrix many times (a Newton step's factors serve the
@@ -697,9 +697,9 @@ def _chord_operator(fac, G, c, S, piv, bw):
 
 
 @inline_kernel
-def _chord_apply(fac, G, c, c_ratio, bw, rhs):
+def chord_apply(fac, G, c, c_ratio, bw, rhs):
     """Solve [J, -G^T; c G, 0] [x; y] = rhs in place with the inverses of
-    :func:`_chord_operator` (made from the factors of this J, G and c): x0 = J^-1 r,
+    :func:`chord_operator` (made from the factors of this J, G and c): x0 = J^-1 r,
     y = S^-1 (r_m - c G x0), x = x0 + J^-1 G^T y, with r_m scaled by ``c_ratio`` (c over the
     current step's coefficient: a step of another size keeps its joints' velocity rows
     exact). The products run over the joint rows' supports (``bw.jcols``)."""
