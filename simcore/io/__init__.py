@@ -13,7 +13,8 @@ the smoke study:
 - no ``_FillValue`` on coordinates;
 - labels (``race``, ``body``, ``axis``, ``stage``) are stored as character arrays, which CF reads
   as string labels and xarray gives back as strings (``ds.race == "outer"`` keeps working);
-- the swept parameters (``clearance``, ``mu``, ``omega0``, ``e_N``) are coordinates of length-1
+- the swept parameters (``clearance``, ``mu``, ``omega0``, ``e_N``, and in a study every other
+  axis of its grid and the contact ``model``, :func:`study_coords`) are coordinates of length-1
   dimensions, so that ``xr.open_mfdataset("results/runs/*.nc", combine="by_coords")`` assembles a
   study's runs into one grid. Read one value with ``ds.clearance.item()``: ``float()`` refuses a
   length-1 array.
@@ -80,14 +81,10 @@ DASK_ARRAY_TYPE_DEFERRED = _defer_dask_array_type()
 #: CF version the files declare.
 CONVENTIONS = "CF-1.10"
 
-#: The swept model parameters: units and long names, shared by every file that carries them.
-PARAMETERS = {
-    "clearance": ("m", "radial clearance of the bearing"),
-    "mu": ("1", "friction coefficient"),
-    "omega0": ("rad s-1", "crank speed (start speed for the free drive, the speed held by the "
-                          "constant drive)"),
-    "e_N": ("1", "normal restitution coefficient"),
-}
+#: The paper's four study parameters: scalar coordinates of every run file (a study adds its
+#: other axes, :func:`study_coords`); units and long names come from the registry of swept
+#: parameters (:mod:`simcore.config.parameters`).
+BASE_PARAMETERS = ("clearance", "mu", "omega0", "e_N")
 
 #: Data variables of a run file and the type each is stored as (attribute ``storage`` of the
 #: variable says it too). float64 where digits matter: the impulses ``Lambda_N`` that the
@@ -121,8 +118,9 @@ DEFAULT_KEEP = ("Lambda_N", "vn_free", "position", "angle", "velocity", "angular
                 "F_N")
 
 __all__ = ["write_netcdf", "trajectory_dataset", "dataset_of_arrays", "failed_run_dataset",
-           "generalized", "open_run", "parameter_coords", "history_line", "keep_variables",
-           "CONVENTIONS", "PARAMETERS", "STORAGE", "RUN_VARIABLES", "DEFAULT_KEEP"]
+           "generalized", "open_run", "parameter_coords", "study_coords", "history_line",
+           "keep_variables", "CONVENTIONS", "BASE_PARAMETERS", "STORAGE", "RUN_VARIABLES",
+           "DEFAULT_KEEP"]
 
 
 def _is_text(var: xr.Variable) -> bool:
@@ -317,12 +315,15 @@ def history_line(what: str) -> str:
 
 
 def parameter_coords(values: dict, length_one: bool = True) -> dict:
-    """Coordinates of the swept parameters, with their units and long names.
+    """Coordinates of swept parameters, with their units and long names (a category as its
+    int8 code with ``flag_values``/``flag_meanings``), from the registry of swept parameters
+    (:mod:`simcore.config.parameters`).
 
     Parameters
     ----------
     values : dict
-        ``{"clearance": 4e-4, "mu": 0.01, ...}`` (keys of :data:`PARAMETERS`; others ignored).
+        ``{"clearance": 4e-4, "model.cage_stiffness": 1e5, "solver_dt": 1e-4, ...}``: keys
+        as a sweep writes them or coordinate names; keys that are not sweepable are ignored.
     length_one : bool
         True: each as the coordinate of a length-1 dimension of the same name (run files, so
         that ``open_mfdataset(..., combine="by_coords")`` works); False: scalar coordinates.
@@ -332,13 +333,35 @@ def parameter_coords(values: dict, length_one: bool = True) -> dict:
     dict
         ``{name: (dims, values, attrs)}`` for ``xarray.Dataset(coords=...)``.
     """
+    from ..config.parameters import canonical, registry
+
+    params = registry()
     out = {}
-    for name, (units, long_name) in PARAMETERS.items():
-        if name in values:
-            value = float(values[name])
-            out[name] = ((name,), [value]) if length_one else ((), value)
-            out[name] += (_attrs(units, long_name),)
+    for key, value in values.items():
+        full = canonical(key, params)
+        if full is None:
+            continue
+        param = params[full]
+        data = param.stored(value)
+        out[param.name] = (((param.name,), [data]) if length_one else ((), data)) + (
+            param.attrs(),)
     return out
+
+
+def study_coords(ds: xr.Dataset, point: dict, axes, length_one: bool = True) -> xr.Dataset:
+    """``ds`` with a study's coordinates: every value of ``point`` (``{sweep key: value}``,
+    the grid point and ``model.contact_model``) as a coordinate (:func:`parameter_coords`),
+    and the global attribute ``study_axes``, the coordinate names of the study's grid axes
+    in order (space-separated), which the summary's dimensions follow."""
+    from ..config.parameters import parameter
+
+    ds = ds.assign_coords(parameter_coords(point, length_one=length_one))
+    ds.attrs["study_axes"] = " ".join(parameter(key).name for key in axes)
+    return ds
+
+
+def _base(model: dict) -> dict:
+    return {key: model[key] for key in BASE_PARAMETERS}
 
 
 def _flatten(cfg: dict) -> dict:
@@ -501,7 +524,7 @@ def trajectory_dataset(traj, model, layout, cfg: dict, compile_time_s: float = 0
     }
     out_every = int(round(cfg["solver"].get("output_dt") / cfg["solver"]["dt"])) if cfg[
         "solver"].get("output_dt") is not None else 1
-    coords.update(parameter_coords(m))
+    coords.update(parameter_coords(_base(m)))
     kind = "compliant (Hertz) contact run" if compliant else "nonsmooth generalized-alpha run"
     attrs = _global_attrs(
         cfg, f"Ball bearing (SKF 6012) in a crank-slider: {kind}",
@@ -576,7 +599,7 @@ def failed_run_dataset(cfg: dict, message: str) -> xr.Dataset:
     attrs = _global_attrs(cfg, "failed run of the bearing study",
                           f"simcore.run failed: {message}")
     attrs.update({"failed": 1, "error": message})
-    return xr.Dataset(coords=parameter_coords(cfg["model"]), attrs=attrs)
+    return xr.Dataset(coords=parameter_coords(_base(cfg["model"])), attrs=attrs)
 
 
 #: The run-file variables that make up ``q`` and ``v`` (:func:`generalized`).
