@@ -38,6 +38,10 @@ MODELS = ("nonsmooth", "compliant")
 #: Folders of the run files and impact tables of each model, under ``study.results_dir``.
 FOLDERS = {"nonsmooth": ("runs", "impacts"),
            "compliant": ("runs_compliant", "impacts_compliant")}
+#: Variables of ``study.keep`` a compliant twin does not write: the restart state that only a
+#: compliant zoom reads (a twin is not zoomed) and the nonsmooth free approach speed; so its file
+#: (the same samples, plus ``F_N``) stays smaller than the nonsmooth run's.
+TWIN_DROPS = ("position", "angle", "velocity", "angular_velocity", "vn_free")
 #: Jobs a study is split into at least (or one per run): two or four cores share a small study.
 MIN_JOBS = 4
 
@@ -74,6 +78,12 @@ class Run:
         """(run file, impact table) under the results folder ``results``."""
         runs, impacts = FOLDERS[self.model]
         return f"{results}/{runs}/{self.name}.nc", f"{results}/{impacts}/{self.name}.nc"
+
+    def keep(self, keep) -> list[str]:
+        """The variables of ``study.keep`` this run writes (:data:`TWIN_DROPS`)."""
+        if self.model == "nonsmooth":
+            return list(keep)
+        return [name for name in keep if name not in TWIN_DROPS]
 
     def coordinates(self) -> dict:
         """The point with the contact model: the scalar coordinates of the run's files."""

@@ -10,6 +10,7 @@ import time
 
 script_start = time.time()
 
+import inspect  # noqa: E402
 import multiprocessing  # noqa: E402
 import os  # noqa: E402
 import shutil  # noqa: E402
@@ -25,8 +26,31 @@ STUDY_PARTS = 8
 
 
 def draw(part):
-    """Draw one part of the study's heat maps into the hidden folder; return the paths."""
-    return list(plot_study(summary, tmp, (part, STUDY_PARTS)))
+    """Draw one part of the study's heat maps into the hidden folder; return the paths.
+
+    Where :func:`analysis.figures.plot_study` does not draw the summary's ``model`` dimension
+    itself, each model's heat maps are drawn apart: the nonsmooth ones under their usual
+    names, the others with the model's name appended (``study_peak_force_outer_compliant``).
+    """
+    if "model" not in summary.dims or "model" in inspect.signature(plot_study).parameters:
+        return list(plot_study(summary, tmp, (part, STUDY_PARTS), **options))
+    meanings = summary["model"].attrs["flag_meanings"].split()
+    paths = []
+    for code in summary["model"].values:
+        name = meanings[int(code)]
+        one = summary.sel(model=code, drop=True)
+        if name == "nonsmooth":
+            paths += list(plot_study(one, tmp, (part, STUDY_PARTS), **options))
+            continue
+        sub = tmp / f".{name}.{part}"
+        sub.mkdir()
+        for path in plot_study(one, sub, (part, STUDY_PARTS), **options):
+            path = Path(path)
+            target = tmp / f"{path.stem}_{name}{path.suffix}"
+            path.replace(target)
+            paths.append(target)
+        shutil.rmtree(sub)
+    return paths
 
 
 with job_log(sm.log[0]):
@@ -36,6 +60,10 @@ with job_log(sm.log[0]):
     from analysis.summary import summary_table
 
     imported = time.time()
+    # study.figure_axes (coordinate names, checked by the workflow), where plot_study takes it
+    options = {}
+    if "figure_axes" in inspect.signature(plot_study).parameters:
+        options["figure_axes"] = sm.params.figure_axes
     with folder_in_place(sm.output[0]) as tmp:
         with xr.open_dataset(sm.input.summary) as summary:
             summary = summary.load()
@@ -46,7 +74,10 @@ with job_log(sm.log[0]):
                            for p in paths]
         else:
             written = [p for part in range(STUDY_PARTS) for p in draw(part)]
-        summary_table(summary).to_csv(tmp / "summary_table.csv", index=False)
+        table_of = summary.sel(model=summary["model"].values[0], drop=True) if (
+            "model" in summary.dims and "model" not in inspect.signature(
+                summary_table).parameters) else summary
+        summary_table(table_of).to_csv(tmp / "summary_table.csv", index=False)
         for png in sorted(Path(sm.input.reference).glob("*.png")):  # the reference run's
             shutil.copy2(png, tmp / png.name)
             written.append(tmp / png.name)
