@@ -343,6 +343,8 @@ def parse_override(item: str) -> tuple[list[str], Any]:
         raise ConfigError(f"{item}: an override must look like section.key=value")
     key, raw = item.split("=", 1)
     path = [p for p in key.strip().split(".") if p]
+    if path[:1] == ["sweep"] and len(path) > 2:  # sweep.model.cage_stiffness: one sweep key
+        path = ["sweep", ".".join(path[1:])]
     if len(path) < 2:
         raise ConfigError(f"{key}: an override must name a section and a key, e.g. model.mu=0")
     if len(path) > MAX_DEPTH:

@@ -96,7 +96,7 @@ class Parameter:
                                 for c in self.categories)
             import numpy as np
 
-            return {"long_name": self.long_name,
+            return {"units": "1", "long_name": self.long_name,
                     "flag_values": np.arange(len(self.categories), dtype=np.int8),
                     "flag_meanings": meanings, "sweep_key": self.key}
         return {"units": self.units, "long_name": self.long_name, "sweep_key": self.key}

@@ -83,9 +83,11 @@ config.update(_full)
 
 
 def _cores():
-    cores = getattr(workflow, "cores", None) or getattr(
-        getattr(workflow, "resource_settings", None), "cores", None)
-    return int(cores) if isinstance(cores, (int, float)) and cores >= 1 else 1
+    """Jobs that run at once: -j/--cores (a dry run, or a cluster, counts -j as nodes)."""
+    settings = getattr(workflow, "resource_settings", None)
+    counts = [getattr(settings, "cores", None), getattr(settings, "nodes", None)]
+    counts = [int(c) for c in counts if isinstance(c, (int, float)) and c >= 1]
+    return max(counts, default=1)
 
 
 def _invalid(exc):
