@@ -17,7 +17,6 @@ from simcore.config.parameters import (
     BASE_AXES,
     MAX_NAME,
     build_registry,
-    parameter,
     registry,
     run_name,
     udunits,
