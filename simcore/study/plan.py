@@ -42,6 +42,10 @@ FOLDERS = {"nonsmooth": ("runs", "impacts"),
 #: compliant zoom reads (a twin is not zoomed) and the nonsmooth free approach speed; so its file
 #: (the same samples, plus ``F_N``) stays smaller than the nonsmooth run's.
 TWIN_DROPS = ("position", "angle", "velocity", "angular_velocity", "vn_free")
+#: A base axis that a swept key determines (``{base axis: key}``): where the key is swept the
+#: base axis is left out of the study's axes and each run's value comes from the key
+#: (:func:`resolve_determined`), e.g. the clearance of a clearance class.
+DETERMINED = {"model.clearance": "model.clearance_class"}
 #: Jobs a study is split into at least (or one per run): two or four cores share a small study.
 MIN_JOBS = 4
 
@@ -111,10 +115,26 @@ def study_axes(cfg: Mapping[str, Any]) -> dict[str, list]:
     for key in params:
         if key in swept:
             axes[key] = swept[key]
-        elif key in BASE_AXES:
+        elif key in BASE_AXES and DETERMINED.get(key) not in swept:
             section, name = key.split(".", 1)
             axes[key] = [params[key].plain(cfg[section][name])]
     return axes
+
+
+def resolve_determined(model: dict) -> None:
+    """Set in a run's ``model`` section the values its other keys determine: the clearance of
+    ``model.clearance_class`` (ISO 5753-1, for the bore of ``model.bearing``; the model's
+    clearance is half the middle of the class's range, :func:`simcore.model.bearing.
+    model_clearance`)."""
+    if model.get("clearance_class") is None:
+        return
+    from ..model.bearing import bearing, model_clearance
+
+    try:
+        bore = bearing(model.get("bearing") or "6012-paper")["d"]
+        model["clearance"] = tidy(model_clearance(bore, model["clearance_class"]))
+    except (KeyError, ValueError) as exc:
+        raise ConfigError(str(exc).strip("'\"")) from None
 
 
 def grid_size(axes: Mapping[str, list]) -> int:
@@ -159,6 +179,8 @@ def run_config(cfg: Mapping[str, Any], point: Mapping[str, Any]) -> dict:
     for key, value in point.items():
         section, name = key.split(".", 1)
         out[section][name] = value
+    if DETERMINED["model.clearance"] in point:
+        resolve_determined(out["model"])
     out["model"]["contact_model"] = "nonsmooth"
     out["solver"]["t_end"] = run_length(dict(out, study=cfg["study"]))
     out["solver"]["output_dt"] = None
