@@ -3,11 +3,12 @@ each per run, ``results/runs/``, ``results/impacts/`` for the nonsmooth model an
 ``results/runs_compliant/``, ``results/impacts_compliant/`` for the compliant twin), then the
 batch's marker ``results/.batches/<batch>.json`` (the job's output, written last).
 
-Each run is simulated, written (its ``study.keep`` variables, the study's coordinates and the
-attribute ``study_fingerprint``), then its impact table (filter, Flores forces, compliant zooms
-of the largest impacts of a nonsmooth run) is made from the run still in memory, at full
-precision (:func:`analysis.study_tables.impact_table`), and written: the process start, the
-imports and the Numba cache load are paid once per batch.
+Each run is simulated, its impact table (filter, Flores forces, compliant zooms of the largest
+impacts of a nonsmooth run) is made from the run in memory, at full precision
+(:func:`analysis.study_tables.impact_table`) and written, then the run file (its ``study.keep``
+variables); both carry the study's coordinates and the attribute ``study_fingerprint``. A run
+file on disk thus always has its table. The process start, the imports and the Numba cache
+load are paid once per batch.
 
 A run whose two files are in place, open and carry its fingerprint
 (:func:`simcore.study.plan.fingerprint`) is not made again (a killed, repaired or regrouped
@@ -84,25 +85,23 @@ with job_log(sm.log.simulate) as terminal:
             n_skipped += 1
             continue
         cfg = simcore.validate_config(run["config"])
-        start = time.perf_counter()
+        start_run = time.perf_counter()
         try:
             ds = simcore.run(cfg)
             integration[run["model"]] += ds.attrs["wall_time_s"]
             steps[run["model"]] += round(cfg["solver"]["t_end"] / cfg["solver"]["dt"])
             loading += ds.attrs["compile_time_s"]
         except (simcore.SolverError, LinAlgError) as exc:  # numerical failure of this run
-            message = f"run {where} failed: {type(exc).__name__}: {exc}"
+            message = f"run {label(run['coords'])} failed ({run['model']} model): " \
+                      f"{type(exc).__name__}: {exc}"
             print(f"FAILED: {message}", flush=True)
             print(f"WARNING: {message} -> recorded as missing in {run['run']}", file=terminal)
             ds = failed_run_dataset(cfg, message)
             n_failed += 1
         ds = study_coords(ds, run["coords"], sm.params.axes)
         ds.attrs["study_fingerprint"] = run["fingerprint"]
-        written = time.perf_counter()
-        simcore.write_netcdf(ds, run["run"], keep=run["keep"])  # study.keep
-        writing_runs += time.perf_counter() - written
-        print(f"{where}: {time.perf_counter() - start:.2f} s "
-              f"(numba threads: {n_threads}) -> {run['run']}", flush=True)
+        simulated_at = time.perf_counter()
+        # the table first, the run file last: a run file on disk always has its table
         with job_log(sm.log.impacts, mode="a"):
             start = time.perf_counter()
             settings = run["config"]["analysis"]
@@ -121,6 +120,11 @@ with job_log(sm.log.simulate) as terminal:
             simcore.write_netcdf(impacts, run["table"])
             writing_tables += time.perf_counter() - written
             tabulating += time.perf_counter() - start
+        written = time.perf_counter()
+        simcore.write_netcdf(ds, run["run"], keep=run["keep"])  # study.keep
+        writing_runs += time.perf_counter() - written
+        print(f"{where}: {simulated_at - start_run:.2f} s "
+              f"(numba threads: {n_threads}) -> {run['run']}", flush=True)
     write_marker(sm.output[0], sm.params.runs)
     total = time.perf_counter() - batch_start
     simulated = sum(integration.values())
