@@ -9,7 +9,9 @@ e_N given below) the twin of :func:`simcore.study.plan.twin_config` runs 1 + ``-
 crank revolutions; printed per N: the twin's step, the largest ``F_N`` per race after the
 first revolution (the steady window of the study, ``analysis.settle`` = 1) and its change
 against the finest N, the median over revolutions of each revolution's largest force, and the
-run's integration time.
+run's integration time; then, for the same N, the compliant zooms of the nonsmooth run
+(``analysis.zoom_top`` largest impacts, the same key sets their step): their ``F_max_zoom``
+against the finest N.
 """
 
 from __future__ import annotations
@@ -62,6 +64,18 @@ def main() -> None:
             twin = [r for r in plan.plan_runs(cfg) if r.model == "compliant"][0]
             ds = simcore.run(twin.config)
             results[n] = (twin.config["solver"]["dt"], *steady_peaks(ds), ds.attrs["wall_time_s"])
+        ns = [r for r in plan.plan_runs(cfg) if r.model == "nonsmooth"][0]
+        run = simcore.run(ns.config)
+        zooms = {}
+        for n in sorted(args.n):
+            from analysis import extract_impacts
+            from analysis.zoom import add_zoom_forces
+
+            table = extract_impacts(run, zero_tol=cfg["analysis"]["zero_tol"])
+            table = add_zoom_forces(run, table, zoom_top=cfg["analysis"]["zoom_top"],
+                                    steps_per_contact=n)
+            f = np.asarray(table["F_max_zoom"].values, dtype=float)
+            zooms[n] = f[np.isfinite(f)]
         finest = results[max(results)]
         print(f"point clearance={clearance} m, mu={mu}, omega0={omega0} rad/s, e_N={e_N}, "
               f"E={cfg['model']['youngs_modulus']:.3g} Pa:")
@@ -70,6 +84,12 @@ def main() -> None:
             print(f"  N={n:4d} dt={dt:.3e} s  peak inner/outer {peak[0]:9.1f} {peak[1]:9.1f} N "
                   f"({100 * change[0]:+.2f} %, {100 * change[1]:+.2f} % vs N={max(results)}); "
                   f"median per rev {median[0]:9.1f} {median[1]:9.1f} N; {wall:.1f} s", flush=True)
+        best = zooms[max(zooms)]
+        for n, f in zooms.items():
+            if f.size == best.size and f.size:
+                change = np.max(np.abs(f / best - 1.0))
+                print(f"  zooms N={n:4d}: F_max_zoom " + " ".join(f"{x:.0f}" for x in f)
+                      + f" N (largest change {100 * change:.2f} % vs N={max(zooms)})")
 
 
 if __name__ == "__main__":

@@ -173,6 +173,31 @@ def test_smoke_study_end_to_end(results):
 
 
 @pytest.mark.slow
+def test_a_study_over_any_two_settings_runs_with_their_units_and_names(results):
+    """Issue 25: cage stiffness x Young's modulus, no code: the summary has both as dimensions
+    with the schema's units and long names, and figures are drawn for them."""
+    from simcore.config.parameters import parameter
+
+    proc = snakemake("-j2", "--configfile", "config/smoke.yaml", "--config",
+                     f"study={{'results_dir': '{results}'}}",
+                     "sweep={'clearance': [4.0e-4], 'mu': [0.01], 'omega0': [100.0], "
+                     "'e_N': [0.9], 'model.cage_stiffness': [1.0e+4, 1.0e+5], "
+                     "'youngs_modulus': [2.1e+9, 2.1e+11]}", timeout=1800)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    s = _check_study(results)
+    assert s.attrs["study_axes"].split() == ["clearance", "mu", "omega0", "e_N",
+                                             "cage_stiffness", "youngs_modulus"]
+    for key, units in (("model.cage_stiffness", "N m-1"), ("model.youngs_modulus", "Pa")):
+        name = parameter(key).name
+        assert s.sizes[name] == 2 and s[name].attrs["units"] == units
+        assert s[name].attrs["long_name"] == parameter(key).long_name
+    assert int(s["failed"].sum()) == 0
+    assert s["peak_force"].sizes["model"] == 2
+    names = [p.name for p in (results / "figures").glob("study_*.png")]
+    assert any("cage_stiffness~10000.0" in n for n in names), names
+
+
+@pytest.mark.slow
 def test_failed_runs_do_not_stop_the_study(results):
     """Too few Newton iterations: some runs fail, the study still finishes and marks them."""
     proc = snakemake("-j2", "--configfile", "config/smoke.yaml", "--config",

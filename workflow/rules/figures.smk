@@ -49,6 +49,7 @@ rule figures:
         analysis=config["analysis"],
         reference=REFERENCE,
         figure_axes=FIGURE_AXES,
+        axes=AXIS_NAMES,
     threads: 2  # the study's heat maps shared by two processes (workflow/scripts/figures.py)
     resources:
         runtime=10,

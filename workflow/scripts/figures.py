@@ -3,7 +3,9 @@ by rule ``reference_figures``) moved in -> results/figures/.
 
 The figures are drawn into a hidden folder next to the target and renamed into place at the
 end, so that results/figures/ never holds a half-drawn set. With two or more threads the
-study's heat maps are shared by forked processes, one quantity at a time.
+study's heat maps are shared by forked processes, one quantity at a time. Where
+:func:`analysis.figures.plot_study` does not yet draw the ``model`` dimension or axes beyond
+the paper's four, this job draws them as separate sets (:func:`_pieces`).
 """
 
 import time
@@ -25,28 +27,58 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 STUDY_PARTS = 8
 
 
-def draw(part):
-    """Draw one part of the study's heat maps into the hidden folder; return the paths.
+#: largest number of separate sets of heat maps the interim split below draws
+MAX_SETS = 12
 
-    Where :func:`analysis.figures.plot_study` does not draw the summary's ``model`` dimension
-    itself, each model's heat maps are drawn apart: the nonsmooth ones under their usual
-    names, the others with the model's name appended (``study_peak_force_outer_compliant``).
+
+def _pieces(ds):
+    """(suffix, summary) pieces that :func:`analysis.figures.plot_study` can draw.
+
+    Where it does not draw the summary's ``model`` dimension itself, each model apart (the
+    nonsmooth one under the usual names, the others with the model's name appended:
+    ``study_peak_force_outer_compliant``); where it knows only the paper's four axes
+    (``analysis.impacts.STUDY_PARAMETERS``), each value of every other axis apart
+    (``study_peak_force_outer_cage_stiffness~10000.0``), at most :data:`MAX_SETS` sets.
     """
-    if "model" not in summary.dims or "model" in inspect.signature(plot_study).parameters:
-        return list(plot_study(summary, tmp, (part, STUDY_PARTS), **options))
-    meanings = summary["model"].attrs["flag_meanings"].split()
+    import itertools
+
+    import analysis.impacts
+
+    pieces = [("", ds)]
+    if "model" in ds.dims and "model" not in inspect.signature(plot_study).parameters:
+        meanings = ds["model"].attrs["flag_meanings"].split()
+        pieces = [("" if meanings[int(code)] == "nonsmooth" else f"_{meanings[int(code)]}",
+                   ds.sel(model=code, drop=True)) for code in ds["model"].values]
+    known = getattr(analysis.impacts, "STUDY_PARAMETERS", None)
+    extra = [d for d in sm.params.axes if known is not None and d not in known and d in ds.dims]
+    if not extra:
+        return pieces
+    combos = list(itertools.product(*(range(ds.sizes[d]) for d in extra)))
+    if len(combos) * len(pieces) > MAX_SETS:
+        print(f"figures: {len(combos) * len(pieces)} sets of heat maps over "
+              f"{', '.join(extra)} is more than {MAX_SETS}; drawn: the first value of each")
+        combos = combos[:1]
+    out = []
+    for suffix, piece in pieces:
+        for at in combos:
+            where = dict(zip(extra, at, strict=True))
+            label = "_".join(f"{d}~{piece[d].values[i]}" for d, i in where.items())
+            out.append((f"{suffix}_{label}", piece.isel(where, drop=True)))
+    return out
+
+
+def draw(part):
+    """Draw one part of the study's heat maps into the hidden folder; return the paths."""
     paths = []
-    for code in summary["model"].values:
-        name = meanings[int(code)]
-        one = summary.sel(model=code, drop=True)
-        if name == "nonsmooth":
-            paths += list(plot_study(one, tmp, (part, STUDY_PARTS), **options))
+    for suffix, piece in _pieces(summary):
+        if not suffix:
+            paths += list(plot_study(piece, tmp, (part, STUDY_PARTS), **options))
             continue
-        sub = tmp / f".{name}.{part}"
+        sub = tmp / f".{part}{suffix}"
         sub.mkdir()
-        for path in plot_study(one, sub, (part, STUDY_PARTS), **options):
+        for path in plot_study(piece, sub, (part, STUDY_PARTS), **options):
             path = Path(path)
-            target = tmp / f"{path.stem}_{name}{path.suffix}"
+            target = tmp / f"{path.stem}{suffix}{path.suffix}"
             path.replace(target)
             paths.append(target)
         shutil.rmtree(sub)
@@ -74,9 +106,8 @@ with job_log(sm.log[0]):
                            for p in paths]
         else:
             written = [p for part in range(STUDY_PARTS) for p in draw(part)]
-        table_of = summary.sel(model=summary["model"].values[0], drop=True) if (
-            "model" in summary.dims and "model" not in inspect.signature(
-                summary_table).parameters) else summary
+        table_of = _pieces(summary)[0][1] if "model" not in inspect.signature(
+            summary_table).parameters else summary
         summary_table(table_of).to_csv(tmp / "summary_table.csv", index=False)
         for png in sorted(Path(sm.input.reference).glob("*.png")):  # the reference run's
             shutil.copy2(png, tmp / png.name)
