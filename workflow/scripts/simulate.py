@@ -79,7 +79,8 @@ with job_log(sm.log.simulate) as terminal:
     n_failed = n_skipped = n_zooms = 0
     redo = bool(os.environ.get("BEARINGSIM_STUDY_REDO"))
     for run in sm.params.runs:
-        where = f"{label(run['coords'])}, {run['model']}"
+        point = {k: v for k, v in run["coords"].items() if k != "model.contact_model"}
+        where = f"{label(point)} ({run['model']})"
         if not redo and finished(run["run"], run["table"], run["fingerprint"]):
             print(f"{where}: up to date, kept -> {run['run']}", flush=True)
             n_skipped += 1
@@ -92,7 +93,7 @@ with job_log(sm.log.simulate) as terminal:
             steps[run["model"]] += round(cfg["solver"]["t_end"] / cfg["solver"]["dt"])
             loading += ds.attrs["compile_time_s"]
         except (simcore.SolverError, LinAlgError) as exc:  # numerical failure of this run
-            message = f"run {label(run['coords'])} failed ({run['model']} model): " \
+            message = f"run {label(point)} failed ({run['model']} model): " \
                       f"{type(exc).__name__}: {exc}"
             print(f"FAILED: {message}", flush=True)
             print(f"WARNING: {message} -> recorded as missing in {run['run']}", file=terminal)
