@@ -101,6 +101,7 @@ def test_a_bad_sweep_key_or_value_is_refused_in_one_line(sweep, words):
 @pytest.mark.parametrize("sweep, words", [
     ({"clearance": [1e-4], "model.clearance": [2e-4]}, "the same key as"),
     ({"model.contact_model": ["compliant"]}, "study.models"),
+    ({"solver.output_dt": [1e-4]}, "the study sets it"),
     ({"mu": [0.01, 0.0100000000001]}, "the same value twice"),
 ])
 def test_a_sweep_the_study_cannot_run_is_refused_before_any_run(sweep, words):

@@ -37,6 +37,8 @@ SPECIAL_NAMES = {"model.contact_model": "model"}
 #: keys that a study sets itself, refused as sweep axes (why, in the message)
 NOT_SWEPT = {
     "model.contact_model": "every grid point runs with each model of study.models",
+    "solver.output_dt": "the study sets it (a nonsmooth run writes every step, its compliant "
+                        "twin every nonsmooth step)",
 }
 #: longest file name a run gets before its tail is replaced by a hash [characters]
 MAX_NAME = 200
