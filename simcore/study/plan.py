@@ -212,14 +212,21 @@ def twin_config(run_cfg: Mapping[str, Any]) -> dict:
     return twin
 
 
-def estimate_seconds(cfg: Mapping[str, Any], cost: Cost = COST) -> float:
-    """Estimated work of one run [s on one core] from its configuration: its steps times the
-    step cost of its model, plus the files, the impact extraction and the zooms (:data:`COST`)."""
-    steps = float(cfg["solver"]["t_end"]) / float(cfg["solver"]["dt"])
-    if cfg["model"]["contact_model"] == "compliant":
+def work_seconds(contact_model: str, steps: float, zoom_top: int = 0,
+                 cost: Cost = COST) -> float:
+    """Estimated work of one run [s on one core]: its steps times the step cost of its model,
+    plus the files and the impact extraction, plus the zooms of a nonsmooth run (at most five
+    distinct impacts, :data:`COST`)."""
+    if contact_model == "compliant":
         return cost.per_run + steps * cost.compliant_step
-    zooms = min(int(cfg["analysis"].get("zoom_top", 0)), 5)
-    return cost.per_run + steps * cost.nonsmooth_step + zooms * cost.per_zoom
+    return cost.per_run + steps * cost.nonsmooth_step + min(int(zoom_top), 5) * cost.per_zoom
+
+
+def estimate_seconds(cfg: Mapping[str, Any], cost: Cost = COST) -> float:
+    """:func:`work_seconds` of a run configuration."""
+    steps = float(cfg["solver"]["t_end"]) / float(cfg["solver"]["dt"])
+    return work_seconds(cfg["model"]["contact_model"], steps,
+                        cfg["analysis"].get("zoom_top", 0), cost)
 
 
 def _view(cfg: Mapping[str, Any], point: Mapping[str, Any]) -> dict:
@@ -241,12 +248,8 @@ def point_seconds(cfg: Mapping[str, Any], point: Mapping[str, Any], models,
     t_end, dt = run_length(view), float(view["solver"]["dt"])
     total = 0.0
     for model in models:
-        if model == "nonsmooth":
-            zooms = min(int(view["analysis"].get("zoom_top", 0)), 5)
-            total += cost.per_run + t_end / dt * cost.nonsmooth_step + zooms * cost.per_zoom
-        else:
-            step = twin_step(view["model"], view["analysis"], dt)
-            total += cost.per_run + t_end / step * cost.compliant_step
+        step = dt if model == "nonsmooth" else twin_step(view["model"], view["analysis"], dt)
+        total += work_seconds(model, t_end / step, view["analysis"].get("zoom_top", 0), cost)
     return total
 
 
