@@ -91,7 +91,8 @@ def test_batches_are_sized_by_work_whatever_the_axes():
         ("sweep={'model.cage_stiffness': [1.0e+5, -1.0]}", "sweep.model.cage_stiffness.1"),
         ("sweep={'model.contact_model': ['compliant']}", "sweep.model.contact_model"),
         ("study={'batch_axes': ['omega0']}", "study.batch_axes: unknown key"),
-        ("study={'figure_axes': ['mu', 'gravity']}", "study.figure_axes"),
+        ("study={'figure_axes': ['mu', 'gravity']}", "study.figure_axes: 'gravity'"),
+        ("study={'figure_fixed': {'omega0': 51.0}}", "study.figure_fixed.omega0: 51.0"),
     ],
 )
 def test_bad_config_stops_before_any_job(results, override, key):

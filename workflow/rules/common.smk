@@ -217,16 +217,39 @@ REFERENCE_MARKER = MARKER.format(batch=BATCH_OF[(REFERENCE_NAME, MODELS[0])])
 REFERENCE_FILES = dict(zip(("run", "impacts"), next(
     run.paths(RES) for run in RUNS if run.name == REFERENCE_NAME and run.model == MODELS[0]),
     strict=True))
-FIGURE_AXES = config["study"]["figure_axes"]
-if FIGURE_AXES is not None:
-    _names = []
-    for key in FIGURE_AXES:
-        full = simcore.config.parameters.canonical(key)
-        if full is None or full not in AXES:
-            raise _invalid(f"study.figure_axes: {key!r} is not allowed; allowed: two axes of "
-                           "the study: " + ", ".join(AXIS_NAMES))
-        _names.append(PARAMS[full].name)
-    FIGURE_AXES = _names
+
+
+def _axis_name(key, setting):
+    """The coordinate name of a study axis given as a sweep key or a name (study.figure_*)."""
+    full = simcore.config.parameters.canonical(str(key))
+    if full is None or full not in AXES:
+        raise _invalid(f"{setting}: {key!r} is not allowed; allowed: an axis of the study: "
+                       + ", ".join(AXIS_NAMES))
+    return PARAMS[full].name
+
+
+def _stored(key, value, setting):
+    """A grid value of an axis as the summary stores it (a category as its code)."""
+    full = simcore.config.parameters.canonical(str(key))
+    param = PARAMS[full]
+    try:
+        if param.plain(value) in AXES[full]:
+            stored = param.stored(value)
+            return float(stored) if param.kind == "number" else stored.item()
+    except (ValueError, TypeError):
+        pass
+    raise _invalid(f"{setting}.{key}: {value!r} is not allowed; allowed: one of the axis' "
+                   "values " + ", ".join(map(str, AXES[full])))
+
+
+# The layout of the study's heat maps: axes and held values by coordinate name (as the summary
+# names its dimensions), and the reference point's values, where other axes are held.
+FIGURE_AXES = [_axis_name(key, "study.figure_axes")
+               for key in (config["study"]["figure_axes"] or [])] or None
+FIGURE_FIXED = {_axis_name(key, "study.figure_fixed"): _stored(key, value, "study.figure_fixed")
+                for key, value in config["study"]["figure_fixed"].items()}
+REFERENCE_COORDS = {PARAMS[key].name: _stored(key, value, "reference")
+                    for key, value in REFERENCE.items()}
 
 
 def failed_points(summary_path):

@@ -49,6 +49,8 @@ rule figures:
         analysis=config["analysis"],
         reference=REFERENCE,
         figure_axes=FIGURE_AXES,
+        figure_fixed=FIGURE_FIXED,
+        reference_coords=REFERENCE_COORDS,
         axes=AXIS_NAMES,
     threads: 2  # the study's heat maps shared by two processes (workflow/scripts/figures.py)
     resources:

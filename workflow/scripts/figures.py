@@ -92,10 +92,12 @@ with job_log(sm.log[0]):
     from analysis.summary import summary_table
 
     imported = time.time()
-    # study.figure_axes (coordinate names, checked by the workflow), where plot_study takes it
-    options = {}
-    if "figure_axes" in inspect.signature(plot_study).parameters:
-        options["figure_axes"] = sm.params.figure_axes
+    # study.figure_axes, study.figure_fixed and the reference point (coordinate names,
+    # checked by the workflow), where plot_study takes them
+    given = {"figure_axes": sm.params.figure_axes, "figure_fixed": dict(sm.params.figure_fixed),
+             "reference": dict(sm.params.reference_coords)}
+    options = {key: value for key, value in given.items()
+               if key in inspect.signature(plot_study).parameters}
     with folder_in_place(sm.output[0]) as tmp:
         with xr.open_dataset(sm.input.summary) as summary:
             summary = summary.load()
