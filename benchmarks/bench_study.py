@@ -210,6 +210,10 @@ def estimate_check(results: Path, wall: float, out: str) -> list[str]:
     parts = [f"{name} {scale * total / count:.3g} {unit} (estimate {scale * const:.3g})"
              for name, total, count, const, scale, unit in measured if count]
     parts.append(f"rest of a run {per_run:.3f} s (estimate {COST.per_run})")
+    cpu = sum(j.get("cpu", float("nan")) for j in jobs)
+    busy = sum(j["end"] - j["process_start"] for j in jobs)
+    lines.append(f"simulate jobs: {cpu:.0f} CPU-s of their processes against {busy:.0f} s of "
+                 "their wall time (a CPU-s count below the wall time: the machine was shared)")
     parts.append(f"job start {per_job:.2f} s (estimate {COST.per_job})")
     lines.append("measured cost: " + ", ".join(parts))
     return lines

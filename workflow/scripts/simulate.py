@@ -133,7 +133,8 @@ with job_log(sm.log.simulate) as terminal:
     kept = f", {n_skipped} up to date" if n_skipped else ""
     print(f"impact tables (filter, forces, zooms): {tabulating:.1f} s", flush=True)
     print(timing_line(process_start=process_start_time(), script_start=script_start,
-                      imported=imported, end=time.time(), runs=len(sm.params.runs),
+                      imported=imported, end=time.time(), cpu=time.process_time(),
+                      runs=len(sm.params.runs),
                       skipped=n_skipped, numba_load=loading, integration=simulated,
                       integration_nonsmooth=integration["nonsmooth"],
                       integration_compliant=integration["compliant"],
