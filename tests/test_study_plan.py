@@ -282,3 +282,15 @@ def test_a_run_is_finished_only_when_both_files_carry_its_fingerprint(tmp_path):
     lines = repair_outputs([paths[0]], [paths[1]], tmp_path / "summary.nc",
                            batches={marker: paths})
     assert not marker.exists() and any("b0001.json" in line for line in lines)
+
+
+def test_with_error_controlled_steps_the_twin_steps_at_most_the_output_step(monkeypatch):
+    run = plan.plan_runs(_study())[0].config
+    monkeypatch.setattr(plan, "adaptive_steps", lambda: True)
+    twin = plan.twin_config(run)
+    assert twin["solver"]["adaptive"] is True
+    assert twin["solver"]["dt"] == twin["solver"]["output_dt"] == run["solver"]["dt"]
+    fixed = plan.twin_step(twin["model"], twin["analysis"], run["solver"]["dt"])
+    steps = run["solver"]["t_end"] / fixed
+    assert plan.estimate_seconds(twin) == pytest.approx(
+        plan.work_seconds("compliant", steps), rel=1e-12)

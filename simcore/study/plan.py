@@ -198,15 +198,26 @@ def twin_step(model: Mapping[str, Any], analysis: Mapping[str, Any], out_dt: flo
     return out_dt / max(1, math.ceil(out_dt / step - 1e-9))
 
 
+def adaptive_steps() -> bool:
+    """True where the schema has ``solver.adaptive`` (error-controlled compliant steps)."""
+    return "solver.adaptive" in registry()
+
+
 def twin_config(run_cfg: Mapping[str, Any]) -> dict:
     """The compliant twin of a nonsmooth run: the same model, drive and window with Hertz
-    contacts, its step from :func:`twin_step`, its output step the nonsmooth step
-    (``solver.output_dt``: per interval the largest force, so no peak is lost; the same samples
-    as the nonsmooth run); no zooms (a compliant run is its own reference)."""
+    contacts, its output step the nonsmooth step (``solver.output_dt``: per interval the
+    largest force, so no peak is lost; the same samples as the nonsmooth run); no zooms (a
+    compliant run is its own reference). Its step: with error-controlled steps
+    (``solver.adaptive``, where the schema has it) at most the output step; else the fixed
+    step of :func:`twin_step`."""
     twin = copy.deepcopy(dict(run_cfg))
     twin["model"]["contact_model"] = "compliant"
     out_dt = float(run_cfg["solver"]["dt"])
-    twin["solver"]["dt"] = twin_step(twin["model"], twin["analysis"], out_dt)
+    if adaptive_steps():
+        twin["solver"]["adaptive"] = True
+        twin["solver"]["dt"] = out_dt
+    else:
+        twin["solver"]["dt"] = twin_step(twin["model"], twin["analysis"], out_dt)
     twin["solver"]["output_dt"] = out_dt
     twin["analysis"]["zoom_top"] = 0
     return twin
@@ -223,8 +234,12 @@ def work_seconds(contact_model: str, steps: float, zoom_top: int = 0,
 
 
 def estimate_seconds(cfg: Mapping[str, Any], cost: Cost = COST) -> float:
-    """:func:`work_seconds` of a run configuration."""
-    steps = float(cfg["solver"]["t_end"]) / float(cfg["solver"]["dt"])
+    """:func:`work_seconds` of a run configuration (an adaptive compliant run counted at the
+    fixed step of :func:`twin_step`, until its own cost is measured)."""
+    dt = float(cfg["solver"]["dt"])
+    if cfg["model"]["contact_model"] == "compliant" and cfg["solver"].get("adaptive"):
+        dt = twin_step(cfg["model"], cfg["analysis"], dt)
+    steps = float(cfg["solver"]["t_end"]) / dt
     return work_seconds(cfg["model"]["contact_model"], steps,
                         cfg["analysis"].get("zoom_top", 0), cost)
 
