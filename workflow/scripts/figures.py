@@ -34,23 +34,23 @@ MAX_SETS = 12
 def _pieces(ds):
     """(suffix, summary) pieces that :func:`analysis.figures.plot_study` can draw.
 
-    Where it does not draw the summary's ``model`` dimension itself, each model apart (the
+    A ``plot_study`` that takes a ``model`` draws both models and any axes itself: one piece.
+    An older one knows one model and the paper's four axes: each model is drawn apart (the
     nonsmooth one under the usual names, the others with the model's name appended:
-    ``study_peak_force_outer_compliant``); where it knows only the paper's four axes
-    (``analysis.impacts.STUDY_PARAMETERS``), each value of every other axis apart
+    ``study_peak_force_outer_compliant``), and each value of every other axis apart
     (``study_peak_force_outer_cage_stiffness~10000.0``), at most :data:`MAX_SETS` sets.
     """
     import itertools
 
-    import analysis.impacts
-
+    if "model" in inspect.signature(plot_study).parameters:
+        return [("", ds)]
     pieces = [("", ds)]
-    if "model" in ds.dims and "model" not in inspect.signature(plot_study).parameters:
+    if "model" in ds.dims:
         meanings = ds["model"].attrs["flag_meanings"].split()
         pieces = [("" if meanings[int(code)] == "nonsmooth" else f"_{meanings[int(code)]}",
                    ds.sel(model=code, drop=True)) for code in ds["model"].values]
-    known = getattr(analysis.impacts, "STUDY_PARAMETERS", None)
-    extra = [d for d in sm.params.axes if known is not None and d not in known and d in ds.dims]
+    known = ("clearance", "mu", "omega0", "e_N")
+    extra = [d for d in sm.params.axes if d not in known and d in ds.dims]
     if not extra:
         return pieces
     combos = list(itertools.product(*(range(ds.sizes[d]) for d in extra)))
@@ -108,8 +108,8 @@ with job_log(sm.log[0]):
                            for p in paths]
         else:
             written = [p for part in range(STUDY_PARTS) for p in draw(part)]
-        table_of = _pieces(summary)[0][1] if "model" not in inspect.signature(
-            summary_table).parameters else summary
+        table_of = summary if "model" in inspect.signature(summary_table).parameters \
+            else _pieces(summary)[0][1]
         summary_table(table_of).to_csv(tmp / "summary_table.csv", index=False)
         for png in sorted(Path(sm.input.reference).glob("*.png")):  # the reference run's
             shutil.copy2(png, tmp / png.name)
