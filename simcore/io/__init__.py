@@ -32,6 +32,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..config.parameters import BASE_AXES, coordinate_name
+
 
 def _defer_dask_array_type() -> bool:
     """Let xarray ask for dask's array type without importing ``dask.array`` first.
@@ -81,10 +83,11 @@ DASK_ARRAY_TYPE_DEFERRED = _defer_dask_array_type()
 #: CF version the files declare.
 CONVENTIONS = "CF-1.10"
 
-#: The paper's four study parameters: scalar coordinates of every run file (a study adds its
-#: other axes, :func:`study_coords`); units and long names come from the registry of swept
+#: The paper's four study parameters by coordinate name (``clearance``, ``mu``, ``omega0``,
+#: ``e_N``): scalar coordinates of every run file (a study adds its other axes,
+#: :func:`study_coords`); names, units and long names come from the registry of swept
 #: parameters (:mod:`simcore.config.parameters`).
-BASE_PARAMETERS = ("clearance", "mu", "omega0", "e_N")
+BASE_PARAMETERS = tuple(coordinate_name(key) for key in BASE_AXES)
 
 #: Data variables of a run file and the type each is stored as (attribute ``storage`` of the
 #: variable says it too). float64 where digits matter: the impulses ``Lambda_N`` that the

@@ -49,8 +49,9 @@ def _pieces(ds):
         meanings = ds["model"].attrs["flag_meanings"].split()
         pieces = [("" if meanings[int(code)] == "nonsmooth" else f"_{meanings[int(code)]}",
                    ds.sel(model=code, drop=True)) for code in ds["model"].values]
-    known = ("clearance", "mu", "omega0", "e_N")
-    extra = [d for d in sm.params.axes if d not in known and d in ds.dims]
+    from simcore.io import BASE_PARAMETERS
+
+    extra = [d for d in sm.params.axes if d not in BASE_PARAMETERS and d in ds.dims]
     if not extra:
         return pieces
     combos = list(itertools.product(*(range(ds.sizes[d]) for d in extra)))
