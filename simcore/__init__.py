@@ -8,33 +8,13 @@ write_netcdf(ds, path)                -> atomic netCDF writing
 zoom(run_ds, time, window, dt=...)    -> compliant re-simulation from a run's state
 """
 
-import atexit
-import gc
-from contextlib import contextmanager
 from importlib.metadata import PackageNotFoundError, version
 
+from .startup import patches
 
-@contextmanager
-def _collector_paused():
-    """Pause Python's cyclic garbage collector while a process loads what a run needs.
+patches.install()  # before any kernel is compiled or loaded (BEARINGSIM_STARTUP_PATCHES=0: none)
 
-    Loading simcore, Numba's registries, xarray, pandas and dask creates a few hundred thousand
-    objects that live as long as the process; the collector, started by the count of new
-    objects, walks them again and again (its full passes over the growing heap take 0.05-0.15 s
-    each) and finds nothing to free: some 0.25 s of a new process's first run of the paper case,
-    0.35 s of the command's. Paused while loading and the first run, it runs again afterwards
-    (in the state it was in), and collects what is left then.
-    """
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if enabled:
-            gc.enable()
-
-
-with _collector_paused():
+with patches.collector_paused():
     from .config import ConfigError, load_config, load_schema, validate_config
     from .model import SolverError
 
@@ -46,31 +26,20 @@ except PackageNotFoundError:  # running from a source tree without installation
 
 _first_run_done = False
 
-#: Freeze Python's heap when the process exits (registered by the first :func:`run`). The
-#: interpreter's shut-down walks every object still alive with the cyclic collector, several
-#: times: with NumPy, Numba, xarray and pandas loaded that took 0.35-0.4 s of a script that
-#: runs the paper's case in 0.65 s. Frozen, they are skipped, and freed with the process.
-#: Python does not promise to finalize objects that still exist at exit (``__del__`` of
-#: garbage in reference cycles then); set to False to keep its last collections anyway.
-freeze_at_exit = True
-
-
-def _freeze_at_exit():
-    if freeze_at_exit:
-        gc.freeze()
-
 
 def run(config, progress=False):
-    """Simulate one run; see :func:`simcore.runner.run`."""
+    """Simulate one run; see :func:`simcore.runner.run`. The first run in a process loads the
+    kernels, xarray, ... with the garbage collector paused and freezes the heap at exit
+    (start-up patch ``gc_freeze``, :mod:`simcore.startup.patches`)."""
     global _first_run_done
     from .runner import run as _run
 
     if _first_run_done:
         return _run(config, progress=progress)
-    with _collector_paused():  # the first run loads the kernels, xarray, ...
+    with patches.collector_paused():
         ds = _run(config, progress=progress)
     _first_run_done = True
-    atexit.register(_freeze_at_exit)
+    patches.freeze_heap_at_exit()
     return ds
 
 

@@ -1,11 +1,9 @@
-import gc
 import sys
 
 from .cli import main
+from .startup.patches import freeze_heap
 
 code = main()
-# The process ends here. Its shut-down would walk the few hundred thousand objects that
-# NumPy, Numba, xarray and pandas left behind with the cyclic collector (0.8 s of the paper
-# case's 2-3 s command); frozen, they are skipped, and freed with the process.
-gc.freeze()
+# The process ends here: its shut-down skips the objects frozen now (start-up patch gc_freeze)
+freeze_heap()
 sys.exit(code)

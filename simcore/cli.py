@@ -24,7 +24,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--threads", type=int, default=None, help="Numba threads (default: all)")
     r.add_argument("--quiet", action="store_true", help="print nothing but errors")
     z = sub.add_parser("zoom", help="re-simulate a run around a time with compliant contacts")
-    z.add_argument("run", help="netCDF file of a run (with q and v)")
+    z.add_argument("run", help="netCDF file of a run (with its restart state)")
     z.add_argument("--time", type=float, required=True,
                    help="time of interest [s]; the zoom starts from the run's sample before it")
     z.add_argument("--window", type=float, default=2e-3, help="longest zoom duration [s]")
@@ -168,11 +168,12 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 def main(argv=None) -> int:
     """The command line (module docstring); returns the exit code. Python's cyclic garbage
-    collector is paused while it runs (a command loads much and frees little: see
-    ``simcore._collector_paused``) and runs again afterwards."""
-    from . import _collector_paused
+    collector is paused while it runs (a command loads much and frees little: start-up patch
+    ``gc_freeze``, :func:`simcore.startup.patches.collector_paused`) and runs again
+    afterwards."""
+    from .startup.patches import collector_paused
 
-    with _collector_paused():
+    with collector_paused():
         return _main(argv)
 
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from simcore.startup import numba_cache
+from simcore.startup import numba_cache, patches
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -124,7 +124,9 @@ def test_cache_saves_of_several_processes_keep_every_entry(tmp_path):
 
     from numba.core.caching import IndexDataCacheFile
 
-    assert numba_cache.lock_cache_writes()
+    if not patches.enabled("parallel_compile"):
+        pytest.skip("start-up patch parallel_compile is off: saves are Numba's own")
+    assert patches.cache_writes_locked()
     context = multiprocessing.get_context("fork")
     workers, count = 4, 25
     barrier = context.Barrier(workers)
@@ -157,19 +159,20 @@ def _toy_loop(x, out):
 
 
 def test_a_loop_kernel_is_linked():
-    """A registered loop's library is only linked (simcore.kernels.jit.link_only): the hook
+    """A registered loop's library is only linked (simcore.startup.patches.link_only): the hook
     runs for it, without falling back on Numba's optimisation, and the loop computes what the
     Python function computes. (That the paper case keeps its speed and figures is measured by
     benchmarks/bench_core.py and tested by the crank-slider tests.)"""
-    from simcore.kernels import jit
-
-    assert jit.LINK_ONLY_INSTALLED
     x = np.linspace(0.0, 1.0, 7)
     expected = _toy_loop(x, np.zeros(7))
-    linked = njit(jit.link_only(_toy_loop))
-    before = len(jit.LINKED)
+    linked = njit(patches.link_only(_toy_loop))
+    before = len(patches.LINKED)
     assert linked(x, np.zeros(7)) == expected
-    assert jit.LINKED[before:] == ["_toy_loop"] and not jit.LINK_FAILED
+    if not patches.enabled("numba_link_only"):  # switched off: Numba's own optimisation
+        assert not patches.INSTALLED["numba_link_only"] and patches.LINKED[before:] == []
+        return
+    assert patches.INSTALLED["numba_link_only"]
+    assert patches.LINKED[before:] == ["_toy_loop"] and not patches.LINK_FAILED
 
 
 def test_a_noinline_callee_is_left_as_it_is():
@@ -177,23 +180,23 @@ def test_a_noinline_callee_is_left_as_it_is():
     such a callee (llvmlite reports attributes as bytes)."""
     import llvmlite.binding as llvm
 
-    from simcore.kernels import jit
-
     module = llvm.parse_assembly("define void @a() noinline { ret void }\n"
                                  "define void @b() { ret void }\n")
-    assert [jit._has_noinline(f) for f in module.functions] == [True, False]
+    assert [patches.has_noinline(f) for f in module.functions] == [True, False]
 
 
 COMPLIANT_LINKED = """
 import simcore
-from simcore.kernels import jit
+from simcore.startup import patches
 from simcore.runner import warm_up
 warm_up(simcore.load_config(overrides=["model.contact_model=compliant", "solver.dt=1e-6"]))
-print(",".join(jit.LINKED), ",".join(jit.LINK_FAILED) or "-")
+print(",".join(patches.LINKED), ",".join(patches.LINK_FAILED) or "-")
 """
 
 
 @pytest.mark.slow
+@pytest.mark.skipif(not patches.enabled("numba_link_only"),
+                    reason="start-up patch numba_link_only is off")
 def test_the_compliant_loop_is_linked(tmp_path):
     """With an empty cache the compliant model's time loop is linked too, none falls back."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))

@@ -10,7 +10,12 @@ import pytest
 import simcore
 from simcore import kernels as nb
 from simcore.runner import warm_up
-from simcore.startup import parallel_compile
+from simcore.startup import parallel_compile, patches
+
+#: the helper runs only with cache saves locked between processes (start-up patch)
+needs_lock = pytest.mark.skipif(
+    not (patches.enabled("parallel_compile") and patches.enabled("numba_link_only")),
+    reason="start-up patches parallel_compile and numba_link_only are off")
 
 #: after the helper's tasks, this process's own and a run's warm-up: how the run got each of
 #: the helper's kernels (cache hits, misses) and how many specialisations each task's kernel has
@@ -25,12 +30,13 @@ s.warm_up(simcore.load_config())
 for name, (kernel, _) in tasks.items():
     st = kernel.stats
     print(name, st.cache_hits.total(), st.cache_misses.total(), len(kernel.signatures))
-from simcore.kernels import jit
-print("linked", ",".join(jit.LINKED) or "-", ",".join(jit.LINK_FAILED) or "-")
+from simcore.startup import patches
+print("linked", ",".join(patches.LINKED) or "-", ",".join(patches.LINK_FAILED) or "-")
 """
 
 
 @pytest.mark.slow
+@needs_lock
 def test_the_run_loads_what_the_helper_compiled(tmp_path):
     """With an empty cache, the helper's kernels are those the run then needs: it finds each
     in the cache (a hit, no compilation), and no kernel of the plan gets a second
@@ -95,7 +101,8 @@ def test_a_failing_share_leaves_the_compilation_to_the_run(monkeypatch):
 
 def test_no_helper_with_a_warm_cache():
     warm_up(simcore.load_config())
-    assert parallel_compile.in_cache(nb.integrate_chunk) is True
+    if patches.enabled("parallel_compile"):
+        assert patches.in_cache(nb.integrate_chunk) is True
     assert parallel_compile.start_helper() is None
 
 
@@ -120,5 +127,5 @@ def test_waiting_for_the_helper_s_report():
 
 def test_cache_state_unknown_without_a_cache():
     uncached = numba.njit(lambda x: x + 1)
-    assert parallel_compile.in_cache(uncached) is None
+    assert patches.in_cache(uncached) is None
     parallel_compile.stop_helper(None)  # nothing to stop

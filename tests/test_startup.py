@@ -1,14 +1,13 @@
 """A new process's first run: what it imports and what it loads, with the results unchanged.
 
-The start-up savings (docs/performance.md) come from not importing what a run does not use:
-SciPy's ``scipy.linalg`` package (Numba's BLAS check is served by the ``cython_blas`` module
-alone, :func:`simcore.startup.numba_cache.preload_scipy_blas`) and ``dask.array`` (the run's
-dataset is
-built from xarray Variables made on the fast path, :func:`simcore.io.dataset_of_arrays`). The run
-file is written without the question to dask's scheduler that imports ``distributed``
-(:func:`simcore.io.to_netcdf4`), and xarray learns dask's array type only once ``dask.array`` is
-imported (:func:`simcore.io._defer_dask_array_type`). These tests check that the shortcuts give
-the same objects and files as the ordinary way.
+The start-up patches (:mod:`simcore.startup.patches`, docs/performance.md) save time by not
+importing what a run does not use: SciPy's ``scipy.linalg`` package (Numba's BLAS check is
+served by the ``cython_blas`` module alone, ``scipy_blas``) and ``dask.array`` (the run's dataset
+is built from xarray Variables made on the fast path, ``fast_dataset``). The run file is written
+without the question to dask's scheduler that imports ``distributed`` (``netcdf_store``), and
+xarray learns dask's array type only once ``dask.array`` is imported (``xarray_dask_type``).
+These tests check that the patches give the same objects and files as the ordinary way, and
+that ``BEARINGSIM_STARTUP_PATCHES=0`` turns them off.
 """
 
 import json
@@ -27,8 +26,15 @@ from simcore import kernels as nb
 from simcore.io import dataset_of_arrays, parameter_coords, write_netcdf
 from simcore.model import SolverSettings
 from simcore.model.mechanism import ball_in_ring, ball_on_plane, crank_slider, pinched_balls
+from simcore.startup import patches
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def _patched(*names):
+    """Skip a test of what the start-up patches ``names`` do when they are switched off."""
+    return pytest.mark.skipif(not all(patches.enabled(n) for n in names),
+                              reason=f"start-up patches {', '.join(names)} switched off")
 
 FRESH_PROCESS = r"""
 import json, sys
@@ -61,6 +67,7 @@ print(json.dumps(out))
 """
 
 
+@_patched("scipy_blas", "fast_dataset", "netcdf_store", "xarray_dask_type")
 def test_first_run_imports_neither_scipy_linalg_nor_dask_nor_distributed(tmp_path):
     env = dict(os.environ, NUMBA_NUM_THREADS="1",
                PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
@@ -86,9 +93,10 @@ def test_first_run_imports_neither_scipy_linalg_nor_dask_nor_distributed(tmp_pat
 DASK_STAND_IN = r"""
 import json, sys
 import simcore.io
+from simcore.startup import patches
 from xarray.namedarray.pycompat import array_type, mod_version
 import xarray as xr
-out = {"deferred": simcore.io.DASK_ARRAY_TYPE_DEFERRED, "before": list(array_type("dask")),
+out = {"deferred": patches.dask_array_type_deferred(), "before": list(array_type("dask")),
        "imported": "dask.array" in sys.modules}
 import dask
 import dask.array as da
@@ -100,8 +108,9 @@ print(json.dumps(out))
 """
 
 
+@_patched("xarray_dask_type")
 def test_xarray_sees_dask_arrays_with_the_deferred_type():
-    """simcore.io's stand-in for xarray's record of dask: no dask.array import until it is
+    """The start-up patch's stand-in for xarray's record of dask: no dask.array import until it is
     imported, and then xarray recognises dask arrays as it does without the stand-in."""
     proc = subprocess.run([sys.executable, "-c", DASK_STAND_IN], capture_output=True,
                           text=True, cwd=ROOT, timeout=300)
@@ -340,15 +349,56 @@ import atexit, gc, sys
 atexit.register(lambda: print("frozen", gc.get_freeze_count() > 0))  # runs after simcore's
 import simcore
 simcore.run(simcore.load_config(overrides=["solver.t_end=2e-4"]))
-simcore.freeze_at_exit = sys.argv[1] == "1"
 """
 
 
 @pytest.mark.parametrize("freeze", [True, False])
-def test_the_first_run_freezes_the_heap_at_exit_unless_told_not_to(freeze):
-    """The interpreter's shut-down skips the objects alive at exit (simcore.freeze_at_exit):
-    frozen by the handler the first run registers, not with the setting off."""
-    proc = subprocess.run([sys.executable, "-c", AT_EXIT, "1" if freeze else "0"],
-                          capture_output=True, text=True, cwd=ROOT, timeout=600)
+def test_the_first_run_freezes_the_heap_at_exit_unless_switched_off(freeze):
+    """The interpreter's shut-down skips the objects alive at exit: frozen by the handler the
+    first run registers (start-up patch gc_freeze), not with the patches switched off."""
+    env = dict(os.environ, BEARINGSIM_STARTUP_PATCHES="1" if freeze else "0")
+    proc = subprocess.run([sys.executable, "-c", AT_EXIT], capture_output=True, text=True,
+                          cwd=ROOT, timeout=600, env=env)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().splitlines()[-1] == f"frozen {freeze}"
+
+
+SAME_FILE = r"""
+import json, sys
+import simcore
+from simcore.startup import patches
+ds = simcore.run(simcore.load_config(overrides=["solver.t_end=0.01"]))
+for key in ("history", "wall_time_s", "compile_time_s"):
+    ds.attrs[key] = 0
+simcore.write_netcdf(ds, sys.argv[1])
+print(json.dumps({"installed": patches.INSTALLED, "modules": sorted(sys.modules)}))
+"""
+
+
+def test_the_patches_change_no_byte_of_the_run_file(tmp_path):
+    """The paper case's first 10 ms written by a new process with every start-up patch and
+    with none (BEARINGSIM_STARTUP_PATCHES=1 and 0): the same file, byte for byte (but the
+    time attributes); switched off, no patch is installed and the modules the patches keep out
+    (scipy.linalg, dask.array) are imported the ordinary way."""
+    out = {}
+    for switch in ("1", "0"):
+        env = dict(os.environ, BEARINGSIM_STARTUP_PATCHES=switch)
+        proc = subprocess.run([sys.executable, "-c", SAME_FILE, str(tmp_path / f"{switch}.nc")],
+                              capture_output=True, text=True, cwd=ROOT, timeout=600, env=env)
+        assert proc.returncode == 0, proc.stderr
+        out[switch] = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert (tmp_path / "1.nc").read_bytes() == (tmp_path / "0.nc").read_bytes()
+    assert all(out["1"]["installed"].values()) and not any(out["0"]["installed"].values())
+    assert set(out["1"]["installed"]) == set(patches.PATCHES)
+    for module in ("scipy.linalg", "dask.array"):
+        assert module not in out["1"]["modules"] and module in out["0"]["modules"], module
+
+
+def test_a_bad_switch_value_is_refused_in_one_line():
+    env = dict(os.environ, BEARINGSIM_STARTUP_PATCHES="scipy_blas,numba")
+    proc = subprocess.run([sys.executable, "-c", "import simcore"], capture_output=True,
+                          text=True, cwd=ROOT, timeout=300, env=env)
+    assert proc.returncode != 0
+    last = proc.stderr.strip().splitlines()[-1]
+    assert last == ("ValueError: BEARINGSIM_STARTUP_PATCHES: 'numba' is not allowed; allowed: "
+                    "0, 1 or a comma-separated list of " + ", ".join(patches.PATCHES))

@@ -10,7 +10,7 @@ Step size
 The smooth forces are integrated by the implicit generalized-alpha scheme: it does not blow up
 on a linear spring whatever the step, but it only *resolves* an oscillation whose period spans a
 few steps. A cage spring that the step cannot resolve, combined with the rotating spring axes
-and the impacts, is what turned the 33.6 J run of the issue into 467 kJ in 22 steps. The
+and the impacts, turns a 33.6 J run into 467 kJ in 22 steps (docs/reliability.md, section 2). The
 fastest spring/mass frequency is bounded from the model's springs and masses (Gershgorin's
 bound of ``M^-1/2 K M^-1/2``, translational part)::
 

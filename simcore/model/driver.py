@@ -339,7 +339,7 @@ def _allocate(model, settings: SolverSettings, start: _Start, t0: float) -> Traj
     ndof, nc = start.state.q.size, start.gap.size
     rows = lambda *shape: np.zeros((n_out, *shape))  # noqa: E731
     out = Trajectory(
-        time=float(t0) + np.arange(n_out) * settings.output_dt,
+        time=float(t0) + np.arange(n_out) * settings.dt * settings.output_every,
         q=rows(ndof), v=rows(ndof), lambda_N=rows(nc), lambda_T=rows(nc), nu_N=rows(nc),
         gap_N=rows(nc), vn_pre=rows(nc), vn_post=rows(nc), vn_free=rows(nc),
         energy=np.zeros(n_out), iterations=np.zeros((n_out, 3), np.int64),

@@ -11,9 +11,9 @@ position correction first, then the start's kernels); this process compiles
 the position correction (:meth:`Helper.wait_for`), and then runs, finding in the cache what the
 helper has compiled. The tasks compile each kernel for the argument types a run gives it
 (:func:`compile_tasks`), so the run's look-up finds the same entry. The two processes save their
-entries one after the other (:func:`simcore.startup.numba_cache.lock_cache_writes`): Numba's
-own saving
-of an entry is not safe between processes.
+entries one after the other (:func:`simcore.startup.patches.lock_cache_writes`): Numba's own
+saving of an entry is not safe between processes, so no helper starts where the start-up patch
+``parallel_compile`` is off.
 
 The split is measured (docs/method.md, "The kernels"): the two lists take about the same time,
 and the loop's own compilation, which needs all three stages, comes last in this process. With
@@ -41,16 +41,6 @@ HELPER = "from simcore.startup.parallel_compile import helper_main; helper_main(
 #: shortest limit of the wait for the helper's share [s] (see :func:`compile_with_helper`;
 #: that share takes about 8 s on a 2-core machine)
 WAIT_LIMIT = 30.0
-
-
-def in_cache(dispatcher) -> bool | None:
-    """Whether Numba's cache holds compiled code of ``dispatcher`` (its index file exists in
-    the cache folder), or None when that cannot be told (no cache, another Numba layout)."""
-    cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
-    index = getattr(cache_file, "_index_path", None)
-    if not index:
-        return None
-    return os.path.exists(index)
 
 
 def compile_tasks() -> dict:
@@ -155,16 +145,16 @@ class Helper:
 
 
 def start_helper() -> Helper | None:
-    """Start the helper process when the time loop is not in the cache, more than one core is
-    there to run it and cache saves are locked between processes; returns it, or None when
-    nothing was started."""
+    """Start the helper process when cache saves are locked between processes (start-up patch
+    ``parallel_compile``), the time loop is not in the cache and more than one core is there
+    to run it; returns it, or None when nothing was started."""
     from .. import kernels as nb
-    from .numba_cache import lock_cache_writes
+    from .patches import cache_writes_locked, in_cache
 
+    if not cache_writes_locked() or not sys.executable:
+        return None  # (patch off: unlocked saves of two processes could mix up cache entries)
     if in_cache(nb.integrate_chunk) is not False or usable_cores() < 2:
         return None
-    if not lock_cache_writes() or not sys.executable:
-        return None  # (unlocked saves of two processes could mix up cache entries)
     try:
         process = subprocess.Popen([sys.executable, "-c", HELPER], stdin=subprocess.DEVNULL,
                                    stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)

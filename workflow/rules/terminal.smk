@@ -61,11 +61,13 @@ class _TerseTerminal(logging.Filter):
         self.workflow = workflow
 
     def filter(self, record):
-        from snakemake.logging import LogEvent, get_event
+        # (the event of a record, as Snakemake's logger plugin interface defines it)
+        from snakemake_interface_logger_plugins.common import LogEvent
 
         if record.levelno > logging.INFO:
             return True
-        job_info = get_event(record) in (LogEvent.JOB_INFO, LogEvent.GROUP_INFO)
+        event = getattr(record, "event", None)
+        job_info = event in (LogEvent.JOB_INFO, LogEvent.GROUP_INFO)
         if job_info and not self.workflow.dryrun:
             return False  # the job's inputs and outputs (kB of paths); a dry run lists them
         text = str(record.getMessage()).strip()
@@ -73,8 +75,7 @@ class _TerseTerminal(logging.Filter):
 
 
 def _terse_terminal():
-    from snakemake.logging import logger
-
+    logger = logging.getLogger("snakemake.logging")  # Snakemake's terminal output
     if not any(isinstance(f, _TerseTerminal) for f in logger.filters):
         logger.addFilter(_TerseTerminal(workflow))
 
@@ -84,9 +85,8 @@ _terse_terminal()
 
 def freeze_heap():
     """Freeze the objects of Snakemake's process (called last in the Snakefile's onsuccess):
-    its shut-down would walk them (Snakemake, simcore's configuration, pandas) with the cyclic
-    collector several times; frozen, they are skipped and freed with the process (about 0.5 s
-    of the study's end). What Snakemake makes after this point is collected as usual."""
-    import gc
+    its shut-down skips them (start-up patch gc_freeze, simcore.startup.patches.freeze_heap).
+    What Snakemake makes after this point is collected as usual."""
+    from simcore.startup.patches import freeze_heap as freeze
 
-    gc.freeze()
+    freeze()

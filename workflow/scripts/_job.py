@@ -7,18 +7,16 @@ live here (kernels defined in a script would never hit Numba's cache).
 
 from __future__ import annotations
 
-import atexit
-import gc
 import os
 import sys
 import traceback
 from contextlib import contextmanager
 
-# A job's process ends with its script. Python's shut-down would walk the few hundred thousand
-# objects that NumPy, Numba, xarray and pandas leave behind with the cyclic collector, several
-# times (0.25-0.3 s of each job); frozen, they are skipped and freed with the process. (Objects
-# with finalizers are closed by the scripts before they end: the files are written and renamed.)
-atexit.register(gc.freeze)
+from simcore.startup.patches import freeze_heap_at_exit  # noqa: E402
+
+# A job's process ends with its script: its shut-down skips the objects alive then (start-up
+# patch gc_freeze; the scripts close their files before they end: written and renamed).
+freeze_heap_at_exit()
 
 
 @contextmanager

@@ -9,7 +9,9 @@ through the impact analysis, which has kernels of its own, and one short complia
 impact (the kernels of the compliant model, which the simulate jobs use for ``F_max_zoom``).
 The compliant kernels are compiled meanwhile by a second process, so that two cores share a
 cold compilation (and the run's own warm-up shares its part with a third,
-``simcore.startup.parallel_compile``): about 21 s on a 2-core machine with an empty cache.
+``simcore.startup.parallel_compile``). Two processes compile at once only where Numba's cache
+saves are locked between them (start-up patch ``parallel_compile``); otherwise the compliant
+kernels are compiled here, after the others.
 
 After a success it leaves a stamp file in the Numba cache folder (:func:`warm_stamp`); while the
 stamp matches the kernel sources, the next study skips the warm-up (which otherwise costs 2-3 s
@@ -59,29 +61,33 @@ if __name__ == "__main__":
     import subprocess
 
     start = time.perf_counter()
-    # Two cores compile at once: the compliant kernels in a second process (they share some
-    # callees with the nonsmooth ones, which both compile; their cache saves are serialised by
-    # simcore.startup.numba_cache.lock_cache_writes). Should that process fail, the zoom below
-    # compiles
-    # them here.
-    compliant = subprocess.Popen([sys.executable, "-c", COMPLIANT_WARM_UP],
-                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     import analysis
     import simcore
+    from simcore.startup.patches import cache_writes_locked
+
+    # Two cores compile at once: the compliant kernels in a second process (they share some
+    # callees with the nonsmooth ones, which both compile; their cache saves are serialised by
+    # simcore.startup.patches.lock_cache_writes, without which the zoom below compiles them
+    # here). Should that process fail, the zoom below compiles them here too.
+    compliant = None
+    if cache_writes_locked():
+        compliant = subprocess.Popen([sys.executable, "-c", COMPLIANT_WARM_UP],
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                     text=True)
 
     cfg = simcore.load_config(overrides=["solver.t_end=0.003"])
     run = simcore.run(cfg)
     impacts = analysis.extract_impacts(run)
     nonsmooth_done = time.perf_counter()
-    output, _ = compliant.communicate()
-    if compliant.returncode != 0:
+    output, _ = compliant.communicate() if compliant is not None else ("", None)
+    if compliant is not None and compliant.returncode != 0:
         print(f"the compliant warm-up process failed (exit {compliant.returncode}); the zoom "
               f"compiles here:\n{output}")
     zoom_start = time.perf_counter()
     simcore.zoom(run, 1.5e-3, window=2e-5, dt=1e-6)
     print(f"simulation kernels: {run.attrs['compile_time_s']:.1f} s; nonsmooth run and analysis "
           f"of {impacts.sizes.get('impact', 0)} impact(s) {nonsmooth_done - start:.1f} s; "
-          f"compliant kernels (second process) ready {zoom_start - start:.1f} s; "
+          f"compliant kernels ready {zoom_start - start:.1f} s; "
           f"zoom {time.perf_counter() - zoom_start:.1f} s; "
           f"total {time.perf_counter() - start:.1f} s (python {sys.version.split()[0]})")
     stamp = warm_stamp()

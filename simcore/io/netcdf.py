@@ -1,0 +1,140 @@
+"""Atomic netCDF writing of run files and the other files of a study.
+
+:func:`write_netcdf` writes to a temporary file in the target folder and renames it into place
+(``os.replace``), so that no reader ever sees a half-written file; a failed write leaves nothing
+behind, and a full disk is reported as such.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from ..startup.patches import to_netcdf4
+from .variables import RUN_VARIABLES, STORAGE
+
+
+def _is_text(var: xr.Variable) -> bool:
+    if var.dtype.kind in "US":
+        return True
+    if var.dtype.kind == "O" and var.size:
+        return all(isinstance(x, str) for x in np.asarray(var.values).ravel())
+    return False
+
+
+def keep_variables(ds: xr.Dataset, keep=None) -> xr.Dataset:
+    """The run dataset with only the data variables named in ``keep`` (``study.keep``).
+
+    Names of :data:`RUN_VARIABLES` that ``ds`` lacks (``F_N`` of a nonsmooth run) are skipped;
+    variables that are not run variables (those of other datasets) are kept.
+
+    Raises
+    ------
+    ValueError
+        For a name that is not a run variable, naming the key and the allowed names.
+    """
+    if keep is None:
+        return ds
+    unknown = [name for name in keep if name not in STORAGE]
+    if unknown:
+        raise ValueError(f"study.keep: {unknown[0]!r} is not allowed; allowed: "
+                         + ", ".join(RUN_VARIABLES))
+    drop = [name for name in ds.data_vars if name in STORAGE and name not in keep]
+    return ds.drop_vars(drop)
+
+
+def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4, keep=None) -> Path:
+    """Write ``ds`` to ``path`` atomically, with zlib compression of the data variables.
+
+    Coordinates are written without ``_FillValue`` and text variables as character arrays (both
+    as CF asks; a text variable keeps a ``dtype`` its own encoding names). A data variable whose
+    ``encoding`` names a ``dtype`` (the run variables, :data:`STORAGE`) is stored as that type.
+    A data variable along ``time`` is chunked per time series (one chunk per contact, body and
+    axis), which compresses the smooth series better than whole rows.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Dataset to write.
+    path : str or Path
+        Target file; its folder is created if missing.
+    complevel : int
+        zlib compression level (0-9).
+    keep : sequence of str, optional
+        Data variables of a run to write (``study.keep``, see :func:`keep_variables`); None:
+        all.
+
+    Returns
+    -------
+    Path
+        The written path.
+    """
+    path = Path(path)
+    ds = keep_variables(ds, keep)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    encoding = netcdf_encoding(ds, complevel)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        try:
+            to_netcdf4(ds, tmp, encoding)
+        except (OSError, RuntimeError) as exc:
+            _raise_if_disk_full(exc, path, ds.nbytes)
+            raise
+        # mkstemp creates the file for its owner only; give it the permissions of a file
+        # opened the ordinary way (0666 less the umask)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def netcdf_encoding(ds: xr.Dataset, complevel: int = 4) -> dict:
+    """The ``encoding`` argument with which :func:`write_netcdf` writes ``ds`` (see there)."""
+    encoding = {}
+    for name, var in ds.variables.items():
+        enc = {}
+        text = _is_text(var)
+        if text and "dtype" not in var.encoding:
+            enc["dtype"] = "S1"
+        if name in ds.coords and not text:
+            enc["_FillValue"] = None  # CF: coordinates have no missing values
+        if name in ds.data_vars and var.ndim > 0 and (var.dtype.kind in "fiub" or text):
+            enc.update(zlib=True, complevel=complevel, shuffle=True)
+            if var.encoding.get("dtype") is not None and not text:
+                enc["dtype"] = var.encoding["dtype"]
+            if var.dims[0] == "time" and not text:
+                enc["chunksizes"] = (max(1, var.shape[0]),) + (1,) * (var.ndim - 1)
+        if enc:
+            encoding[name] = enc
+    return encoding
+
+
+def _raise_if_disk_full(exc: BaseException, path: Path, nbytes: int) -> None:
+    """Turn a write failure on a full disk into ``OSError(ENOSPC)`` saying so.
+
+    The netCDF library reports a full disk as "NetCDF: HDF error" (a RuntimeError); the file
+    system's free space tells what happened.
+    """
+    import errno
+    import shutil
+
+    full = isinstance(exc, OSError) and exc.errno == errno.ENOSPC
+    if not full:
+        try:
+            free = shutil.disk_usage(path.parent).free
+        except OSError:
+            return
+        full = free < max(nbytes, 1 << 20)
+    if full:
+        raise OSError(errno.ENOSPC, f"No space left on device while writing {path} "
+                      f"({type(exc).__name__}: {exc})") from exc

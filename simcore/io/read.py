@@ -1,0 +1,59 @@
+"""Reading a run file back: the generalized coordinates of the kernels and one sample's state."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+#: The run-file variables that make up ``q`` and ``v`` (:func:`generalized`).
+GENERALIZED_PARTS = {"q": ("position", "angle"), "v": ("velocity", "angular_velocity")}
+
+
+def generalized(ds: xr.Dataset) -> xr.Dataset:
+    """Add the generalized coordinates ``q`` and velocities ``v`` (time, body, dof) to a run.
+
+    ``dof`` is (x, y, phi): ``q`` stacks ``position`` [m] and ``angle`` [rad], ``v`` stacks
+    ``velocity`` [m s-1] and ``angular_velocity`` [rad s-1], as the kernels order them. The two
+    variables mix units, so they live in memory only (the files keep the split variables).
+    """
+    def stack(lin, rot, long_name):
+        lin = lin.transpose("time", "body", "axis")
+        rot = rot.transpose("time", "body")
+        values = np.concatenate([lin.values, rot.values[..., None]], axis=-1)
+        return xr.DataArray(values, dims=("time", "body", "dof"),
+                            coords={"time": ds["time"], "body": ds["body"],
+                                    "dof": ["x", "y", "phi"]},
+                            attrs={"long_name": long_name})
+
+    q = stack(*(ds[p] for p in GENERALIZED_PARTS["q"]),
+              "positions x [m], y [m] and angle phi [rad]")
+    v = stack(*(ds[p] for p in GENERALIZED_PARTS["v"]),
+              "velocities vx, vy [m s-1] and angular velocity omega [rad s-1]")
+    return ds.assign(q=q, v=v)
+
+
+def state_at(ds: xr.Dataset, i: int) -> tuple[np.ndarray, np.ndarray]:
+    """The generalized coordinates and velocities (n,) of sample ``i`` of a run, in the
+    kernels' order (x, y, phi of each body): from ``q`` and ``v`` where the run has them, else
+    from their parts (:data:`GENERALIZED_PARTS`), without stacking the whole run as
+    :func:`generalized` does."""
+    def one(name):
+        if name in ds:
+            return np.asarray(ds[name].isel(time=i).values, dtype=float).ravel()
+        lin, rot = GENERALIZED_PARTS[name]
+        lin = ds[lin].isel(time=i).transpose("body", "axis").values
+        rot = ds[rot].isel(time=i).transpose("body").values
+        return np.concatenate([lin, rot[:, None]], axis=1).astype(float).ravel()
+
+    return one("q"), one("v")
+
+
+def open_run(path: str | Path) -> xr.Dataset:
+    """Open a run file (in memory) with ``q`` and ``v`` added (:func:`generalized`)."""
+    with xr.open_dataset(path) as ds:
+        ds = ds.load()
+    if int(ds.attrs.get("failed", 0)):
+        return ds
+    return generalized(ds)
