@@ -11,20 +11,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..startup.numba_cache import preload_scipy_blas
-
-preload_scipy_blas()  # before Numba's first kernel call: 0.2 s less in a new process
-
-from .. import kernels as nb  # noqa: E402
-from . import driver  # noqa: E402
-from .driver import (  # noqa: E402,F401  (re-exported)
+from .. import kernels as nb
+from . import driver
+from .driver import (  # noqa: F401  (re-exported)
     CONTACT_MODELS,
     ReleaseStop,
     SolverError,
     SolverSettings,
     Trajectory,
 )
-from .hertz import DAMPING_LAWS, damping_factor, hertz_stiffness  # noqa: E402,F401
+from .hertz import DAMPING_LAWS, damping_factor, hertz_stiffness  # noqa: F401
 
 CONTACT_KINDS = {"plane": nb.CONTACT_PLANE, "outside": nb.CONTACT_OUTSIDE,
                  "inside": nb.CONTACT_INSIDE}

@@ -61,11 +61,3 @@ def configure_cache(folder: str | Path = KERNELS_DIR) -> str:
     path = str(cache_dir_for(folder))
     numba.config.CACHE_DIR = path
     return path
-
-
-def preload_scipy_blas() -> bool:
-    """:func:`simcore.startup.patches.preload_scipy_blas` where patch ``scipy_blas`` is
-    selected (``import simcore`` has installed it already: then this does nothing)."""
-    from . import patches
-
-    return patches.enabled("scipy_blas") and patches.preload_scipy_blas()
