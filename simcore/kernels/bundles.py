@@ -43,12 +43,12 @@ CompliantState = namedtuple("CompliantState", [
     "v_pre", "closed", "FN", "FT", "gap", "vn", "vt", "FN_max", "FT_at_max", "LN", "LT",
     "gap_min", "vn_start", "it_max", "ok", "drive_impulse"])
 
-#: Outputs of the compliant time loop, one row per output sample (row 0: t0); drive_impulse:
-#: the drive's torque impulse over the interval that ends at the row [N m s] (the energy audit's
-#: drive work, whatever the steps in the interval).
+#: Outputs of the compliant time loop, one row per output sample (row 0: t0); drive_torque is
+#: the drive's torque averaged over the interval that ends at the row (its torque impulse over
+#: the interval's length, whatever the steps in it: the energy audit's drive work).
 CompliantOutputs = namedtuple("CompliantOutputs", [
     "q", "v", "F_N", "F_T", "Lambda_N", "Lambda_T", "gap_N", "vn_pre", "vn_post", "energy",
-    "iterations", "converged", "drive_torque", "drive_impulse"])
+    "iterations", "converged", "drive_torque"])
 
 #: Settings of the compliant loop with adaptive steps (the largest step is StepSettings.h):
 #: ``out_dt`` the output interval [s], ``dt_min`` the smallest step the error control may ask

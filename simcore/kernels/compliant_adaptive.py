@@ -290,7 +290,8 @@ def integrate_compliant_adaptive(row0, row1, st, ad, ma, state, cs, out, work, a
     first_bad = -1
     redos = 0
     for row in range(row0, row1):
-        t = st.t0 + row * ad.out_dt
+        t_start = st.t0 + row * ad.out_dt
+        t = t_start
         t_stop = st.t0 + (row + 1) * ad.out_dt
         steps = 0
         while t < t_stop:
@@ -352,6 +353,6 @@ def integrate_compliant_adaptive(row0, row1, st, ad, ma, state, cs, out, work, a
                 first_bad = row + 1
             if not np.isfinite(err) and flagged:
                 return first_bad  # a non-finite state: the driver reports it
-        write_sample(row + 1, state, cs, out, ma, st.drive_row, trig)
+        write_sample(row + 1, state, cs, out, ma, st.drive_row, trig, t_stop - t_start)
         aw.row_steps[row + 1] = steps
     return first_bad

@@ -911,10 +911,11 @@ def commit_step(h, state, cs, work, it_s, it_p, ok, drive_row, velocities):
 
 
 @step_kernel
-def write_sample(row, state, cs, out, ma, drive_row, trig):
-    """Write output row ``row`` at the end of its interval (q, v, energy: kinetic,
-    gravitational, springs and the contacts' elastic energy, the drive torque; the interval's
-    records of :func:`commit_step`) and start the next interval's records."""
+def write_sample(row, state, cs, out, ma, drive_row, trig, duration):
+    """Write output row ``row`` at the end of its interval of ``duration`` [s] (q, v, energy:
+    kinetic, gravitational, springs and the contacts' elastic energy; the drive torque averaged
+    over the interval, its torque impulse over its length; the interval's records of
+    :func:`commit_step`) and start the next interval's records."""
     q = state.q
     v = state.v
     for i in range(q.shape[0]):  # (an array assignment would need reference counting)
@@ -940,10 +941,9 @@ def write_sample(row, state, cs, out, ma, drive_row, trig):
         cs.it_max[s] = 0
     out.converged[row] = cs.ok[0]
     cs.ok[0] = 1
-    out.drive_impulse[row] = cs.drive_impulse[0]
-    cs.drive_impulse[0] = 0.0
     if drive_row >= 0:
-        out.drive_torque[row] = state.lam_s[drive_row]
+        out.drive_torque[row] = cs.drive_impulse[0] / duration
+    cs.drive_impulse[0] = 0.0
 
 
 @loop_kernel
@@ -952,12 +952,15 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
     t0 + k0 h on entry).
 
     Every ``every`` steps the output row (k + 1) // every is written (:func:`write_sample`):
-    q, v, energy and drive torque at that instant; per contact the largest normal force of the
-    interval ``F_N`` [N], the friction force at that peak ``F_T`` [N], the impulses
-    ``Lambda_N``, ``Lambda_T`` [N s] (trapezoidal rule on the step-end forces), the smallest
-    gap ``gap_N`` [m], the normal velocity at the start (``vn_pre``) and at the end
-    (``vn_post``) of the interval [m/s]; the drive's torque impulse over the interval
-    ``drive_impulse`` [N m s]; the largest iteration counts and whether every step converged.
+    q, v, energy (kinetic, gravitational, springs and the contacts' elastic energy) at that
+    instant, the drive torque averaged over the interval (its torque impulse over the
+    interval's length, so that torque x drive rate x interval is the drive's work, which the
+    energy audit subtracts; at ``every`` = 1 the step's torque); per contact the largest normal
+    force of the interval ``F_N`` [N], the friction force at that peak ``F_T`` [N], the
+    impulses ``Lambda_N``, ``Lambda_T`` [N s] (trapezoidal rule on the step-end forces), the
+    smallest gap ``gap_N`` [m], the normal velocity at the start (``vn_pre``) and at the end
+    (``vn_post``) of the interval [m/s]; the largest iteration counts and whether every step
+    converged.
 
     Parameters
     ----------
@@ -989,5 +992,6 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
         if not ok and first_bad < 0:
             first_bad = k
         if sample:
-            write_sample((k + 1) // every, state, cs, out, ma, st.drive_row, work.smooth.trig)
+            write_sample((k + 1) // every, state, cs, out, ma, st.drive_row, work.smooth.trig,
+                         every * h)
     return first_bad

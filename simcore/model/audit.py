@@ -24,9 +24,9 @@ work over the step is ``drive_torque[k+1] * omega0 * h``. (A trapezoid of the st
 mixes the impulse of an impact into the neighbouring step: on the paper's case with the
 constant drive it misplaces up to 4.8 J of a 34 J run per step, while the step-end value
 balances to 1e-4 J.) A compliant run writes one row per output interval of many steps; its
-kernels sum h * torque over the interval's steps (``drive_impulse``), and the drive's work over
-the interval is that impulse times omega0, whatever the steps (fixed or adaptive) and however
-coarse the output.
+``drive_torque`` is the torque averaged over the interval (its torque impulse, the sum of
+h * torque over the interval's steps, over the interval's length), so that the same product is
+the drive's work over the interval, whatever the steps (fixed or adaptive).
 
 Tolerance
 ---------
@@ -91,11 +91,9 @@ class EnergyAudit:
         self._scale = 0.0
 
     def check(self, energy: np.ndarray, drive_torque: np.ndarray, converged: np.ndarray,
-              k0: int, k1: int, drive_impulse: np.ndarray | None = None) -> int:
+              k0: int, k1: int) -> int:
         """Audit steps k0 .. k1-1 (outputs at indices k0+1 .. k1); set ``converged`` to 0 on
-        every step that created energy beyond the tolerance. ``drive_impulse`` [N m s]: the
-        drive's torque impulse over each output interval, where a run records it (the compliant
-        model, whose interval holds many steps); else the torque at the row times the step.
+        every step that created energy beyond the tolerance.
 
         Returns
         -------
@@ -104,10 +102,7 @@ class EnergyAudit:
         """
         e_prev = energy[k0:k1]
         e_next = energy[k0 + 1:k1 + 1]
-        if drive_impulse is not None:
-            work = drive_impulse[k0 + 1:k1 + 1] * self.rate
-        else:
-            work = drive_torque[k0 + 1:k1 + 1] * self.rate * self.dt
+        work = drive_torque[k0 + 1:k1 + 1] * self.rate * self.dt
         err = (e_next - e_prev) - work
         scale = np.maximum.accumulate(np.maximum(np.abs(e_prev), self._scale))
         self._scale = float(scale[-1])

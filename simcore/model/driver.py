@@ -256,7 +256,6 @@ class Trajectory:
     drive_torque: np.ndarray
     F_N: np.ndarray | None = None
     F_T: np.ndarray | None = None
-    drive_impulse: np.ndarray | None = None
     contact_model: str = "nonsmooth"
     wall_time_s: float = 0.0
     first_unconverged_step: int = -1
@@ -265,7 +264,7 @@ class Trajectory:
     #: the per-row arrays, trimmed together by an early stop
     ROW_FIELDS = ("time", "q", "v", "lambda_N", "lambda_T", "nu_N", "gap_N", "vn_pre",
                   "vn_post", "vn_free", "energy", "iterations", "converged", "drive_torque",
-                  "F_N", "F_T", "drive_impulse")
+                  "F_N", "F_T")
 
     def keep_rows(self, n_keep: int) -> None:
         """Keep the first ``n_keep`` rows of every per-row array."""
@@ -402,7 +401,6 @@ def _allocate(model, settings: SolverSettings, start: _Start, t0: float) -> Traj
     if settings.compliant:
         out.F_N, out.F_T = rows(nc), rows(nc)
         out.F_N[0], out.F_T[0] = start.F_N, start.F_T
-        out.drive_impulse = np.zeros(n_out)
         out.energy[0] += nb.elastic_energy(st.q, start.arrays)
     return out
 
@@ -455,7 +453,7 @@ class _Loop:
             outputs = nb.CompliantOutputs(out.q, out.v, out.F_N, out.F_T, out.lambda_N,
                                           out.lambda_T, out.gap_N, out.vn_pre, out.vn_post,
                                           out.energy, out.iterations, out.converged,
-                                          out.drive_torque, out.drive_impulse)
+                                          out.drive_torque)
             self.chunk = max(1, int(settings.chunk) // every) * every
             if settings.adaptive:
                 aset = nb.AdaptiveSettings(settings.output_dt, float(settings.dt_min),
@@ -528,8 +526,7 @@ class _Loop:
         """The energy audit and the convergence of the chunk's steps: the first failure of
         the run stops it or is flagged (``on_nonconvergence``)."""
         out, every = self.out, self.settings.output_every
-        gain = self.audit.check(out.energy, out.drive_torque, out.converged, row0, row1,
-                                drive_impulse=out.drive_impulse)
+        gain = self.audit.check(out.energy, out.drive_torque, out.converged, row0, row1)
         if self.adaptive is not None and bad >= 0:  # (the kernel returns a row)
             bad = bad * every - 1
         if gain >= 0 and self.first_bad < 0 and (bad < 0 or gain * every < bad):
