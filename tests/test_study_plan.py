@@ -39,8 +39,8 @@ def test_registry_holds_every_numeric_or_enumerated_key_of_the_three_sections():
     params = registry()
     for section in ("model", "solver", "analysis"):
         for key, node in schema["properties"][section]["properties"].items():
-            sweepable = node.get("type") in ("number", "integer") or "enum" in node \
-                or node.get("type") == ["number", "null"] or "oneOf" in node
+            sweepable = node.get("type") in ("number", "integer", "boolean") \
+                or "enum" in node or node.get("type") == ["number", "null"] or "oneOf" in node
             assert (f"{section}.{key}" in params) == sweepable, (section, key)
     assert "analysis.force_levels" not in params  # a list is not an axis
     assert [params[k].name for k in BASE_AXES] == ["clearance", "mu", "omega0", "e_N"]
