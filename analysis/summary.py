@@ -917,18 +917,22 @@ def _where(da: xr.DataArray) -> str:
 
 
 def _table_rows(summary: xr.Dataset) -> list:
-    """(quantity, unit, DataArray, scale) of the summary table, both models side by side."""
+    """(quantity, unit, DataArray, scale) of the summary table, both models side by side
+    (quantities the summary lacks are left out)."""
     rows = []
     models = [int(m) for m in summary["model"].values] if "model" in summary.dims else []
+
+    def of(name, m):
+        return summary[name].sel(model=m) if "model" in summary[name].dims else summary[name]
+
     for name, what, unit, scale in (("peak_force", "steady peak force", "kN", 1e-3),
                                     ("peak_force_rev_median", "median over revolutions of the "
                                      "peak force", "kN", 1e-3),
                                     ("p_max", "peak contact pressure p_max", "MPa", 1e-6)):
         for r in (1, 0):
-            for m in models:
-                if name in summary:
-                    rows.append((f"{what}, {RACES[r]} race, {MODELS[m]}", unit,
-                                 summary[name].sel(model=m).isel(race=r), scale))
+            for m in models if name in summary else ():
+                rows.append((f"{what}, {RACES[r]} race, {MODELS[m]}", unit,
+                             of(name, m).isel(race=r), scale))
     for r in (1, 0):
         if "method_ratio" in summary:
             rows.append((f"method ratio (nonsmooth / compliant peak), {RACES[r]} race", "1",
@@ -936,24 +940,24 @@ def _table_rows(summary: xr.Dataset) -> list:
     if "static_deflection_ratio" in summary:
         rows.append(("static deflection of a ball / clearance", "1",
                      summary["static_deflection_ratio"], 1.0))
-    for m in models:
-        rows.append((f"start-up peak force, {MODELS[m]}", "kN",
-                     summary["startup_peak_force"].sel(model=m), 1e-3))
-    for i, level in enumerate(summary["level"].values):
+    for m in models if "startup_peak_force" in summary else ():
+        rows.append((f"start-up peak force, {MODELS[m]}", "kN", of("startup_peak_force", m),
+                     1e-3))
+    for i, level in enumerate(summary["level"].values if "above_per_rev" in summary else ()):
         for m in models:
             rows.append((f"{'impacts' if m == NONSMOOTH else 'contact episodes'} per "
                          f"revolution with force >= {level:g} N, {MODELS[m]}", "1",
-                         summary["above_per_rev"].sel(model=m).isel(level=i)
-                         .sum("race", min_count=1), 1.0))
-    rows.append(("impacts per revolution (nonsmooth, relative zero threshold)", "1",
-                 summary["impacts_per_rev"].sum(["race", "kind"], min_count=1), 1.0))
-    rows.append(("steady revolutions per run", "1",
-                 summary["revolutions"].sel(model=NONSMOOTH), 1.0))
-    rows.append(("Newton iterations per step, largest (any stage), nonsmooth", "1",
-                 summary["iter_max"].sel(model=NONSMOOTH).max("stage"), 1.0))
-    for m in models:
-        rows.append((f"wall time per run, {MODELS[m]}", "s", summary["wall_time_s"].sel(model=m),
-                     1.0))
+                         of("above_per_rev", m).isel(level=i).sum("race", min_count=1), 1.0))
+    if "impacts_per_rev" in summary:
+        rows.append(("impacts per revolution (nonsmooth, relative zero threshold)", "1",
+                     summary["impacts_per_rev"].sum(["race", "kind"], min_count=1), 1.0))
+    if "revolutions" in summary:
+        rows.append(("steady revolutions per run", "1", of("revolutions", NONSMOOTH), 1.0))
+    if "iter_max" in summary:
+        rows.append(("Newton iterations per step, largest (any stage), nonsmooth", "1",
+                     of("iter_max", NONSMOOTH).max("stage"), 1.0))
+    for m in models if "wall_time_s" in summary else ():
+        rows.append((f"wall time per run, {MODELS[m]}", "s", of("wall_time_s", m), 1.0))
     return rows
 
 
