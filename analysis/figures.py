@@ -1061,7 +1061,7 @@ def _quantity_model(q: StudyQuantity):
 
 
 def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
-               figure_axes=None, figure_fixed=None, reference=None) -> list[Path]:
+               figure_axes=None, figure_fixed=None, reference=None, model=None) -> list[Path]:
     """Every grid point of the study: heat maps of peak forces of both models, their ratio,
     p_max and counts.
 
@@ -1078,6 +1078,9 @@ def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
     figure_axes, figure_fixed, reference :
         The layout (:func:`figure_layout`; ``study.figure_axes``, ``study.figure_fixed``, the
         study's reference point).
+    model : {None, "nonsmooth", "compliant"}
+        Draw only that model's quantities; None (default): both models, their ratio and the
+        static deflection ratio.
 
     Returns
     -------
@@ -1100,6 +1103,11 @@ def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
         raise ValueError(f"part: {part!r} is not allowed; allowed: (i, n) with 0 <= i < n")
     layout = figure_layout(summary_ds, figure_axes, figure_fixed, reference)
     quantities = _study_quantities(summary_ds)
+    if model is not None:
+        if model not in _MODEL_NAMES:
+            raise ValueError(f"model: {model!r} is not allowed; allowed: None, "
+                             f"{', '.join(_MODEL_NAMES)}")
+        quantities = [q for q in quantities if _quantity_model(q) == _MODEL_NAMES.index(model)]
     if not layout.x:
         return [] if index > 0 else [_single_figure(summary_ds, quantities, layout.held,
                                                     outdir / "study_single.png")]

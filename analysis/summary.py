@@ -645,20 +645,26 @@ _READ_LOCK = threading.Lock()
 _RUN_READS = ("crank_angle", "Lambda_N", "iterations", "converged", "F_N")
 
 
-def _parameters(ds: xr.Dataset) -> dict:
+#: Attributes of a swept parameter's coordinate carried into the summary.
+_AXIS_ATTRS = ("units", "long_name", "flag_values", "flag_meanings", "sweep_key")
+
+
+def _parameters(ds: xr.Dataset, axes=None) -> dict:
     """{name: (value, attrs)} of the swept parameters a file carries as scalar (or length-1)
-    coordinates."""
+    coordinates: ``axes`` where given, else every such numeric coordinate (a category is its
+    int8 code)."""
     out = {}
     for name, var in ds.coords.items():
-        if name in _STRUCTURAL or np.asarray(var.values).dtype.kind not in "fiu":
+        if (axes is not None and name not in axes) or name in _STRUCTURAL \
+                or np.asarray(var.values).dtype.kind not in "fiub":
             continue
         if var.ndim == 0 or (var.ndim == 1 and var.dims == (name,) and var.size == 1):
-            attrs = {k: var.attrs[k] for k in ("units", "long_name") if k in var.attrs}
+            attrs = {k: var.attrs[k] for k in _AXIS_ATTRS if k in var.attrs}
             out[name] = (float(np.asarray(var.values).item()), attrs)
     return out
 
 
-def _entry(run_path, impact_path, settings: dict) -> tuple[dict, dict]:
+def _entry(run_path, impact_path, settings: dict, axes=None) -> tuple[dict, dict]:
     """(parameters, numbers) of one run: stored in its table, else computed from the files."""
     with _READ_LOCK:
         table = None
@@ -666,22 +672,25 @@ def _entry(run_path, impact_path, settings: dict) -> tuple[dict, dict]:
             with xr.open_dataset(impact_path) as ds:
                 numbers = _from_stored(ds.attrs, settings)
                 if numbers is not None:
-                    return _parameters(ds), numbers
+                    return _checked(_parameters(ds, axes), axes, impact_path), numbers
                 table = ds.load()
         with xr.open_dataset(run_path) as ds:
             run = ds.drop_vars([name for name in ds.data_vars if name not in _RUN_READS]).load()
-    try:
-        parameters = _parameters(run) or _parameters(table)
-    except TypeError:
-        parameters = {}
-    if not parameters:
-        raise ValueError(f"{run_path}: the run carries no swept parameter as a scalar "
-                         "coordinate")
-    if table is not None and run_model(run) == NONSMOOTH:
-        missing = {name for name in parameters if name not in table.coords}
-        if missing and table.sizes.get("impact", 0):
-            raise ValueError(f"{impact_path}: scalar coordinate {sorted(missing)[0]} is missing")
+    parameters = _checked(_parameters(run, axes), axes, run_path)
+    if table is not None and table.sizes.get("impact", 0) and run_model(run) == NONSMOOTH:
+        missing = sorted(set(parameters) - set(_parameters(table, axes)))
+        if missing:
+            raise ValueError(f"{impact_path}: scalar coordinate {missing[0]} is missing")
     return parameters, point_numbers(run, table, settings)
+
+
+def _checked(parameters: dict, axes, path) -> dict:
+    wanted = list(axes) if axes is not None else []
+    missing = [name for name in wanted if name not in parameters]
+    if missing or not parameters:
+        what = missing[0] if missing else "(none: no swept parameter)"
+        raise ValueError(f"{path}: scalar coordinate {what} is missing")
+    return parameters
 
 
 def _scheduler(scheduler, num_workers):
@@ -699,13 +708,13 @@ def _scheduler(scheduler, num_workers):
     return Client(scheduler), {}
 
 
-def _collect(pairs, settings, scheduler, num_workers) -> list:
+def _collect(pairs, settings, axes, scheduler, num_workers) -> list:
     """:func:`_entry` of every (run, table) pair, on the chosen dask scheduler."""
     import dask
 
     context, compute_kw = _scheduler(scheduler, num_workers)
     tasks = [dask.delayed(_entry, pure=True)(str(run), None if table is None else str(table),
-                                             settings) for run, table in pairs]
+                                             settings, axes) for run, table in pairs]
     with context:
         return list(dask.compute(*tasks, **compute_kw))
 
@@ -719,38 +728,53 @@ def _shape(dims, n_levels) -> tuple:
 
 
 def _known_attrs(name: str) -> dict:
-    """Units and long name of a swept parameter whose files do not carry them."""
-    from simcore.io import PARAMETERS
+    """Units and long name of a swept parameter whose files do not carry them, from the
+    registry of swept parameters."""
+    try:
+        from simcore.config.parameters import parameter
 
+        return {k: v for k, v in parameter(name).attrs().items() if k in _AXIS_ATTRS}
+    except (ImportError, KeyError, ValueError):
+        pass
+    try:
+        from simcore.io import PARAMETERS
+    except ImportError:
+        PARAMETERS = {}
     units, long_name = PARAMETERS.get(name, ("1", name))
     return {"units": units, "long_name": long_name}
 
 
-def _assemble(entries: list, levels: np.ndarray) -> xr.Dataset:
+def _assemble(entries: list, levels: np.ndarray, models: list[int], axes=None) -> xr.Dataset:
     """The grid of every run's numbers (missing points and models NaN)."""
-    names = list(dict.fromkeys(name for parameters, _ in entries for name in parameters))
+    names = list(axes) if axes is not None else list(
+        dict.fromkeys(name for parameters, _ in entries for name in parameters))
     attrs = {}
     for parameters, _ in entries:
         for name, (_, a) in parameters.items():
             attrs.setdefault(name, a)
-    axes = {name: np.array(sorted({p[name][0] for p, _ in entries if name in p}), dtype=float)
-            for name in names}
-    models = sorted({int(n["model"]) for _, n in entries} | {NONSMOOTH})
-    grid = tuple(axes[name].size for name in names)
+    axis_values = {name: np.array(sorted({p[name][0] for p, _ in entries if name in p}),
+                                  dtype=float) for name in names}
+    grid = tuple(axis_values[name].size for name in names)
     arrays = {name: np.full(grid + ((len(models),) if over else ()) + _shape(dims, levels.size),
                             np.nan) for name, (dims, over, _, _) in _VARIABLES.items()}
     for parameters, numbers in entries:
         missing = [name for name in names if name not in parameters]
         if missing:
             raise ValueError(f"a run lacks the swept parameter {missing[0]} that others carry")
-        at = tuple(int(np.searchsorted(axes[name], parameters[name][0])) for name in names)
+        at = tuple(int(np.searchsorted(axis_values[name], parameters[name][0]))
+                   for name in names)
         m = models.index(int(numbers["model"]))
         for name, (dims, over, _, _) in _VARIABLES.items():
-            if name not in numbers or (not over and m != models.index(NONSMOOTH)):
+            if name not in numbers or (not over and numbers["model"] != NONSMOOTH):
                 continue
             index = at + ((m,) if over else ())
             arrays[name][index] = np.asarray(numbers[name]).reshape(_shape(dims, levels.size))
-    coords = {name: (name, axes[name], attrs.get(name) or _known_attrs(name)) for name in names}
+    coords = {}
+    for name in names:
+        values = axis_values[name]
+        if "flag_values" in attrs.get(name, {}):  # a category: its int8 code
+            values = values.astype(np.int8)
+        coords[name] = (name, values, attrs.get(name) or _known_attrs(name))
     coords.update(model=np.array(models, dtype=np.int8),
                   race=np.arange(len(RACES), dtype=np.int8),
                   kind=np.arange(len(KINDS), dtype=np.int8), level=levels,
@@ -762,17 +786,17 @@ def _assemble(entries: list, levels: np.ndarray) -> xr.Dataset:
 
 def _across_models(summary: xr.Dataset, method_tol: float) -> xr.Dataset:
     """method_ratio, static_deflection_ratio and the method check of peak_force_flagged."""
-    model = summary["model"].values
-    paper = summary["peak_force"].sel(model=NONSMOOTH, drop=True)
-    if COMPLIANT in model:
-        reference = summary["peak_force"].sel(model=COMPLIANT, drop=True)
-        ratio = paper / reference.where(reference > 0)
-        deflection = summary["ball_deflection_ratio"].sel(model=COMPLIANT, drop=True)
-        deflection = deflection.fillna(summary["ball_deflection_ratio"].sel(model=NONSMOOTH,
-                                                                            drop=True))
-    else:
-        ratio = xr.full_like(paper, np.nan)
-        deflection = summary["ball_deflection_ratio"].sel(model=NONSMOOTH, drop=True)
+    model = list(summary["model"].values)
+
+    def of(name, code):
+        if code in model:
+            return summary[name].sel(model=code, drop=True)
+        return xr.full_like(summary[name].isel(model=0, drop=True), np.nan)
+
+    paper, reference = of("peak_force", NONSMOOTH), of("peak_force", COMPLIANT)
+    ratio = paper / reference.where(reference > 0)
+    deflection = of("ball_deflection_ratio", COMPLIANT).fillna(
+        of("ball_deflection_ratio", NONSMOOTH))
     disagree = np.abs(ratio - 1.0) > method_tol  # (NaN compares False)
     flagged = summary["peak_force_flagged"]
     summary["peak_force_flagged"] = xr.where(disagree, 1.0, flagged).where(paper.notnull())
@@ -800,53 +824,19 @@ def _describe(summary: xr.Dataset) -> xr.Dataset:
     return summary
 
 
-def summarize(run_files: Sequence[str], impact_files: Sequence[str], scheduler=None,
-              num_workers: int | None = None, settle: float | None = None,
-              force_levels: Sequence[float] | None = None, settings: dict | None = None,
-              compliant_runs: Sequence[str] = (), compliant_impacts: Sequence[str] | None = None,
-              method_tol: float | None = None) -> xr.Dataset:
-    """Summarise a study over its swept parameters and its two contact models.
+def _per_model(files, what: str) -> dict:
+    """{model name: [paths]} of a plain sequence (the nonsmooth runs) or of a mapping."""
+    if isinstance(files, dict):
+        bad = sorted(set(files) - set(MODELS))
+        if bad:
+            raise ValueError(f"summarize: {what} has the model {bad[0]!r}; allowed: "
+                             f"{', '.join(MODELS)}")
+        return {name: list(paths) for name, paths in files.items()}
+    return {"nonsmooth": list(files)}
 
-    Parameters
-    ----------
-    run_files, impact_files : sequence of path
-        The nonsmooth runs (or failed-run markers, attribute ``failed = 1``) and their impact
-        tables, pairwise (dimension ``impact``; columns ``time``, ``race``, ``kind``,
-        ``F_max``, and where present ``p_max`` and ``flags``; attribute ``zero_threshold``).
-        Older tables with string ``race``/``kind`` are read too; a column a table lacks counts
-        as missing.
-    scheduler : str, optional
-        Where the numbers of runs whose tables do not carry them are computed: None or
-        ``"threads"``: dask's local threads; ``"synchronous"``: no parallelism; ``"local"``: a
-        new ``distributed.LocalCluster``; anything else: the address of a running dask
-        distributed scheduler (``tcp://host:8786``), which needs the package ``distributed``
-        and the files visible from its workers.
-    num_workers : int, optional
-        Local threads or local-cluster workers.
-    settle, force_levels : optional
-        Start-up [crank revolutions] and absolute force levels [N]; default: those of
-        ``settings`` (else 0 and 100 N, 1 kN).
-    settings : dict, optional
-        The ``analysis`` settings (``settle``, ``force_levels``, ``r_eff``,
-        ``groove_conformity``, ``method_tol``), recorded as attributes ``analysis_<key>``.
-    compliant_runs : sequence of path
-        The compliant twins' run files (any order; matched to their points by their
-        coordinates). Empty: a nonsmooth-only summary (``model`` holds 0 only).
-    compliant_impacts : sequence of path, optional
-        Their tables (episode tables carrying their numbers), pairwise with
-        ``compliant_runs``; without them the numbers are computed from the run files.
-    method_tol : float, optional
-        Tolerance of the method check [-]; default ``settings["method_tol"]`` else 0.2.
 
-    Returns
-    -------
-    xarray.Dataset
-        Dimensions: the swept parameters, ``model``, ``race``, ``kind``, ``level``, ``rank``,
-        ``stage``; in memory, every variable with ``units`` and ``long_name`` (see the module
-        docstring).
-    """
-    if not run_files or not impact_files:
-        raise ValueError("summarize: no run or impact files given")
+def _checked_settings(settings, settle, force_levels, method_tol) -> dict:
+    """The analysis settings the numbers use, checked (one line naming the bad one)."""
     settings = dict(settings or {})
     settle = float(settings.get("settle", 0.0) if settle is None else settle)
     if not np.isfinite(settle) or settle < 0:
@@ -859,27 +849,83 @@ def summarize(run_files: Sequence[str], impact_files: Sequence[str], scheduler=N
     method_tol = float(settings.get("method_tol", 0.2) if method_tol is None else method_tol)
     if not (np.isfinite(method_tol) and method_tol > 0):
         raise ValueError(f"summarize: method_tol must be a number > 0, got {method_tol}")
-    if len(run_files) != len(impact_files):
-        raise ValueError("summarize: run_files and impact_files differ in length")
-    compliant_impacts = list(compliant_impacts) if compliant_impacts else [None] * len(
-        compliant_runs)
-    if len(compliant_impacts) != len(compliant_runs):
-        raise ValueError("summarize: compliant_runs and compliant_impacts differ in length")
-    number_settings = dict(settings, settle=settle, force_levels=list(levels))
-    pairs = list(zip(run_files, impact_files, strict=True)) + list(
-        zip(compliant_runs, compliant_impacts, strict=True))
-    entries = _collect(pairs, number_settings, scheduler, num_workers)
-    summary = _assemble(entries, levels)
+    return dict(settings, settle=settle, force_levels=list(levels), method_tol=method_tol)
+
+
+def summarize(run_files, impact_files, scheduler=None, num_workers: int | None = None,
+              settle: float | None = None, force_levels: Sequence[float] | None = None,
+              settings: dict | None = None, method_tol: float | None = None,
+              models: Sequence[str] | None = None, axes: Sequence[str] | None = None
+              ) -> xr.Dataset:
+    """Summarise a study over its swept parameters and its contact models.
+
+    Parameters
+    ----------
+    run_files, impact_files : sequence of path, or {model name: sequence of path}
+        The runs (or failed-run markers, attribute ``failed = 1``) and their tables, pairwise:
+        a plain sequence holds nonsmooth runs; a mapping gives the files of each model
+        (``{"nonsmooth": [...], "compliant": [...]}``). Nonsmooth tables have the dimension
+        ``impact`` and columns ``time``, ``race``, ``kind``, ``F_max``, and where present
+        ``p_max`` and ``flags`` (older tables with string ``race``/``kind`` are read too; a
+        column a table lacks counts as missing). A model without tables (no key in
+        ``impact_files``, e.g. compliant runs) has its numbers computed from its run files.
+    scheduler : str, optional
+        Where the numbers of runs whose tables do not carry them are computed: None or
+        ``"threads"``: dask's local threads; ``"synchronous"``: no parallelism; ``"local"``: a
+        new ``distributed.LocalCluster``; anything else: the address of a running dask
+        distributed scheduler (``tcp://host:8786``), which needs the package ``distributed``
+        and the files visible from its workers.
+    num_workers : int, optional
+        Local threads or local-cluster workers.
+    settle, force_levels, method_tol : optional
+        Start-up [crank revolutions], absolute force levels [N] and the tolerance of the
+        method check [-]; default: those of ``settings`` (else 0, 100 N and 1 kN, 0.2).
+    settings : dict, optional
+        The ``analysis`` settings (``settle``, ``force_levels``, ``r_eff``,
+        ``groove_conformity``, ``method_tol``), recorded as attributes ``analysis_<key>``.
+    models : sequence of str, optional
+        The models of the summary's ``model`` dimension, e.g. ``["nonsmooth", "compliant"]``
+        (``study.models``); default: those with files.
+    axes : sequence of str, optional
+        The grid's axes (coordinate names, in order; ``study_axes``); default: every numeric
+        scalar coordinate of the files, in the order of the first file.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimensions: the grid's axes, ``model``, ``race``, ``kind``, ``level``, ``rank``,
+        ``stage``; in memory, every variable with ``units`` and ``long_name`` (see the module
+        docstring).
+    """
+    runs, tables = _per_model(run_files, "run_files"), _per_model(impact_files, "impact_files")
+    if not any(runs.values()):
+        raise ValueError("summarize: no run or impact files given")
+    settings_in = settings
+    settings = _checked_settings(settings, settle, force_levels, method_tol)
+    pairs = []
+    for name, paths in runs.items():
+        paired = tables.get(name)
+        if paired is not None and len(paired) != len(paths):
+            raise ValueError(f"summarize: {name} runs and tables differ in number")
+        pairs += list(zip(paths, paired if paired is not None else [None] * len(paths),
+                          strict=True))
+    wanted = sorted(MODELS.index(m) for m in (models if models else
+                                              [m for m, p in runs.items() if p]))
+    entries = _collect(pairs, settings, None if axes is None else list(axes), scheduler,
+                       num_workers)
+    entries = [entry for entry in entries if int(entry[1]["model"]) in wanted]
+    summary = _assemble(entries, np.asarray(settings["force_levels"]), wanted, axes)
     # a failed run is missing everywhere for its model, whatever its impact table says
     failed = summary["failed"] > 0
     for name, (_, over, _, _) in _VARIABLES.items():
-        if name != "failed":
-            mask = failed if over else failed.sel(model=NONSMOOTH, drop=True)
-            summary[name] = summary[name].where(~mask)
-    summary = _across_models(summary, method_tol)
+        if name == "failed" or (not over and NONSMOOTH not in wanted):
+            continue
+        summary[name] = summary[name].where(
+            ~(failed if over else failed.sel(model=NONSMOOTH, drop=True)))
+    summary = _across_models(summary, settings["method_tol"])
     grid = [d for d in summary.dims if d not in _ORDER]
     summary = _describe(summary.transpose(*grid, *[d for d in _ORDER if d in summary.dims]))
-    _provenance(summary, settle, method_tol, settings)
+    _provenance(summary, settings["settle"], settings["method_tol"], settings_in or {})
     return summary
 
 
@@ -916,11 +962,11 @@ def _where(da: xr.DataArray) -> str:
     return ", ".join(f"{d}={float(da[d].values[i]):g}" for d, i in zip(da.dims, idx, strict=True))
 
 
-def _table_rows(summary: xr.Dataset) -> list:
-    """(quantity, unit, DataArray, scale) of the summary table, both models side by side
+def _table_rows(summary: xr.Dataset, models: list[int]) -> list:
+    """(quantity, unit, DataArray, scale) of the summary table, the models side by side
     (quantities the summary lacks are left out)."""
     rows = []
-    models = [int(m) for m in summary["model"].values] if "model" in summary.dims else []
+    both = len(models) > 1
 
     def of(name, m):
         return summary[name].sel(model=m) if "model" in summary[name].dims else summary[name]
@@ -934,10 +980,10 @@ def _table_rows(summary: xr.Dataset) -> list:
                 rows.append((f"{what}, {RACES[r]} race, {MODELS[m]}", unit,
                              of(name, m).isel(race=r), scale))
     for r in (1, 0):
-        if "method_ratio" in summary:
+        if "method_ratio" in summary and both:
             rows.append((f"method ratio (nonsmooth / compliant peak), {RACES[r]} race", "1",
                          summary["method_ratio"].isel(race=r), 1.0))
-    if "static_deflection_ratio" in summary:
+    if "static_deflection_ratio" in summary and both:
         rows.append(("static deflection of a ball / clearance", "1",
                      summary["static_deflection_ratio"], 1.0))
     for m in models if "startup_peak_force" in summary else ():
@@ -948,12 +994,12 @@ def _table_rows(summary: xr.Dataset) -> list:
             rows.append((f"{'impacts' if m == NONSMOOTH else 'contact episodes'} per "
                          f"revolution with force >= {level:g} N, {MODELS[m]}", "1",
                          of("above_per_rev", m).isel(level=i).sum("race", min_count=1), 1.0))
-    if "impacts_per_rev" in summary:
+    if "impacts_per_rev" in summary and NONSMOOTH in models:
         rows.append(("impacts per revolution (nonsmooth, relative zero threshold)", "1",
                      summary["impacts_per_rev"].sum(["race", "kind"], min_count=1), 1.0))
     if "revolutions" in summary:
-        rows.append(("steady revolutions per run", "1", of("revolutions", NONSMOOTH), 1.0))
-    if "iter_max" in summary:
+        rows.append(("steady revolutions per run", "1", of("revolutions", models[0]), 1.0))
+    if "iter_max" in summary and NONSMOOTH in models:
         rows.append(("Newton iterations per step, largest (any stage), nonsmooth", "1",
                      of("iter_max", NONSMOOTH).max("stage"), 1.0))
     for m in models if "wall_time_s" in summary else ():
@@ -961,7 +1007,7 @@ def _table_rows(summary: xr.Dataset) -> list:
     return rows
 
 
-def summary_table(summary: xr.Dataset):
+def summary_table(summary: xr.Dataset, model: str | None = None):
     """The study in numbers: each quantity's smallest, median and largest value over the grid,
     for both models and their ratio.
 
@@ -969,6 +1015,8 @@ def summary_table(summary: xr.Dataset):
     ----------
     summary : xarray.Dataset
         Output of :func:`summarize`.
+    model : {None, "nonsmooth", "compliant"}
+        Only that model's rows; None (default): every model of the summary and their ratio.
 
     Returns
     -------
@@ -978,6 +1026,13 @@ def summary_table(summary: xr.Dataset):
     """
     import pandas as pd
 
+    models = [int(m) for m in summary["model"].values] if "model" in summary.dims else [
+        NONSMOOTH]
+    if model is not None:
+        if model not in MODELS or MODELS.index(model) not in models:
+            raise ValueError(f"model: {model!r} is not allowed; allowed: None or one of "
+                             + ", ".join(MODELS[m] for m in models))
+        models = [MODELS.index(model)]
     failed = summary["failed"] > 0
     n_failed = int(failed.sum())
     grid = " x ".join(f"{summary.sizes[d]} {d}" for d in summary["failed"].dims if d != "model")
@@ -990,7 +1045,7 @@ def summary_table(summary: xr.Dataset):
                      "unit": "1", "min": "", "median": "",
                      "max": f"{int((flagged > 0).sum())} of {int(flagged.notnull().sum())}",
                      "largest at": ""})
-    for quantity, unit, da, scale in _table_rows(summary):
+    for quantity, unit, da, scale in _table_rows(summary, models):
         values = np.asarray(da.values, dtype=float) * scale
         finite = values[np.isfinite(values)]
         if finite.size:

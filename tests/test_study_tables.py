@@ -97,11 +97,12 @@ def test_summary_from_the_numbers_stored_in_the_tables_equals_the_one_from_the_f
         for kind in files:
             files[kind].append(tmp_path / f"{'run' if kind == 'runs' else kind}{label}.nc")
     kw = {"scheduler": "synchronous", "settings": settings}
-    from_files = summarize(files["runs"][:2], files["plain"][:2], **kw,
-                           compliant_runs=files["runs"][2:])
+    from_files = summarize({"nonsmooth": files["runs"][:2], "compliant": files["runs"][2:]},
+                           {"nonsmooth": files["plain"][:2]}, **kw)
     missing = [tmp_path / "missing.nc"] * 3  # no run file is read
-    from_tables = summarize(missing[:2], files["stored"][:2], **kw,
-                            compliant_runs=missing[2:], compliant_impacts=files["stored"][2:])
+    from_tables = summarize({"nonsmooth": missing[:2], "compliant": missing[2:]},
+                            {"nonsmooth": files["stored"][:2], "compliant": files["stored"][2:]},
+                            **kw)
     for ds in (from_files, from_tables):
         ds.attrs.pop("history")
     xr.testing.assert_identical(from_files, from_tables)

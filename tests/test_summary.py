@@ -150,9 +150,9 @@ def study(tmp_path_factory):
     write_netcdf(twin, tmp / "twin_new.nc")
     write_netcdf(make_compliant_run(force, omega0=9.42, clearance=4e-4, mu=0.0, failed=True),
                  tmp / "twin_empty.nc")
-    s = summarize(runs, impacts, scheduler="synchronous", settle=1.0,
-                  force_levels=[1000.0, 100.0], settings={"settle": 1.0, "zero_tol": 1e-4},
-                  compliant_runs=[tmp / "twin_empty.nc", tmp / "twin_new.nc"])
+    s = summarize({"nonsmooth": runs, "compliant": [tmp / "twin_empty.nc", tmp / "twin_new.nc"]},
+                  {"nonsmooth": impacts}, scheduler="synchronous", settle=1.0,
+                  force_levels=[1000.0, 100.0], settings={"settle": 1.0, "zero_tol": 1e-4})
     path = write_netcdf(s, tmp / "summary.nc")
     return s, path
 
@@ -379,15 +379,55 @@ def test_an_isolated_impact_whose_twin_agrees_is_not_flagged(tmp_path):
     force[500, 8] = _hertz_pulse_peak(m, v, K, e_N)  # within one output interval (30 us)
     write_netcdf(make_compliant_run(force, output_dt=1e-4, omega0=50.0, clearance=clearance,
                                     e_N=e_N, youngs_modulus=E), tmp_path / "twin.nc")
-    s = summarize([tmp_path / "run.nc"], [tmp_path / "impacts.nc"], scheduler="synchronous",
-                  compliant_runs=[tmp_path / "twin.nc"]).sel(point)
+    s = summarize({"nonsmooth": [tmp_path / "run.nc"], "compliant": [tmp_path / "twin.nc"]},
+                  {"nonsmooth": [tmp_path / "impacts.nc"]}, scheduler="synchronous").sel(point)
     assert float(s["method_ratio"].sel(race=1)) == pytest.approx(1.0, abs=1e-4)
     assert float(s["peak_force_flagged"].sel(race=1)) == 0.0
     # the same impact against a twin that carries 1.5 times the force: flagged
     force[500, 8] *= 1.5
     write_netcdf(make_compliant_run(force, output_dt=1e-4, omega0=50.0, clearance=clearance,
                                     e_N=e_N, youngs_modulus=E), tmp_path / "twin.nc")
-    s = summarize([tmp_path / "run.nc"], [tmp_path / "impacts.nc"], scheduler="synchronous",
-                  compliant_runs=[tmp_path / "twin.nc"]).sel(point)
+    s = summarize({"nonsmooth": [tmp_path / "run.nc"], "compliant": [tmp_path / "twin.nc"]},
+                  {"nonsmooth": [tmp_path / "impacts.nc"]}, scheduler="synchronous").sel(point)
     assert float(s["method_ratio"].sel(race=1)) == pytest.approx(1 / 1.5, rel=1e-4)
     assert float(s["peak_force_flagged"].sel(race=1)) == 1.0
+
+
+def test_the_models_and_axes_of_the_summary(study, tmp_path):
+    """A plain list of runs is a nonsmooth-only study (model = [0]); ``axes`` orders the grid
+    and names its axes (a file without one of them is refused in one line)."""
+    s, _ = study
+    runs = [tmp_path / "run.nc"]
+    tables = [tmp_path / "imp.nc"]
+    _run(runs[0], NEW)
+    _impacts(tables[0], NEW)
+    alone = summarize(runs, tables, scheduler="synchronous", settle=1.0)
+    assert alone["model"].values.tolist() == [0]
+    assert bool(alone["method_ratio"].isnull().all())
+    ordered = summarize(runs, tables, scheduler="synchronous", settle=1.0,
+                        axes=["e_N", "mu", "clearance", "omega0"])
+    assert ordered["peak_force"].dims == ("e_N", "mu", "clearance", "omega0", "model", "race")
+    xr.testing.assert_equal(ordered["peak_force"].transpose(*alone["peak_force"].dims),
+                            alone["peak_force"])
+    with pytest.raises(ValueError, match="scalar coordinate cage_stiffness is missing"):
+        summarize(runs, tables, scheduler="synchronous", axes=["clearance", "cage_stiffness"])
+    with pytest.raises(ValueError, match="model 'rigid'"):
+        summarize({"rigid": runs}, tables)
+
+
+def test_summary_table_shows_both_models_and_their_ratio(study):
+    from analysis.summary import summary_table
+
+    s, _ = study
+    table = summary_table(s).set_index("quantity")
+    outer = s["peak_force"].isel(race=1)
+    for model, code in (("nonsmooth", 0), ("compliant", 1)):
+        row = table.loc[f"steady peak force, outer race, {model}"]
+        values = outer.sel(model=code).values / 1e3
+        assert float(row["max"]) == pytest.approx(np.nanmax(values), rel=1e-3)
+    ratio = table.loc["method ratio (nonsmooth / compliant peak), outer race"]
+    assert float(ratio["max"]) == pytest.approx(2000.0 / 1900.0, rel=1e-3)
+    # NEW: inner flagged by the check, outer clean; OLD has no flags, EMPTY no steady peak
+    assert table.loc["nonsmooth peak forces flagged (flag or method check)", "max"] == "1 of 2"
+    one = summary_table(s, model="compliant")
+    assert not one["quantity"].str.contains("nonsmooth, |method ratio").any()
