@@ -24,7 +24,8 @@ import xarray as xr  # noqa: E402
 from .filtering import impact_masks, split_impulses, zero_threshold  # noqa: E402
 from .impacts import STUDY_PARAMETERS  # noqa: E402
 
-__all__ = ["plot_run", "plot_reference", "plot_study", "run_label", "run_prefix", "figure_layout",
+__all__ = ["plot_run", "plot_reference", "plot_study", "plot_life", "run_label", "run_prefix",
+           "figure_layout",
            "FigureLayout", "grid_axes", "MAX_PANELS", "MAX_CELLS"]
 
 RACE_NAMES = ("inner", "outer")
@@ -790,6 +791,10 @@ def _study_quantities(summary_ds):
                 out.append(StudyQuantity(f"above_{level:g}N_per_rev{suffix(m)}", da,
                                          f"{what} per revolution with force ≥ "
                                          f"{_fmt_force(level)} (both races){who(m)}", "mean"))
+    for name, what in (("L10h", "ISO 281 rating life L10"),
+                       ("L10rh", "reference rating life L10r (ball loads)")):
+        if name in s and bool(s[name].notnull().any()):
+            out.append(StudyQuantity(name, s[name], f"{what}, compliant model [h]", "min"))
     if "impacts_per_rev" in s:
         da = s["impacts_per_rev"].sum(["race", "kind"], min_count=1)
         if "model" in da.dims:
@@ -1054,6 +1059,8 @@ def _failed_mask(summary_ds, model):
 
 
 def _quantity_model(q: StudyQuantity):
+    if q.stem in ("L10h", "L10rh"):
+        return 1
     for m, name in enumerate(_MODEL_NAMES):
         if q.stem.endswith(f"_{name}"):
             return m
@@ -1117,6 +1124,9 @@ def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
     held = f"; {held}" if held else ""
     swept = [a for a in grid_axes(summary_ds) if summary_ds.sizes[a] > 1]
     paths = []
+    if index == 0 and model in (None, "compliant") and "L10h" in summary_ds \
+            and "clearance" in swept and bool(summary_ds["L10h"].notnull().any()):
+        paths.append(plot_life(summary_ds, outdir / "life_clearance_speed.png", layout))
     for q in quantities[index::parts]:
         at = {**{d: 0 for d in layout.held}}
         full = q.data.isel(at)
@@ -1148,3 +1158,79 @@ def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
                 failed_full.transpose(*swept) if failed_full is not None else None,
                 f"{q.label}: each pair of swept parameters, {q.how} over the others{note}"))
     return paths
+
+
+#: Bore of the bearing whose ISO 5753-1 clearance classes the life figure marks, where the
+#: summary does not name one: the paper's 6012 [mm].
+DEFAULT_BORE = 60.0
+
+
+def _class_bands(ax, bore):
+    """Shade the model clearance g of each ISO 5753-1 class of a bore (half the class's radial
+    internal clearance, docs/life.md) and label it."""
+    from simcore.model.bearing import CLEARANCE_CLASSES, clearance_range
+
+    shades = ("0.93", "0.85")
+    for i, name in enumerate(CLEARANCE_CLASSES):
+        try:
+            lo, hi, _ = clearance_range(bore, name)
+        except ValueError:  # a class the table does not give for this bore
+            continue
+        ax.axvspan(lo / 2 * 1e6, hi / 2 * 1e6, color=shades[i % 2], zorder=0, lw=0)
+        ax.text(np.sqrt(lo * hi) / 2 * 1e6, 0.98, name, transform=ax.get_xaxis_transform(),
+                ha="center", va="top", fontsize=8, color="0.3")
+
+
+def plot_life(summary_ds: xr.Dataset, path, layout: FigureLayout | None = None,
+              bore: float | None = None) -> Path:
+    """Rating lives against clearance, one line per crank speed (the compliant twins' L10h and
+    L10rh), with the ISO 5753-1 clearance classes of the bearing's bore shaded.
+
+    Parameters
+    ----------
+    summary_ds : xarray.Dataset
+        A study summary with ``L10h``, ``L10rh`` and a ``clearance`` axis.
+    path : str or Path
+        Output file.
+    layout : FigureLayout, optional
+        Values at which the other swept axes are held (:func:`figure_layout`; default: its
+        defaults).
+    bore : float, optional
+        Bore of the bearing [mm] for the class bands (default: the summary's attribute
+        ``bearing_bore_mm``, else :data:`DEFAULT_BORE`).
+
+    Returns
+    -------
+    Path
+    """
+    layout = layout or figure_layout(summary_ds)
+    bore = float(bore or summary_ds.attrs.get("bearing_bore_mm", DEFAULT_BORE))
+    keep = {"clearance", "omega0"}
+    at = {d: v for d, v in {**layout.held, **layout.fixed}.items() if d not in keep}
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True, layout="constrained")
+    for ax, name, what in ((axes[0], "L10h", "ISO 281 L10 (transmitted load)"),
+                           (axes[1], "L10rh", "reference L10r (ball loads)")):
+        da = summary_ds[name].sel(at)
+        others = [d for d in da.dims if d not in keep]
+        da = da.isel({d: 0 for d in others})  # axes of one value
+        speeds = da["omega0"].values if "omega0" in da.dims else [None]
+        for speed in speeds:
+            line = da.sel(omega0=speed) if speed is not None else da
+            label = f"ω0 = {float(speed):g} rad/s" if speed is not None else None
+            ax.plot(line["clearance"].values * 1e6, line.values, "o-", label=label)
+        _class_bands(ax, bore)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("clearance g [µm]")
+        ax.set_title(what, fontsize=10)
+        ax.grid(alpha=0.3, which="both")
+    axes[0].set_ylabel("rating life [h]")
+    if len(speeds) > 1:
+        axes[1].legend(fontsize=8)
+    held = ", ".join(_fmt_axis(summary_ds, d, v) for d, v in at.items())
+    fig.suptitle("Rating life of the bearing from the compliant model's loads, steady window"
+                 + (f"\n({held}; ISO 5753-1 classes of a {bore:g} mm bore shaded)" if held
+                    else f"\n(ISO 5753-1 classes of a {bore:g} mm bore shaded)"), fontsize=10)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return Path(path)

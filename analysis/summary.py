@@ -98,54 +98,83 @@ _TWO_PI = 2.0 * np.pi
 _STRUCTURAL = {"time", "contact", "ball", "race", "body", "axis", "dof", "stage", "impact",
                "kind", "level", "rank", "model"}
 #: The settings the numbers of a run depend on (stored with them, compared before reuse).
-_NUMBER_SETTINGS = ("settle", "force_levels", "r_eff", "groove_conformity")
+_NUMBER_SETTINGS = ("settle", "force_levels", "r_eff", "groove_conformity", "life_conformity",
+                    "life_load_rating")
 
-# name: (dims besides the grid's, over model, units, long_name)
+# name: (dims besides the grid's, scope, units, long_name); scope: "model" (the variable has
+# the model dimension), or the one model it comes from ("nonsmooth", "compliant")
 _VARIABLES = {
-    "peak_force": (("race",), True, "N", "largest contact force in the steady window, per race "
-                                         "(nonsmooth: Flores peak force of an impact; "
-                                         "compliant: F_N)"),
-    "peak_force_rev_median": (("race",), True, "N", "median over the steady crank revolutions "
-                                                    "of each revolution's largest force, per "
-                                                    "race"),
-    "p_max": (("race",), True, "Pa", "largest Hertz contact pressure in the steady window, per "
-                                     "race"),
-    "top3_force": (("rank",), True, "N", "largest forces of the steady window (both races; "
-                                         "impacts, or compliant contact episodes), decreasing"),
-    "startup_peak_force": ((), True, "N", "largest force of the start-up (the first "
-                                          "analysis.settle crank revolutions), both races"),
-    "n_above": (("race", "level"), True, "1", "impacts (nonsmooth) or contact episodes "
-                                              "(compliant) in the steady window whose force "
-                                              "reaches the level"),
-    "above_per_rev": (("race", "level"), True, "1", "n_above per crank revolution of the "
-                                                    "steady window"),
-    "ball_deflection_ratio": ((), True, "1", "Hertz deflection of one ball (inner and outer "
-                                             "contact in series) under the model's largest "
-                                             "steady force, over the clearance"),
-    "peak_force_flagged": (("race",), False, "1", "1 where the paper's method's peak_force is "
-                                                  "not to be trusted: its impact carries a flag "
-                                                  "or the compliant twin differs by more than "
-                                                  "analysis.method_tol"),
-    "n_impacts": (("race", "kind"), False, "1", "impacts in the steady window (nonsmooth, "
-                                                "relative zero threshold), by race and kind"),
-    "impacts_per_rev": (("race", "kind"), False, "1", "n_impacts per crank revolution of the "
-                                                      "steady window"),
-    "n_flagged": ((), False, "1", "impacts in the steady window whose force carries a flag "
-                                  "(missing where the impact table has no flags)"),
-    "zero_threshold": ((), False, "N s", "zero threshold of the impulse filter (zero_tol times "
-                                         "the run's largest impulse)"),
-    "settle_time": ((), True, "s", "end of the start-up: first time the crank has turned "
-                                   "analysis.settle revolutions"),
-    "revolutions": ((), True, "1", "crank revolutions in the steady window, from the crank "
-                                   "angle"),
-    "max_Lambda_N": ((), True, "N s", "largest normal impulse of the run (compliant: of an "
-                                      "output interval)"),
-    "iter_max": (("stage",), True, "1", "largest number of Newton iterations per step"),
-    "iter_mean": (("stage",), True, "1", "mean number of Newton iterations per step"),
-    "converged_fraction": ((), True, "1", "fraction of the steps in which every sub-problem "
-                                          "converged"),
-    "wall_time_s": ((), True, "s", "wall time of the simulation"),
-    "failed": ((), True, "1", "1 where the run failed (its other values are missing)"),
+    "peak_force": (
+        ("race",), "model", "N",
+        "largest contact force in the steady window, per race (nonsmooth: Flores peak force of "
+        "an impact; compliant: F_N)"),
+    "peak_force_rev_median": (
+        ("race",), "model", "N",
+        "median over the steady crank revolutions of each revolution's largest force, per race"),
+    "p_max": (
+        ("race",), "model", "Pa", "largest Hertz contact pressure in the steady window, per race"),
+    "top3_force": (
+        ("rank",), "model", "N",
+        "largest forces of the steady window (both races; impacts, or compliant contact "
+        "episodes), decreasing"),
+    "startup_peak_force": (
+        (), "model", "N",
+        "largest force of the start-up (the first analysis.settle crank revolutions), both races"),
+    "n_above": (
+        ("race", "level"), "model", "1",
+        "impacts (nonsmooth) or contact episodes (compliant) in the steady window whose force "
+        "reaches the level"),
+    "above_per_rev": (
+        ("race", "level"), "model", "1", "n_above per crank revolution of the steady window"),
+    "ball_deflection_ratio": (
+        (), "model", "1",
+        "Hertz deflection of one ball (inner and outer contact in series) under the model's "
+        "largest steady force, over the clearance"),
+    "peak_force_flagged": (
+        ("race",), "nonsmooth", "1",
+        "1 where the paper's method's peak_force is not to be trusted: its impact carries a flag "
+        "or the compliant twin differs by more than analysis.method_tol"),
+    "n_impacts": (
+        ("race", "kind"), "nonsmooth", "1",
+        "impacts in the steady window (nonsmooth, relative zero threshold), by race and kind"),
+    "impacts_per_rev": (
+        ("race", "kind"), "nonsmooth", "1", "n_impacts per crank revolution of the steady window"),
+    "n_flagged": (
+        (), "nonsmooth", "1",
+        "impacts in the steady window whose force carries a flag (missing where the impact table "
+        "has no flags)"),
+    "zero_threshold": (
+        (), "nonsmooth", "N s",
+        "zero threshold of the impulse filter (zero_tol times the run's largest impulse)"),
+    "settle_time": (
+        (), "model", "s",
+        "end of the start-up: first time the crank has turned analysis.settle revolutions"),
+    "revolutions": (
+        (), "model", "1", "crank revolutions in the steady window, from the crank angle"),
+    "max_Lambda_N": (
+        (), "model", "N s",
+        "largest normal impulse of the run (compliant: of an output interval)"),
+    "iter_max": (("stage",), "model", "1", "largest number of Newton iterations per step"),
+    "iter_mean": (("stage",), "model", "1", "mean number of Newton iterations per step"),
+    "converged_fraction": (
+        (), "model", "1", "fraction of the steps in which every sub-problem converged"),
+    "wall_time_s": ((), "model", "s", "wall time of the simulation"),
+    "failed": ((), "model", "1", "1 where the run failed (its other values are missing)"),
+    "L10": (
+        (), "compliant", "1e6",
+        "ISO 281 basic rating life (C / P)^3 from the compliant twin's transmitted load over the "
+        "steady window, in 10^6 revolutions"),
+    "L10r": (
+        (), "compliant", "1e6",
+        "reference rating life from the compliant twin's ball loads (Lundberg-Palmgren raceway "
+        "capacities, over-rollings counted per raceway element), in 10^6 revolutions"),
+    "L10h": ((), "compliant", "h", "L10 in hours at the mean crank speed of the steady window"),
+    "L10rh": ((), "compliant", "h", "L10r in hours at the mean crank speed of the steady window"),
+    "equivalent_load": (
+        (), "compliant", "N",
+        "dynamic equivalent load P of L10: cubic mean of the transmitted radial load, weighted "
+        "by revolutions"),
+    "load_rating": ((), "compliant", "N", "basic dynamic load rating C of L10"),
 }
 # computed over the grid from both models (not stored per run)
 _GRID_VARIABLES = {
@@ -571,6 +600,7 @@ def point_numbers(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, settings: d
     if model == COMPLIANT:
         numbers.update(compliant_numbers(run_ds, window, levels,
                                          None if geo is None else geo["stress"]))
+        numbers.update(_life_numbers(run_ds, window, settings))
     else:
         numbers.update(impact_numbers(**_table_columns(impacts_ds), window=window,
                                       levels=levels))
@@ -581,6 +611,23 @@ def point_numbers(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, settings: d
         _deflection_ratio(geo, numbers["peak_force"], clearance))
     return {key: (value if key == "model" else np.asarray(value, dtype="f8"))
             for key, value in numbers.items()}
+
+
+#: Run variables the rating lives read (compliant runs).
+_LIFE_READS = ("Lambda_N", "crank_angle", "journal_x", "journal_y", "position", "angle")
+
+
+def _life_numbers(run_ds: xr.Dataset, window: SteadyWindow, settings: dict) -> dict:
+    """The rating lives of a compliant run (:func:`analysis.run_life.compliant_life`); missing
+    where the run file lacks what they read or the model's geometry."""
+    from .run_life import LIFE_NAMES, compliant_life
+
+    if any(name not in run_ds for name in _LIFE_READS) or "body" not in run_ds.coords:
+        return dict.fromkeys(LIFE_NAMES, np.nan)
+    try:
+        return compliant_life(run_ds, window.settle_time, settings)
+    except (TypeError, ValueError):  # no model attributes (a hand-made file)
+        return dict.fromkeys(LIFE_NAMES, np.nan)
 
 
 def _clearance(run_ds: xr.Dataset) -> float:
@@ -608,6 +655,10 @@ def _settings_key(settings: dict) -> str:
             value = float(value or 0.0)
         elif key == "r_eff":
             value = value or "concave"
+        elif key == "life_conformity":
+            value = [float(v) for v in (value or (0.52, 0.53))]
+        elif key == "life_load_rating":
+            value = None if value is None else float(value)
         canon[key] = value
     return json.dumps(canon, sort_keys=True)
 
@@ -675,7 +726,8 @@ def _entry(run_path, impact_path, settings: dict, axes=None) -> tuple[dict, dict
                     return _checked(_parameters(ds, axes), axes, impact_path), numbers
                 table = ds.load()
         with xr.open_dataset(run_path) as ds:
-            run = ds.drop_vars([name for name in ds.data_vars if name not in _RUN_READS]).load()
+            reads = _RUN_READS + (_LIFE_READS if run_model(ds) == COMPLIANT else ())
+            run = ds.drop_vars([name for name in ds.data_vars if name not in reads]).load()
     parameters = _checked(_parameters(run, axes), axes, run_path)
     if table is not None and table.sizes.get("impact", 0) and run_model(run) == NONSMOOTH:
         missing = sorted(set(parameters) - set(_parameters(table, axes)))
@@ -755,8 +807,9 @@ def _assemble(entries: list, levels: np.ndarray, models: list[int], axes=None) -
     axis_values = {name: np.array(sorted({p[name][0] for p, _ in entries if name in p}),
                                   dtype=float) for name in names}
     grid = tuple(axis_values[name].size for name in names)
-    arrays = {name: np.full(grid + ((len(models),) if over else ()) + _shape(dims, levels.size),
-                            np.nan) for name, (dims, over, _, _) in _VARIABLES.items()}
+    arrays = {name: np.full(grid + ((len(models),) if scope == "model" else ())
+                            + _shape(dims, levels.size), np.nan)
+              for name, (dims, scope, _, _) in _VARIABLES.items()}
     for parameters, numbers in entries:
         missing = [name for name in names if name not in parameters]
         if missing:
@@ -764,10 +817,10 @@ def _assemble(entries: list, levels: np.ndarray, models: list[int], axes=None) -
         at = tuple(int(np.searchsorted(axis_values[name], parameters[name][0]))
                    for name in names)
         m = models.index(int(numbers["model"]))
-        for name, (dims, over, _, _) in _VARIABLES.items():
-            if name not in numbers or (not over and numbers["model"] != NONSMOOTH):
+        for name, (dims, scope, _, _) in _VARIABLES.items():
+            if name not in numbers or scope not in ("model", MODELS[int(numbers["model"])]):
                 continue
-            index = at + ((m,) if over else ())
+            index = at + ((m,) if scope == "model" else ())
             arrays[name][index] = np.asarray(numbers[name]).reshape(_shape(dims, levels.size))
     coords = {}
     for name in names:
@@ -779,8 +832,8 @@ def _assemble(entries: list, levels: np.ndarray, models: list[int], axes=None) -
                   race=np.arange(len(RACES), dtype=np.int8),
                   kind=np.arange(len(KINDS), dtype=np.int8), level=levels,
                   rank=np.arange(1, N_TOP + 1), stage=np.arange(len(STAGES), dtype=np.int8))
-    data = {name: (names + (["model"] if over else []) + list(dims), arrays[name])
-            for name, (dims, over, _, _) in _VARIABLES.items()}
+    data = {name: (names + (["model"] if scope == "model" else []) + list(dims), arrays[name])
+            for name, (dims, scope, _, _) in _VARIABLES.items()}
     return xr.Dataset(data, coords=coords)
 
 
@@ -917,11 +970,11 @@ def summarize(run_files, impact_files, scheduler=None, num_workers: int | None =
     summary = _assemble(entries, np.asarray(settings["force_levels"]), wanted, axes)
     # a failed run is missing everywhere for its model, whatever its impact table says
     failed = summary["failed"] > 0
-    for name, (_, over, _, _) in _VARIABLES.items():
-        if name == "failed" or (not over and NONSMOOTH not in wanted):
+    for name, (_, scope, _, _) in _VARIABLES.items():
+        if name == "failed" or (scope != "model" and MODELS.index(scope) not in wanted):
             continue
         summary[name] = summary[name].where(
-            ~(failed if over else failed.sel(model=NONSMOOTH, drop=True)))
+            ~(failed if scope == "model" else failed.sel(model=MODELS.index(scope), drop=True)))
     summary = _across_models(summary, settings["method_tol"])
     grid = [d for d in summary.dims if d not in _ORDER]
     summary = _describe(summary.transpose(*grid, *[d for d in _ORDER if d in summary.dims]))

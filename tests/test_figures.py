@@ -66,6 +66,7 @@ def _summary(shape, fill=None, failed_at=None, extra_axes=None):
          "above_per_rev": var("model", "race", "level"), "impacts_per_rev": var("race", "kind"),
          "method_ratio": var("race", low=0.4, high=3.0),
          "static_deflection_ratio": var(low=0.1, high=20.0),
+         "L10h": var(low=1e3, high=1e6), "L10rh": var(low=1e3, high=1e6),
          "iter_max": var("model", "stage"), "failed": (dims + ("model",),
                                                        np.zeros(tuple(shape) + (2,)))},
         coords=coords, attrs={"settle_revolutions": 1.0})
@@ -83,12 +84,14 @@ PER_MODEL = ["peak_force_outer", "peak_force_inner", "peak_force_rev_median_oute
              "above_100N_per_rev", "above_1000N_per_rev"]
 QUANTITIES = ([f"{q}_{m}" for q in PER_MODEL for m in ("nonsmooth", "compliant")]
               + ["method_ratio_outer", "method_ratio_inner", "static_deflection_ratio",
-                 "impacts_per_rev"])
+                 "L10h", "L10rh", "impacts_per_rev"])
 
 
 def test_plot_study_shows_every_point_of_four_swept_parameters(tmp_path):
     ds = _summary((3, 3, 2, 2), failed_at=(0, 1, 0, 1))
     paths = plot_study(ds, tmp_path, part=(0, 8))
+    assert paths[0].name == "life_clearance_speed.png"  # part 0 draws the life figure
+    paths = paths[1:]
     stems = {p.name.split("_", 1)[1][:-4] for p in paths}
     assert stems <= set(QUANTITIES) and len(stems) == -(-len(QUANTITIES) // 8)
     assert sorted(p.name for p in paths) == sorted(f"{kind}_{q}.png" for q in stems
@@ -100,13 +103,13 @@ def test_plot_study_two_one_and_no_swept_parameters(tmp_path):
     from analysis.figures import _study_quantities
 
     assert sorted(q.stem for q in _study_quantities(_summary((2, 3, 1, 1)))) == sorted(QUANTITIES)
-    paths = plot_study(_summary((2, 3, 1, 1)), tmp_path / "two", part=(0, 8))
+    paths = plot_study(_summary((2, 3, 1, 1)), tmp_path / "two", part=(1, 8))
     assert len(paths) == 3 and all(p.name.startswith("study_") for p in paths)
     # p_max and the ratios all missing (older impact tables, no twin): no figures of them
     assert sorted(q.stem for q in _study_quantities(_summary((3, 1, 1, 1), fill=np.nan))) == \
         sorted(q for q in QUANTITIES
-               if not q.startswith(("p_max", "method_ratio", "static_deflection")))
-    paths = plot_study(_summary((3, 1, 1, 1), fill=np.nan), tmp_path / "nan", part=(0, 16))
+               if not q.startswith(("p_max", "method_ratio", "static_deflection", "L10")))
+    paths = plot_study(_summary((3, 1, 1, 1), fill=np.nan), tmp_path / "nan", part=(1, 16))
     assert len(paths) == 1 and paths[0].name.startswith("study_")
     paths = plot_study(_summary((1, 1, 1, 1)), tmp_path / "one")
     assert [p.name for p in paths] == ["study_single.png"]
@@ -134,7 +137,7 @@ def test_figure_layout_follows_the_settings():
 def test_a_fifth_axis_is_held_and_any_axis_can_be_drawn(tmp_path):
     ds = _summary((3, 2, 2, 2), extra_axes={"model.cage_stiffness": [1e4, 1e5, 1e6]})
     ds["model.cage_stiffness"].attrs.update(units="N m-1", long_name="cage spring stiffness")
-    paths = plot_study(ds, tmp_path, part=(0, 30),
+    paths = plot_study(ds, tmp_path, part=(1, 30),
                        figure_axes=["model.cage_stiffness", "clearance", "mu"],
                        figure_fixed={"e_N": 0.7})
     stems = {p.name.split("_", 1)[1] for p in paths}
@@ -146,7 +149,7 @@ def test_a_grid_too_large_to_draw_says_so(tmp_path):
     ds = _summary((3, 3, 2, 2), extra_axes={"rank_axis": list(np.arange(40.0))})
     from analysis import figures
 
-    paths = plot_study(ds, tmp_path, part=(0, 100), figure_axes=["rank_axis", "clearance"])
+    paths = plot_study(ds, tmp_path, part=(1, 100), figure_axes=["rank_axis", "clearance"])
     assert figures.MAX_CELLS < 40
     for path in paths:  # the message page (8 in at 100 dpi), not a 40-cell map
         assert plt.imread(path).shape[1] == 800
@@ -173,7 +176,7 @@ def test_study_figures_command_on_a_summary_file(tmp_path):
 
 def test_plot_study_parts_share_the_figures(tmp_path):
     """part=(i, n) draws every n-th quantity: the parts together are the whole set, once."""
-    ds = _summary((2, 2, 1, 1))[["peak_force", "method_ratio", "failed"]]
+    ds = _summary((2, 2, 1, 1))[["peak_force", "method_ratio", "failed"]]  # no life figure
     whole = {p.name for p in plot_study(ds, tmp_path / "all")}
     assert len(whole) == 6
     parts = [{p.name for p in plot_study(ds, tmp_path / f"p{i}", part=(i, 2))} for i in (0, 1)]
@@ -182,3 +185,13 @@ def test_plot_study_parts_share_the_figures(tmp_path):
     assert plot_study(_summary((1, 1, 1, 1)), tmp_path / "one", part=(1, 2)) == []
     with pytest.raises(ValueError, match="part"):
         plot_study(ds, tmp_path, part=(2, 2))
+
+
+def test_life_figure_marks_the_clearance_classes(tmp_path):
+    from analysis.figures import plot_life
+
+    ds = _summary((3, 1, 2, 1))
+    path = plot_life(ds, tmp_path / "life.png")
+    assert path.stat().st_size > 20_000
+    with pytest.raises(KeyError):
+        plot_life(ds.drop_vars("L10h"), tmp_path / "none.png")
