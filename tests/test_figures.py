@@ -195,3 +195,18 @@ def test_life_figure_marks_the_clearance_classes(tmp_path):
     assert path.stat().st_size > 20_000
     with pytest.raises(KeyError):
         plot_life(ds.drop_vars("L10h"), tmp_path / "none.png")
+
+
+def test_study_figures_command_takes_the_layout(tmp_path, capsys):
+    from analysis.__main__ import main
+    from simcore.io import write_netcdf
+
+    path = write_netcdf(_summary((2, 2, 2, 1))[["peak_force", "failed"]], tmp_path / "s.nc")
+    assert main(["study-figures", str(path), "--axes", "omega0", "clearance",
+                 "--fixed", "mu=0.01"]) == 0
+    printed = capsys.readouterr().out
+    assert "study_peak_force_outer_nonsmooth.png" in printed
+    assert main(["study-figures", str(path), "--axes", "speed"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: study.figure_axes: 'speed' is not allowed") and "\n" not in err
+    assert main(["study-figures", str(path), "--fixed", "mu=x"]) == 2
