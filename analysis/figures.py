@@ -765,7 +765,7 @@ def _study_quantities(summary_ds):
         for r in (1, 0):
             out.append(StudyQuantity(f"method_ratio_{RACE_NAMES[r]}",
                                      s["method_ratio"].isel(race=r),
-                                     f"peak force, nonsmooth / compliant, {RACE_NAMES[r]} race",
+                                     f"nonsmooth / compliant peak force, {RACE_NAMES[r]} race",
                                      "median", "ratio"))
     if "static_deflection_ratio" in s and bool(s["static_deflection_ratio"].notnull().any()):
         out.append(StudyQuantity("static_deflection_ratio", s["static_deflection_ratio"],
@@ -861,8 +861,18 @@ def _cmap(kind):
     return plt.get_cmap("RdBu_r" if kind == "ratio" else "viridis").with_extremes(bad="0.85")
 
 
+#: Width of a character of a figure title (11 pt) and of a colour-bar label (10 pt) [in].
+_TITLE_CHAR = 0.085
+_LABEL_CHAR = 0.075
+
+
+def _title_width(title: str) -> float:
+    """Width a figure title needs [in]."""
+    return _TITLE_CHAR * max(len(line) for line in title.splitlines()) + 0.4
+
+
 def _panel_grid(nrow, ncol, panel_w, panel_h, wgap, hgap, *, left=0.85, right=1.3,
-                bottom=0.65, top=0.95, **subplot_kw):
+                bottom=0.65, top=0.95, min_width=0.0, **subplot_kw):
     """Figure of ``nrow`` x ``ncol`` panels of ``panel_w`` x ``panel_h`` inches, ``wgap`` and
     ``hgap`` inches apart, with margins fixed in inches (``left`` for the tick labels and the
     axis label, ``bottom`` likewise, ``top`` for the titles, ``right`` for the colour bar), and
@@ -873,6 +883,9 @@ def _panel_grid(nrow, ncol, panel_w, panel_h, wgap, hgap, *, left=0.85, right=1.
     the last job of the study; its panels and labels have known sizes, so fixed margins do.
     """
     width = left + ncol * panel_w + (ncol - 1) * wgap + right
+    if width < min_width:  # room for the title: the panels stay centred
+        left, right = left + 0.5 * (min_width - width), right + 0.5 * (min_width - width)
+        width = min_width
     height = bottom + nrow * panel_h + (nrow - 1) * hgap + top
     fig, axes = plt.subplots(nrow, ncol, figsize=(width, height), squeeze=False,
                              gridspec_kw={"left": left / width, "right": 1 - right / width,
@@ -885,9 +898,24 @@ def _panel_grid(nrow, ncol, panel_w, panel_h, wgap, hgap, *, left=0.85, right=1.
     return fig, axes, cax
 
 
-def _colorbar(fig, mesh, cax, label):
-    """Colour bar in ``cax`` with plain-number ticks (1, 2, 5 per decade on a log scale)."""
-    bar = fig.colorbar(mesh, cax=cax, label=label)
+#: Tick values of a ratio's colour bar (those inside its range are shown).
+_RATIO_TICKS = (0.2, 0.25, 1 / 3, 0.5, 2 / 3, 0.8, 1.0, 1.25, 1.5, 2.0, 3.0, 4.0, 5.0)
+
+
+def _colorbar(fig, mesh, cax, label, kind="plain"):
+    """Colour bar in ``cax`` with plain-number ticks (1, 2, 5 per decade on a log scale; a
+    ratio's about 1), its label wrapped to the bar's length."""
+    import textwrap
+
+    span = cax.get_position().height * fig.get_figheight()
+    width = max(20, int(span / _LABEL_CHAR))
+    bar = fig.colorbar(mesh, cax=cax, label="\n".join(textwrap.wrap(label, width)))
+    if kind == "ratio":
+        lo, hi = mesh.norm.vmin, mesh.norm.vmax
+        bar.set_ticks([t for t in _RATIO_TICKS if lo <= t <= hi])
+        bar.ax.yaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+        bar.ax.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:.2g}"))
+        return bar
     if isinstance(mesh.norm, matplotlib.colors.LogNorm):
         bar.ax.yaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
         bar.ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
@@ -946,7 +974,8 @@ def _facet_figure(q: StudyQuantity, layout: FigureLayout, ds, path, failed, titl
             "a side; choose study.figure_axes or fix axes with study.figure_fixed"))
     norm = _norm(da.values, q.kind)
     cmap = _cmap(q.kind)
-    fig, axes, cax = _panel_grid(nrow, ncol, 3.1, 2.4, 0.15, 0.35, sharex=True, sharey=True)
+    fig, axes, cax = _panel_grid(nrow, ncol, 3.1, 2.4, 0.15, 0.35, sharex=True, sharey=True,
+                                 min_width=_title_width(title))
     mesh = None
     for i in range(nrow):
         for j in range(ncol):
@@ -968,7 +997,7 @@ def _facet_figure(q: StudyQuantity, layout: FigureLayout, ds, path, failed, titl
                 _ticks(ax, "x", da, x)
             if j == 0 and y is not None:
                 _ticks(ax, "y", da, y)
-    _colorbar(fig, mesh, cax, q.label)
+    _colorbar(fig, mesh, cax, q.label, q.kind)
     fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -997,7 +1026,7 @@ def _pairs_figure(q: StudyQuantity, swept, ds, path, failed, title):
                for a, b in pairs}
     norm = _norm(np.concatenate([np.ravel(r.values) for r in reduced.values()]), q.kind)
     cmap = _cmap(q.kind)
-    fig, axes, cax = _panel_grid(nrow, ncol, 3.4, 2.7, 0.95, 0.8)
+    fig, axes, cax = _panel_grid(nrow, ncol, 3.4, 2.7, 0.95, 0.8, min_width=_title_width(title))
     mesh = None
     for ax, (a, b) in zip(axes.ravel(), pairs, strict=False):
         xdim, ydim = (b, a) if a != "clearance" and b == "clearance" else (a, b)
@@ -1008,7 +1037,7 @@ def _pairs_figure(q: StudyQuantity, swept, ds, path, failed, title):
         ax.set_title(f"{q.how} over {', '.join(rest)}" if rest else "", fontsize=9)
     for ax in axes.ravel()[len(pairs):]:
         ax.set_axis_off()
-    _colorbar(fig, mesh, cax, q.label)
+    _colorbar(fig, mesh, cax, q.label, q.kind)
     fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -1166,25 +1195,29 @@ DEFAULT_BORE = 60.0
 
 
 def _class_bands(ax, bore):
-    """Shade the model clearance g of each ISO 5753-1 class of a bore (half the class's radial
-    internal clearance, docs/life.md) and label it."""
+    """Mark the model clearance g of each ISO 5753-1 class of a bore (half the class's radial
+    internal clearance, docs/life.md): a bar per class along the top of the axes (the classes
+    overlap), a dotted line at its middle."""
     from simcore.model.bearing import CLEARANCE_CLASSES, clearance_range
 
-    shades = ("0.93", "0.85")
+    top = ax.get_xaxis_transform()  # x in data, y in axes fraction
     for i, name in enumerate(CLEARANCE_CLASSES):
         try:
-            lo, hi, _ = clearance_range(bore, name)
+            lo, hi, mid = clearance_range(bore, name)
         except ValueError:  # a class the table does not give for this bore
             continue
-        ax.axvspan(lo / 2 * 1e6, hi / 2 * 1e6, color=shades[i % 2], zorder=0, lw=0)
-        ax.text(np.sqrt(lo * hi) / 2 * 1e6, 0.98, name, transform=ax.get_xaxis_transform(),
-                ha="center", va="top", fontsize=8, color="0.3")
+        y = 0.96 - 0.06 * i
+        ax.plot([lo / 2 * 1e6, hi / 2 * 1e6], [y, y], color="0.45", lw=3, transform=top,
+                solid_capstyle="butt")
+        ax.text(hi / 2 * 1e6 * 1.08, y, name, transform=top, va="center", fontsize=8,
+                color="0.3")
+        ax.axvline(mid / 2 * 1e6, color="0.6", lw=0.8, ls=":", zorder=0)
 
 
 def plot_life(summary_ds: xr.Dataset, path, layout: FigureLayout | None = None,
               bore: float | None = None) -> Path:
     """Rating lives against clearance, one line per crank speed (the compliant twins' L10h and
-    L10rh), with the ISO 5753-1 clearance classes of the bearing's bore shaded.
+    L10rh), with the ISO 5753-1 clearance classes of the bearing's bore marked.
 
     Parameters
     ----------
@@ -1228,9 +1261,9 @@ def plot_life(summary_ds: xr.Dataset, path, layout: FigureLayout | None = None,
     if len(speeds) > 1:
         axes[1].legend(fontsize=8)
     held = ", ".join(_fmt_axis(summary_ds, d, v) for d, v in at.items())
+    classes = f"bars: the ISO 5753-1 classes of a {bore:g} mm bore as the model's clearance"
     fig.suptitle("Rating life of the bearing from the compliant model's loads, steady window"
-                 + (f"\n({held}; ISO 5753-1 classes of a {bore:g} mm bore shaded)" if held
-                    else f"\n(ISO 5753-1 classes of a {bore:g} mm bore shaded)"), fontsize=10)
+                 + (f"\n({held}; {classes})" if held else f"\n({classes})"), fontsize=10)
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return Path(path)
