@@ -154,6 +154,36 @@ def format_top_forces(run_ds, n=3, race="outer", zero_tol=1e-4, zero_floor=1e-12
     return "\n".join(lines)
 
 
+def _study_figures(args) -> int:
+    """``study-figures``: the study's heat maps and its table from a summary file."""
+    from pathlib import Path
+
+    import xarray as xr
+
+    from .figures import plot_study
+    from .summary import summary_table
+
+    outdir = Path(args.outdir or Path(args.summary).parent / "figures")
+    fixed = {}
+    for item in args.fixed:
+        axis, _, value = item.partition("=")
+        try:
+            fixed[axis] = float(value)
+        except ValueError:
+            print(f"error: --fixed: {item!r} is not allowed; allowed: AXIS=NUMBER",
+                  file=sys.stderr)
+            return 2
+    with xr.open_dataset(args.summary) as ds:
+        summary = ds.load()
+    for p in plot_study(summary, outdir, figure_axes=args.axes, figure_fixed=fixed):
+        print(p)
+    table = summary_table(summary)
+    table.to_csv(outdir / "summary_table.csv", index=False)
+    print(outdir / "summary_table.csv")
+    print(table.to_string(index=False))
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point; returns the exit status."""
     args = build_parser().parse_args(argv)
@@ -172,30 +202,7 @@ def main(argv=None) -> int:
             return 2
     try:
         if args.cmd == "study-figures":
-            from pathlib import Path
-
-            from .figures import plot_study
-            from .summary import summary_table
-
-            outdir = Path(args.outdir or Path(args.summary).parent / "figures")
-            fixed = {}
-            for item in args.fixed:
-                axis, _, value = item.partition("=")
-                try:
-                    fixed[axis] = float(value)
-                except ValueError:
-                    print(f"error: --fixed: {item!r} is not allowed; allowed: AXIS=NUMBER",
-                          file=sys.stderr)
-                    return 2
-            with xr.open_dataset(args.summary) as ds:
-                summary = ds.load()
-            for p in plot_study(summary, outdir, figure_axes=args.axes, figure_fixed=fixed):
-                print(p)
-            table = summary_table(summary)
-            table.to_csv(outdir / "summary_table.csv", index=False)
-            print(outdir / "summary_table.csv")
-            print(table.to_string(index=False))
-            return 0
+            return _study_figures(args)
         with xr.open_dataset(args.run) as ds:
             run_ds = ds.load()
         if args.cmd == "impacts":
