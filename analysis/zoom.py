@@ -10,8 +10,9 @@ small step (:func:`simcore.zoom`, its step the shortest Hertz contact time it mu
 0.5 ms, at most 20 ms), or until the ball of every impact it serves is free again. The
 impact table gains ``F_max_zoom`` [N], the largest contact force of the impact's ball during
 the impact: over the ball's contact episode that contains the first force of the impact's own
-contact (for a ball pinched between both races that is the larger of its two contacts; NaN when
-that force still rises at the end of the zoom), and
+contact (of either contact of the ball for a pinch, so that the pinch's two rows read the same
+episode; the ball's force is the larger of its two contacts; NaN when that force still rises at
+the end of the zoom), and
 ``contact_time_zoom`` [s], how long the impact's own contact stayed closed in its first contact
 episode (NaN when it was still closed at the end of the zoom: the impact turned into persistent
 contact, as it does for the loaded balls of the bearing).
@@ -31,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from .impacts import FLAG, count_flags
+from .impacts import FLAG, KIND, count_flags
 
 _METHOD_DISAGREES = FLAG["method_disagrees"]
 
@@ -243,11 +244,15 @@ def _zoom_numbers(run_ds, table, time, plan, overrides) -> dict:
                                        watch_onset=onset)
     F_N = traj.F_N
     output_dt = float(zcfg["solver"]["dt"]) * output_every(zcfg)
+    kinds = np.asarray(table["kind"].values) if "kind" in table else np.full(len(balls), -1)
     out = {}
     for g, row in enumerate(rows):
         F_contact = _struck(F_N[:, int(contacts[row])])
-        out[row] = (_episode_peak(F_N[:, groups[g]].max(axis=1), F_contact),
-                    _first_episode(F_contact, output_dt))
+        F_ball = F_N[:, groups[g]].max(axis=1)
+        # a pinch is the ball's impact between both races: its episode starts with the first
+        # force on either contact, the same for the pinch's two rows
+        onset = _struck(F_ball) if kinds[row] == KIND["pinch"] else F_contact
+        out[row] = (_episode_peak(F_ball, onset), _first_episode(F_contact, output_dt))
     return out
 
 

@@ -171,6 +171,11 @@ def test_a_zoom_that_contradicts_the_paper_flags_the_impact_and_an_isolated_one_
     assert table.attrs["n_method_disagrees"] == 1
     assert table.attrs["n_trusted"] == int(np.count_nonzero(trusted))
     assert "method_disagrees" in table["flags"].attrs["flag_meanings"].split()
+    # the pinch's two rows (the ball on either race) read the same episode of the ball
+    pair = np.flatnonzero((kind == KIND["pinch"]) & np.isclose(imp["time"].values,
+                                                               float(imp["time"][chosen[1]])))
+    both = add_zoom_forces(steel_run, imp.isel(impact=pair), zoom_top=len(pair))
+    assert len(pair) == 2 and both["F_max_zoom"].values[0] == both["F_max_zoom"].values[1]
     # a looser tolerance that covers the pinch's ratio leaves its row unflagged by the method
     loose = add_zoom_forces(steel_run, imp.isel(impact=chosen), zoom_top=2,
                             method_tol=abs(ratio[1] - 1.0) * 1.01)
