@@ -10,9 +10,9 @@ small step (:func:`simcore.zoom`, its step the shortest Hertz contact time it mu
 0.5 ms, at most 20 ms), or until the ball of every impact it serves is free again. The
 impact table gains ``F_max_zoom`` [N], the largest contact force of the impact's ball during
 the impact: over the ball's contact episode that contains the first force of the impact's own
-contact (of either contact of the ball for a pinch, so that the pinch's two rows read the same
-episode; the ball's force is the larger of its two contacts; NaN when that force still rises at
-the end of the zoom), and
+contact (for a pinch, the first sample where both contacts of the ball carry force, so that the
+pinch's two rows read the same episode; the ball's force is the larger of its two contacts; NaN
+when that force still rises at the end of the zoom), and
 ``contact_time_zoom`` [s], how long the impact's own contact stayed closed in its first contact
 episode (NaN when it was still closed at the end of the zoom: the impact turned into persistent
 contact, as it does for the loaded balls of the bearing).
@@ -88,6 +88,15 @@ def _struck(F_contact: np.ndarray) -> np.ndarray:
         F = F.copy()
         F[0] = 0.0
     return F
+
+
+def _pinch_onset(F_ball_contacts: np.ndarray) -> np.ndarray:
+    """The onset series of a pinch row: where both of the ball's contacts carry force (the ball
+    squeezed between the races), else, if they never do together, where either does. The same
+    for the pinch's two rows (the ball on either race), so that both read one episode: a light
+    touch of one race before the squeeze is not the pinch."""
+    both = F_ball_contacts.min(axis=1)
+    return both if np.any(both > 0.0) else _struck(F_ball_contacts.max(axis=1))
 
 
 def _episode_peak(F_ball: np.ndarray, F_contact: np.ndarray) -> float:
@@ -249,9 +258,7 @@ def _zoom_numbers(run_ds, table, time, plan, overrides) -> dict:
     for g, row in enumerate(rows):
         F_contact = _struck(F_N[:, int(contacts[row])])
         F_ball = F_N[:, groups[g]].max(axis=1)
-        # a pinch is the ball's impact between both races: its episode starts with the first
-        # force on either contact, the same for the pinch's two rows
-        onset = _struck(F_ball) if kinds[row] == KIND["pinch"] else F_contact
+        onset = _pinch_onset(F_N[:, groups[g]]) if kinds[row] == KIND["pinch"] else F_contact
         out[row] = (_episode_peak(F_ball, onset), _first_episode(F_contact, output_dt))
     return out
 

@@ -348,3 +348,20 @@ def test_watch_contacts_waits_for_the_onset_of_its_group():
     np.testing.assert_array_equal(whole.F_N[:len(traj.time)], traj.F_N)
     with pytest.raises(ValueError, match="^watch_contacts"):
         model.simulate(settings, release=ReleaseStop([True, False]))
+
+
+def test_a_pinch_reads_the_squeeze_not_an_earlier_touch():
+    """A ball touches the inner race lightly, leaves it, then is squeezed between both races:
+    both rows of the pinch read the squeeze (the larger of the ball's two contacts over the
+    episode where both carry force); the inner contact alone would read the touch."""
+    from analysis.zoom import _episode_peak, _pinch_onset
+
+    inner = np.array([0.0, 0.0, 2.0, 1.0, 0.0, 0.0, 3.0, 8.0, 9.0, 4.0, 0.0, 0.0])
+    outer = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0, 9.5, 8.5, 3.0, 0.0, 0.0])
+    pair = np.stack([inner, outer], axis=1)
+    ball = pair.max(axis=1)
+    assert _episode_peak(ball, _pinch_onset(pair)) == 9.5
+    assert _episode_peak(ball, inner) == 2.0  # the touch, as a single-ball row would read it
+    # never together: the first force on either contact
+    apart = np.stack([inner, np.zeros_like(inner)], axis=1)
+    assert _episode_peak(apart.max(axis=1), _pinch_onset(apart)) == 2.0
