@@ -1239,13 +1239,15 @@ def plot_life(summary_ds: xr.Dataset, path, layout: FigureLayout | None = None,
     layout = layout or figure_layout(summary_ds)
     bore = float(bore or summary_ds.attrs.get("bearing_bore_mm", DEFAULT_BORE))
     keep = {"clearance", "omega0"}
-    at = {d: v for d, v in {**layout.held, **layout.fixed}.items() if d not in keep}
+    at = {}  # every other axis held: where the layout holds it, else at its middle value
+    for d in grid_axes(summary_ds):
+        if d not in keep:
+            values = np.asarray(summary_ds[d].values, dtype=float)
+            at[d] = {**layout.held, **layout.fixed}.get(d, float(values[(values.size - 1) // 2]))
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True, layout="constrained")
     for ax, name, what in ((axes[0], "L10h", "ISO 281 L10 (transmitted load)"),
                            (axes[1], "L10rh", "reference L10r (ball loads)")):
         da = summary_ds[name].sel(at)
-        others = [d for d in da.dims if d not in keep]
-        da = da.isel({d: 0 for d in others})  # axes of one value
         speeds = da["omega0"].values if "omega0" in da.dims else [None]
         for speed in speeds:
             line = da.sel(omega0=speed) if speed is not None else da
