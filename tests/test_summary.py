@@ -431,3 +431,23 @@ def test_summary_table_shows_both_models_and_their_ratio(study):
     assert table.loc["nonsmooth peak forces flagged (flag or method check)", "max"] == "1 of 2"
     one = summary_table(s, model="compliant")
     assert not one["quantity"].str.contains("nonsmooth, |method ratio").any()
+
+
+@pytest.mark.parametrize("turned, expected", [(2.4, 2), (2.6, 3), (3.0, 3), (0.3, 1), (0.0, 0)])
+def test_revolutions_of_the_window_and_the_short_tail(turned, expected):
+    """A last piece shorter than half a revolution joins the revolution before it; a window
+    shorter than one revolution is one revolution; an empty window has none."""
+    from analysis.summary import SteadyWindow
+
+    t = np.linspace(0.0, 1.0, 1001)
+    window = SteadyWindow(0.0, turned, t, turned * t)
+    assert window.n_revolutions == expected
+    if expected:
+        position = turned * t[1:]  # revolutions turned at the samples
+        index = window.revolution(t[1:])
+        assert index.min() == 0 and index.max() == expected - 1
+        step = turned * (t[1] - t[0])
+        for k in range(1, expected):  # revolution k starts where the crank has turned k
+            first = position[index == k].min()
+            assert k <= first < k + step
+        assert position[index == expected - 1].max() == pytest.approx(turned)
