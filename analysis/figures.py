@@ -729,9 +729,22 @@ def _axis_label(ds, dim):
     return attrs.get("long_name", dim), ("–" if unit in ("", "1") else unit), 1.0
 
 
+def _category(ds, dim, value):
+    """The name of a category axis's code (its ``flag_meanings``), else None."""
+    meanings = ds[dim].attrs.get("flag_meanings") if dim in ds.coords else None
+    if not meanings:
+        return None
+    names = str(meanings).split()
+    code = int(round(float(value)))
+    return names[code] if 0 <= code < len(names) else None
+
+
 def _fmt_axis(ds, dim, value):
     if dim in _PARAM:
         return _fmt_param(dim, value)
+    name = _category(ds, dim, value)
+    if name is not None:
+        return f"{dim} = {name}"
     label, unit, fac = _axis_label(ds, dim)
     unit_txt = "" if unit in ("", "–") else f" {unit}"
     return f"{dim} = {value * fac:.4g}{unit_txt}"
@@ -814,7 +827,7 @@ def _positions(dim, values):
 def _ticks(ax, axis, ds, dim):
     label, unit, fac = _axis_label(ds, dim)
     values = np.asarray(ds[dim].values, dtype=float)
-    text = [f"{v * fac:.3g}" for v in values]
+    text = [_category(ds, dim, v) or f"{v * fac:.3g}" for v in values]
     (ax.set_xticks if axis == "x" else ax.set_yticks)(_positions(dim, values), text)
     target = ax.xaxis if axis == "x" else ax.yaxis
     target.set_minor_locator(matplotlib.ticker.NullLocator())

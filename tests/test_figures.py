@@ -210,3 +210,16 @@ def test_study_figures_command_takes_the_layout(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: study.figure_axes: 'speed' is not allowed") and "\n" not in err
     assert main(["study-figures", str(path), "--fixed", "mu=x"]) == 2
+
+
+def test_a_category_axis_is_labelled_by_its_names(tmp_path):
+    from analysis.figures import _fmt_axis
+
+    ds = _summary((3, 1, 1, 1), extra_axes={"damping_law": [0.0, 1.0, 2.0]})
+    ds = ds.assign_coords(damping_law=("damping_law", np.arange(3, dtype="i1"), {
+        "long_name": "damping law", "flag_values": np.arange(3, dtype="i1"),
+        "flag_meanings": "flores hunt_crossley lankarani_nikravesh"}))
+    assert _fmt_axis(ds, "damping_law", 1) == "damping_law = hunt_crossley"
+    paths = plot_study(ds[["peak_force", "failed"]], tmp_path, part=(0, 4),
+                       figure_axes=["damping_law", "clearance"])
+    assert paths and all(p.stat().st_size > 10_000 for p in paths)
