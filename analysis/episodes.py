@@ -63,6 +63,25 @@ def episode_peaks(force: np.ndarray):
         peak_index, peak
 
 
+def _stress_columns(geo: dict, races: np.ndarray, force: np.ndarray) -> dict:
+    """Hertz indentation, contact semi-axes and pressure at each episode's force."""
+    stress = {name: np.full(force.size, np.nan)
+              for name in ("contact_radius", "contact_semi_minor", "delta_max", "p_max")}
+    for code in (RACE["inner"], RACE["outer"]):
+        sel = races == code
+        if sel.any():
+            for name, value in zip(stress, geo["stress"](force[sel], code), strict=True):
+                stress[name][sel] = value
+    return {
+        "delta_max": (stress["delta_max"], "m", "Hertz indentation under F_max"),
+        "contact_radius": (stress["contact_radius"], "m", "Hertz contact radius under F_max "
+                                                         "(ellipse: semi-major axis)"),
+        "contact_semi_minor": (stress["contact_semi_minor"], "m", "semi-minor axis of the "
+                                                                 "contact under F_max"),
+        "p_max": (stress["p_max"], "Pa", "largest Hertz contact pressure under F_max"),
+    }
+
+
 def contact_episodes(run_ds: xr.Dataset, r_eff: str = "concave",
                      groove_conformity=None) -> xr.Dataset:
     """Table of the contact episodes of a compliant run (one row per episode).
@@ -100,13 +119,6 @@ def contact_episodes(run_ds: xr.Dataset, r_eff: str = "concave",
                                               (contact, start, stop, peak_index, peak))
     races = _race_codes(run_ds, force.shape[0])[contact]
     balls = np.asarray(run_ds["ball"].values).astype(np.int64)[contact]
-    stress = {name: np.full(peak.size, np.nan)
-              for name in ("contact_radius", "contact_semi_minor", "delta_max", "p_max")}
-    for code in (RACE["inner"], RACE["outer"]):
-        sel = races == code
-        if sel.any():
-            for name, value in zip(stress, geo["stress"](peak[sel], code), strict=True):
-                stress[name][sel] = value
     columns = {
         "contact": (contact, "1", "contact index (balls 0..n-1 on the inner race, then outer)"),
         "ball": (balls, "1", "ball index"),
@@ -117,12 +129,7 @@ def contact_episodes(run_ds: xr.Dataset, r_eff: str = "concave",
         "contact_time": ((stop - start) * interval, "s", "output intervals with a force times "
                                                          "the interval (an upper bound)"),
         "F_max": (peak, "N", "largest contact force F_N of the episode"),
-        "delta_max": (stress["delta_max"], "m", "Hertz indentation under F_max"),
-        "contact_radius": (stress["contact_radius"], "m", "Hertz contact radius under F_max "
-                                                         "(ellipse: semi-major axis)"),
-        "contact_semi_minor": (stress["contact_semi_minor"], "m", "semi-minor axis of the "
-                                                                 "contact under F_max"),
-        "p_max": (stress["p_max"], "Pa", "largest Hertz contact pressure under F_max"),
+        **_stress_columns(geo, races, peak),
     }
     ds = xr.Dataset(coords={"impact": ("impact", np.arange(peak.size, dtype=np.int64),
                                        {"units": "1", "long_name": "episode number"})})

@@ -1160,45 +1160,52 @@ def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
     if not layout.x:
         return [] if index > 0 else [_single_figure(summary_ds, quantities, layout.held,
                                                     outdir / "study_single.png")]
-    settle = summary_ds.attrs.get("settle_revolutions", summary_ds.attrs.get("analysis_settle"))
-    held = ", ".join(_fmt_axis(summary_ds, d, v) for d, v in {**layout.held,
-                                                              **layout.fixed}.items())
-    held = f"; {held}" if held else ""
     swept = [a for a in grid_axes(summary_ds) if summary_ds.sizes[a] > 1]
     paths = []
     if index == 0 and model in (None, "compliant") and "L10h" in summary_ds \
             and "clearance" in swept and bool(summary_ds["L10h"].notnull().any()):
         paths.append(plot_life(summary_ds, outdir / "life_clearance_speed.png", layout))
     for q in quantities[index::parts]:
-        at = {**{d: 0 for d in layout.held}}
-        full = q.data.isel(at)
-        failed_full = _failed_mask(summary_ds, _quantity_model(q))
-        failed_full = failed_full.isel(at) if failed_full is not None else None
-        q_fixed = StudyQuantity(q.stem, full.sel(layout.fixed), q.label, q.how, q.kind)
-        failed = failed_full.sel(layout.fixed) if failed_full is not None else None
-        if settle is None:
-            note = held[2:]
-        elif q.stem.startswith("startup"):
-            note = f"start-up: the first {settle:g} crank revolution(s) of each run{held}"
-        else:
-            note = f"steady window: after the first {settle:g} crank revolution(s){held}"
-        title = f"{q.label}: every grid point" + (f"\n({note})" if note else "")
-        path = outdir / f"study_{q.stem}.png"
-        if not layout.y and not layout.col:
-            paths.append(_line_figure(q_fixed, layout.x, summary_ds, path, failed, title))
-        else:
-            q_fixed.data = q_fixed.data.transpose(*layout.axes)
-            paths.append(_facet_figure(q_fixed, layout, summary_ds, path,
-                                       failed.transpose(*layout.axes) if failed is not None
-                                       else None, title))
-        if len(swept) >= 3:
-            note = f"\n(steady window: after the first {settle:g} crank revolution(s))" \
-                if settle is not None and not q.stem.startswith("startup") else ""
-            paths.append(_pairs_figure(
-                StudyQuantity(q.stem, full.transpose(*swept), q.label, q.how, q.kind), swept,
-                summary_ds, outdir / f"pairs_{q.stem}.png",
-                failed_full.transpose(*swept) if failed_full is not None else None,
-                f"{q.label}: each pair of swept parameters, {q.how} over the others{note}"))
+        paths += _quantity_figures(summary_ds, q, layout, swept, outdir)
+    return paths
+
+
+def _quantity_figures(summary_ds, q: StudyQuantity, layout: FigureLayout, swept, outdir):
+    """``study_<stem>.png`` of one quantity over the layout, and ``pairs_<stem>.png`` with three
+    or more swept axes."""
+    settle = summary_ds.attrs.get("settle_revolutions", summary_ds.attrs.get("analysis_settle"))
+    held = ", ".join(_fmt_axis(summary_ds, d, v) for d, v in {**layout.held,
+                                                              **layout.fixed}.items())
+    held = f"; {held}" if held else ""
+    at = {d: 0 for d in layout.held}
+    full = q.data.isel(at)
+    failed_full = _failed_mask(summary_ds, _quantity_model(q))
+    failed_full = failed_full.isel(at) if failed_full is not None else None
+    q_fixed = StudyQuantity(q.stem, full.sel(layout.fixed), q.label, q.how, q.kind)
+    failed = failed_full.sel(layout.fixed) if failed_full is not None else None
+    if settle is None:
+        note = held[2:]
+    elif q.stem.startswith("startup"):
+        note = f"start-up: the first {settle:g} crank revolution(s) of each run{held}"
+    else:
+        note = f"steady window: after the first {settle:g} crank revolution(s){held}"
+    title = f"{q.label}: every grid point" + (f"\n({note})" if note else "")
+    path = outdir / f"study_{q.stem}.png"
+    if not layout.y and not layout.col:
+        paths = [_line_figure(q_fixed, layout.x, summary_ds, path, failed, title)]
+    else:
+        q_fixed.data = q_fixed.data.transpose(*layout.axes)
+        paths = [_facet_figure(q_fixed, layout, summary_ds, path,
+                               failed.transpose(*layout.axes) if failed is not None else None,
+                               title)]
+    if len(swept) >= 3:
+        note = f"\n(steady window: after the first {settle:g} crank revolution(s))" \
+            if settle is not None and not q.stem.startswith("startup") else ""
+        paths.append(_pairs_figure(
+            StudyQuantity(q.stem, full.transpose(*swept), q.label, q.how, q.kind), swept,
+            summary_ds, outdir / f"pairs_{q.stem}.png",
+            failed_full.transpose(*swept) if failed_full is not None else None,
+            f"{q.label}: each pair of swept parameters, {q.how} over the others{note}"))
     return paths
 
 
