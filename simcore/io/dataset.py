@@ -21,6 +21,7 @@ from .variables import (
     STAGES,
     STORAGE,
     VARIABLES,
+    base_parameters,
     parameter_coords,
 )
 
@@ -64,7 +65,7 @@ def trajectory_dataset(traj, model, layout, cfg: dict, compile_time_s: float = 0
                    VARIABLES[name].attrs(compliant, storage[name]))
             for name, value in values.items()}
     coords = run_coordinates(traj.time, int(cfg["model"]["n_balls"]), model.body_names)
-    coords.update(parameter_coords(cfg["model"]))
+    coords.update(parameter_coords(base_parameters(cfg["model"])))
     attrs = run_attributes(traj, layout, cfg, compile_time_s, compliant)
     ds = dataset_of_arrays(data, coords, attrs)
     for name in data:
@@ -210,4 +211,4 @@ def failed_run_dataset(cfg: dict, message: str) -> xr.Dataset:
     attrs = global_attributes(cfg, "failed run of the bearing study",
                               f"simcore.run failed: {message}")
     attrs.update({"failed": 1, "error": message})
-    return xr.Dataset(coords=parameter_coords(cfg["model"]), attrs=attrs)
+    return xr.Dataset(coords=parameter_coords(base_parameters(cfg["model"])), attrs=attrs)

@@ -548,7 +548,9 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
     """Advance steps k0 .. k1-1 of the compliant model (state at t0 + k0 h on entry).
 
     Every ``every`` steps the output row (k + 1) // every is written: q, v, energy (kinetic,
-    gravitational, springs and the contacts' elastic energy) and drive torque at that instant;
+    gravitational, springs and the contacts' elastic energy) at that instant, the drive torque
+    averaged over the interval's steps (so that torque x drive rate x interval is the drive's
+    work, which the energy audit subtracts; at ``every`` = 1 the step's torque);
     per contact the largest normal force of the interval ``F_N`` [N], the friction force at that
     peak ``F_T`` [N], the impulses ``Lambda_N``, ``Lambda_T`` [N s] (trapezoidal rule on the
     step-end forces), the smallest gap ``gap_N`` [m], the normal velocity at the start
@@ -587,6 +589,7 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
     pw = work.projection
     bw = work.branches
     first_bad = -1
+    torque_sum = 0.0  # drive torque summed over the interval (k0 starts an interval)
     for k in range(k0, k1):
         t1 = st.t0 + (k + 1) * h
         # onset speeds of the contacts open at the start of the step
@@ -627,6 +630,8 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
             cs.ok[0] = 0
             if first_bad < 0:
                 first_bad = k
+        if st.drive_row >= 0:
+            torque_sum += lam_s[st.drive_row]
         if (k + 1) % every == 0:
             row = (k + 1) // every
             for i in range(n):  # (an array assignment would need reference counting)
@@ -653,5 +658,6 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
             out.converged[row] = cs.ok[0]
             cs.ok[0] = 1
             if st.drive_row >= 0:
-                out.drive_torque[row] = lam_s[st.drive_row]
+                out.drive_torque[row] = torque_sum / every
+            torque_sum = 0.0
     return first_bad
