@@ -4,9 +4,11 @@ Prints, for ``method_ratio`` (the nonsmooth steady peak force over the compliant
 and for the same ratio of the medians over revolutions (``peak_force_rev_median``): how many
 values lie within 1 +- analysis.method_tol, their range and median over the grid, by each swept
 axis, and by the static deflection ratio (a ball's Hertz deflection under the largest steady
-load over the clearance); then ``peak_force_flagged``.
+load over the clearance); then ``peak_force_flagged``, and from the nonsmooth impact tables the
+zooms of the impacts that give ``peak_force``: how many give a verdict and how many of those
+agree with F_max within the tolerance.
 
-    python benchmarks/method_ratio_report.py [results/summary.nc]
+    python benchmarks/method_ratio_report.py [results/summary.nc] [--impacts results/impacts]
 """
 
 from __future__ import annotations
@@ -60,12 +62,48 @@ def report(summary: xr.Dataset) -> None:
     print(f"values outside the tolerance left unflagged: {int(unflagged.sum())}")
 
 
+def zoom_report(folder: str, tol: float) -> None:
+    """The zooms of the impacts that give each table's steady peak force per race."""
+    from pathlib import Path
+
+    from analysis.impacts import FLAG
+
+    peaks = verdicts = disagree = 0
+    ratios = []
+    for path in sorted(Path(folder).glob("*.nc")):
+        with xr.open_dataset(path) as table:
+            if "F_max_zoom" not in table:
+                continue
+            settle = table.attrs.get("zoom_settle_time", -np.inf)
+            force = table["F_max"].values
+            steady = (table["time"].values > settle) & np.isfinite(force)
+            for race in (0, 1):
+                rows = np.flatnonzero(steady & (table["race"].values == race))
+                if not rows.size:
+                    continue
+                row = rows[np.argmax(force[rows])]
+                peaks += 1
+                zoom = float(table["F_max_zoom"].values[row])
+                if np.isfinite(zoom):
+                    verdicts += 1
+                    ratios.append(force[row] / zoom)
+                    disagree += bool(int(table["flags"].values[row])
+                                     & FLAG["method_disagrees"])
+    print(f"\nimpacts that give peak_force: {peaks}; zooms with a verdict: {verdicts} "
+          f"(F_max / F_max_zoom {describe(np.asarray(ratios), tol)}); flagged "
+          f"method_disagrees: {disagree}")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("summary", nargs="?", default="results/summary.nc")
+    p.add_argument("--impacts", default=None, help="folder of the nonsmooth impact tables")
     args = p.parse_args(argv)
     with xr.open_dataset(args.summary) as summary:
-        report(summary.load())
+        summary = summary.load()
+    report(summary)
+    if args.impacts:
+        zoom_report(args.impacts, float(summary.attrs.get("method_tol", 0.2)))
     return 0
 
 
