@@ -1,7 +1,9 @@
 # Parameter study of the SKF-6012 ball bearing in a crank-slider.
 #
 #   snakemake -j2                                   default study (config/config.yaml)
-#   snakemake -j2 --configfile config/smoke.yaml    2 x 2 grid of short runs (CI)
+#   snakemake -j2 --configfile config/smoke.yaml    2 x 2 grid of short runs, both models (CI)
+#
+# Every study key, how to sweep any setting, batching and study.max_runs: config/README.md.
 #   snakemake --report report.html                  report with the figures
 #
 # The rules live in workflow/rules/; the jobs call functions of simcore and analysis.

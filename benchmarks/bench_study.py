@@ -1,25 +1,31 @@
 """Runs per minute of a study at -j1 and -j2, bytes per run file, and where a job's time goes.
 
-    python benchmarks/bench_study.py                   24-run study (benchmarks/study24.yaml)
-                                                       at -j1 and -j2, bytes per run file
-    python benchmarks/bench_study.py --default 3       also the default 81-run study at -j2,
-                                                       3 times (median)
-    python benchmarks/bench_study.py --smoke           the smoke study instead of the 24 runs
+    python benchmarks/bench_study.py                   24-point study (benchmarks/study24.yaml,
+                                                       both models) at -j1 and -j2, bytes per
+                                                       run file
+    python benchmarks/bench_study.py --default 3       also the default study (81 points x 2
+                                                       models) at -j2, 3 times (median)
+    python benchmarks/bench_study.py --smoke           the smoke study instead of the 24 points
     python benchmarks/bench_study.py --jobs 2          only -j2
     python benchmarks/bench_study.py --default 1 --only-default
                                                        only the default study, once
     python benchmarks/bench_study.py --large --only-default
-                                                       only the 1,000-run study, once
+                                                       only the 2,000-run study (clearance x
+                                                       mu, nonsmooth runs), once
 
 Each study runs from scratch (``--forceall``) into a temporary results folder, so ``results/``
 is left alone; the Numba caches are warmed first (one run and one zoom in a fresh process), so
 every figure is a warm one. Printed:
 
 * the wall time of each study and its runs per minute at -j1 and -j2, and the -j2 speed-up;
-* per simulate job (one batch of runs and their impact tables, see ``study.batch_axes``): the
-  job's wall time from its Snakemake ``benchmark:`` file against the simulation time of its
-  runs (``wall_time_s`` of the run files); the rest is the impact tables (filter, forces,
-  compliant zooms) and the per-job overhead (process start, imports, Numba cache load, writing);
+* per simulate job (one batch of runs of about ``study.batch_seconds`` of estimated work, and
+  their impact tables): the job's wall time from its Snakemake ``benchmark:`` file against the
+  simulation time of its runs (``wall_time_s`` of the run files); the rest is the impact tables
+  (filter, forces, compliant zooms) and the per-job overhead (process start, imports, Numba
+  cache load, writing);
+* the study's estimate (the line it prints before its first job) against the measured wall
+  time, and the measured cost per step of each model, per run and per zoom beside the
+  constants of the estimate (``simcore.study.plan.COST``);
 * the time of each rule (simulate, summarize, figures) summed over its jobs, from the
   Snakemake ``benchmark:`` files, and the simulated time of the runs (steady runs last
   (settle + revolutions) turns at their own speed, so slow points dominate);
@@ -69,9 +75,9 @@ print(t1 - t0, t2 - t1, t4 - t3)
 """
 
 
-def run_study(configfile: str | None, jobs: int, results: Path) -> tuple[float, float]:
-    """Run one study from scratch; return its wall time [s] and its start [s since the
-    epoch]."""
+def run_study(configfile: str | None, jobs: int, results: Path) -> tuple[float, float, str]:
+    """Run one study from scratch; return its wall time [s], its start [s since the epoch]
+    and its terminal output."""
     cmd = [sys.executable, "-m", "snakemake", f"-j{jobs}", "--forceall", "--nolock", "--quiet"]
     if configfile:
         cmd += ["--configfile", configfile]
@@ -82,7 +88,7 @@ def run_study(configfile: str | None, jobs: int, results: Path) -> tuple[float, 
     wall = time.perf_counter() - start
     if proc.returncode != 0:
         sys.exit(f"study failed ({' '.join(cmd)}):\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
-    return wall, started
+    return wall, started, proc.stdout + proc.stderr
 
 
 def _timing(log: Path) -> dict | None:
@@ -153,8 +159,9 @@ def breakdown(results: Path, started: float, wall: float, cores: int = 2) -> lis
 
 
 def job_costs(results: Path) -> tuple[list[float], list[list[float]], int]:
-    """Per simulate job: wall time [s] and its runs' wall times [s]; number of runs."""
-    import xarray as xr
+    """Per simulate job: wall time [s] and its runs' wall times [s]; number of runs (the run
+    files listed in the job's marker, ``results/.batches/<batch>.json``)."""
+    import netCDF4
 
     logs = ROOT / "logs" / "_".join(results.relative_to(results.anchor).parts) / "simulate"
     job_wall, run_wall = [], []
@@ -163,22 +170,53 @@ def job_costs(results: Path) -> tuple[list[float], list[list[float]], int]:
         with open(bench, newline="") as fh:
             row = next(csv.DictReader(fh, delimiter="\t"))
         batch = bench.name.removesuffix(".benchmark.tsv")
-        files = sorted((results / "runs").glob(_batch_glob(batch)))
+        marker = json.loads((results / ".batches" / f"{batch}.json").read_text())
         walls = []
-        for path in files:
-            with xr.open_dataset(path) as ds:
-                walls.append(float(ds.attrs.get("wall_time_s", float("nan"))))
-        n_runs += len(files)
+        for run in marker["runs"]:
+            with netCDF4.Dataset(run["run"]) as nc:
+                walls.append(float(getattr(nc, "wall_time_s", float("nan"))))
+        n_runs += len(walls)
         job_wall.append(float(row["s"]))
         run_wall.append(walls)
     return job_wall, run_wall, n_runs
 
 
-def _batch_glob(batch: str) -> str:
-    """Glob of the run files of a batch named like ``clearance~0.0004_mu~0.01`` (or ``all``)."""
-    fixed = dict(re.findall(r"(clearance|mu|omega0|e_N)~([^_]+)", batch))
-    keys = ("clearance", "mu", "omega0", "e_N")
-    return "_".join(f"{key}~{fixed.get(key, '*')}" for key in keys) + ".nc"
+def estimate_check(results: Path, wall: float, out: str) -> list[str]:
+    """The study's printed estimate against its wall time, and the measured costs beside the
+    constants of the estimate (simcore.study.plan.COST), from the jobs' TIMING lines."""
+    from simcore.study.plan import COST
+
+    logs = ROOT / "logs" / "_".join(results.relative_to(results.anchor).parts)
+    jobs = [t for t in (_timing(p) for p in sorted((logs / "simulate").glob("*.log")))
+            if t is not None]
+    lines = []
+    match = re.search(r"^study: (.*)$", out, re.M)
+    if match:
+        lines.append(f"printed before the first job: {match.group(1)}; measured: {wall:.0f} s")
+    if not jobs:
+        return lines
+    steps_ns = sum(j.get("steps_nonsmooth", 0) for j in jobs)
+    steps_c = sum(j.get("steps_compliant", 0) for j in jobs)
+    zooms = sum(j.get("zooms", 0) for j in jobs)
+    n_runs = sum(j["runs"] - j.get("skipped", 0) for j in jobs)
+    per_run = sum(j["write_runs"] + j["extract"] + j["write_tables"] + j["table_other"]
+                  + j["run_other"] for j in jobs) / max(n_runs, 1)
+    per_job = sum(j["imported"] - j["process_start"] + j["numba_load"] for j in jobs) / len(jobs)
+    measured = [("nonsmooth step", sum(j.get("integration_nonsmooth", 0) for j in jobs),
+                 steps_ns, COST.nonsmooth_step, 1e6, "us"),
+                ("compliant step", sum(j.get("integration_compliant", 0) for j in jobs),
+                 steps_c, COST.compliant_step, 1e6, "us"),
+                ("zoom", sum(j["zoom"] for j in jobs), zooms, COST.per_zoom, 1.0, "s")]
+    parts = [f"{name} {scale * total / count:.3g} {unit} (estimate {scale * const:.3g})"
+             for name, total, count, const, scale, unit in measured if count]
+    parts.append(f"rest of a run {per_run:.3f} s (estimate {COST.per_run})")
+    cpu = sum(j.get("cpu", float("nan")) for j in jobs)
+    busy = sum(j["end"] - j["process_start"] for j in jobs)
+    lines.append(f"simulate jobs: {cpu:.0f} CPU-s of their processes against {busy:.0f} s of "
+                 "their wall time (a CPU-s count below the wall time: the machine was shared)")
+    parts.append(f"job start {per_job:.2f} s (estimate {COST.per_job})")
+    lines.append("measured cost: " + ", ".join(parts))
+    return lines
 
 
 def rule_costs(results: Path) -> dict[str, float]:
@@ -244,12 +282,13 @@ def main() -> None:
                         help="the smoke study instead of the 24-run study")
     parser.add_argument("--jobs", default="1,2", help="comma-separated -j values (default 1,2)")
     parser.add_argument("--default", type=int, default=0, metavar="N",
-                        help="also run the default 81-run study N times at -j2 (median)")
+                        help="also run the default study (81 grid points, both models) N times "
+                             "at -j2 (median)")
     parser.add_argument("--only-default", action="store_true",
                         help="with --default: leave out the small study")
     parser.add_argument("--large", action="store_true",
-                        help="also the 1,000-run study (benchmarks/study1000.yaml) at -j2, "
-                             "once (about 5 minutes)")
+                        help="also the 2,000-run study (benchmarks/study2000.yaml: clearance x "
+                             "mu, nonsmooth runs) at -j2, once (about 10 minutes)")
     args = parser.parse_args()
     job_counts = [int(j) for j in args.jobs.split(",")]
     print("load average before (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
@@ -259,7 +298,7 @@ def main() -> None:
     if args.default:
         studies.append(("default", None, [2], args.default))
     if args.large:
-        studies.append(("study1000", "benchmarks/study1000.yaml", [2], 1))
+        studies.append(("study2000", "benchmarks/study2000.yaml", [2], 1))
 
     fresh_process()  # fill Numba's cache if the sources changed since the last run
     imports, first, run, overhead = fresh_process()
@@ -278,7 +317,7 @@ def main() -> None:
                 for rep in range(repeat):
                     results = tmp / f"{name}-j{jobs}-{rep}"
                     made.append(results)
-                    wall, started = run_study(configfile, jobs, results)
+                    wall, started, out = run_study(configfile, jobs, results)
                     times.append(wall)
                     load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
                     job_wall, run_wall, n_runs = job_costs(results)
@@ -293,7 +332,8 @@ def main() -> None:
                     print(f"{name:8s} -j{jobs}: per rule (summed over jobs): " + ", ".join(
                         f"{rule} {sec:.1f} s" for rule, sec in sorted(rule_costs(results).items()))
                         + f"; simulated time {simulated_time(results):.2f} s", flush=True)
-                    for line in breakdown(results, started, wall, cores=jobs):
+                    for line in breakdown(results, started, wall, cores=jobs) + \
+                            estimate_check(results, wall, out):
                         print(f"{name:8s} -j{jobs}:   {line}", flush=True)
                 walls[jobs] = statistics.median(times)
                 sizes = file_sizes(results)

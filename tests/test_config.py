@@ -18,12 +18,14 @@ def test_defaults_are_the_paper_case():
 
 
 def test_config_file_matches_defaults():
-    """The study's model section is the paper's case (the defaults) but for the drive: the
-    study runs the crank at constant speed, `python -m simcore run` lets it run free."""
+    """The study's model section is the paper's case (the defaults) but for the drive and the
+    material: the study runs the crank at constant speed with steel, `python -m simcore run`
+    lets it run free with the paper's printed modulus."""
     cfg = load_config("config/config.yaml")
     defaults = load_config()["model"]
     assert defaults["drive"] == "free" and cfg["model"]["drive"] == "constant"
-    assert {**cfg["model"], "drive": "free"} == defaults
+    assert defaults["youngs_modulus"] == 2.1e9 and cfg["model"]["youngs_modulus"] == 2.1e11
+    assert {**cfg["model"], "drive": "free", "youngs_modulus": 2.1e9} == defaults
 
 
 def test_yaml_exponent_without_sign_is_a_number(tmp_path):

@@ -43,31 +43,39 @@ def job_counts(output: str) -> dict[str, int]:
 
 
 def test_dry_run_default_study():
-    proc = snakemake("-n", "--forceall")
+    proc = snakemake("-n", "--forceall", "-j2")
     assert proc.returncode == 0, proc.stderr + proc.stdout
-    counts = job_counts(proc.stdout + proc.stderr)
-    # 3 x 3 x 3 x 3 grid, one job per (clearance, mu) batch, which also makes the impact tables
-    assert counts["simulate"] == 9 and "impacts" not in counts
+    out = proc.stdout + proc.stderr
+    counts = job_counts(out)
+    # 3 x 3 x 3 x 3 grid, each point with both models, in jobs of about study.batch_seconds
+    line = re.search(r"study: 81 grid points x 2 models \(nonsmooth, compliant\) = 162 runs in "
+                     r"(\d+) jobs, estimated .+ on 2 cores", out)
+    assert line, out
+    assert counts["simulate"] == int(line.group(1)) >= 4 and "impacts" not in counts
     assert counts["summarize"] == 1 and counts["figures"] == 1
-    assert len(set(re.findall(r"results/runs/\S+?\.nc", proc.stdout + proc.stderr))) == 81
-    assert len(set(re.findall(r"results/impacts/\S+?\.nc", proc.stdout + proc.stderr))) == 81
 
 
 def test_dry_run_smoke_study():
     proc = snakemake("-n", "--forceall", "--configfile", "config/smoke.yaml")
     assert proc.returncode == 0, proc.stderr + proc.stdout
     out = proc.stdout + proc.stderr
+    assert "study: 4 grid points x 2 models (nonsmooth, compliant) = 8 runs in 4 jobs" in out
     assert job_counts(out)["simulate"] == 4
-    assert len(set(re.findall(r"results/smoke/runs/\S+?\.nc", out))) == 4
 
 
-def test_one_run_per_job_when_no_batch_axes():
-    proc = snakemake("-n", "--forceall", "--configfile", "config/smoke.yaml",
-                     "--config", "study={'batch_axes': [], 'results_dir': 'results/smoke'}",
-                     "sweep={'clearance': [1.0e-4], 'mu': [0.0], 'omega0': [25.0, 50.0], "
-                     "'e_N': [0.8, 0.9]}")
-    assert proc.returncode == 0, proc.stderr + proc.stdout
-    assert job_counts(proc.stdout + proc.stderr)["simulate"] == 4
+def test_batches_are_sized_by_work_whatever_the_axes():
+    """The same 8 runs along other axes: one job per run when each run exceeds
+    study.batch_seconds, one job for all (at least four) when they fit in it."""
+    sweep = ("sweep={'clearance': [1.0e-4], 'mu': [0.0], 'omega0': [50.0], 'e_N': [0.9], "
+             "'model.cage_stiffness': [1.0e+4, 1.0e+5], 'solver.rho_inf': [0.0, 0.5], "
+             "'drive': ['free', 'constant']}")
+    for seconds, jobs in ((0.01, 8), (1.0e+4, 4)):
+        proc = snakemake("-n", "--forceall", "--configfile", "config/smoke.yaml", "--config",
+                         f"study={{'batch_seconds': {seconds}, 'models': ['nonsmooth'], "
+                         "'results_dir': 'results/smoke'}", sweep)
+        out = proc.stdout + proc.stderr
+        assert proc.returncode == 0, out
+        assert job_counts(out)["simulate"] == jobs, out
 
 
 @pytest.mark.parametrize(
@@ -79,7 +87,12 @@ def test_one_run_per_job_when_no_batch_axes():
         ("model={'bogus': 1}", "model.bogus: unknown key"),
         ("sweep={'mu': []}", "sweep.mu"),
         ("sweep={'mu': [0.01, 0.0100000000001]}", "sweep.mu"),
-        ("study={'batch_axes': ['omega']}", "study.batch_axes"),
+        ("sweep={'model.bogus': [1.0]}", "sweep.model.bogus: unknown key"),
+        ("sweep={'model.cage_stiffness': [1.0e+5, -1.0]}", "sweep.model.cage_stiffness.1"),
+        ("sweep={'model.contact_model': ['compliant']}", "sweep.model.contact_model"),
+        ("study={'batch_axes': ['omega0']}", "study.batch_axes: unknown key"),
+        ("study={'figure_axes': ['mu', 'gravity']}", "study.figure_axes: 'gravity'"),
+        ("study={'figure_fixed': {'omega0': 51.0}}", "study.figure_fixed.omega0: 51.0"),
     ],
 )
 def test_bad_config_stops_before_any_job(results, override, key):
@@ -93,14 +106,21 @@ def test_bad_config_stops_before_any_job(results, override, key):
     assert "rule simulate" not in message
 
 
-def test_file_names_carry_no_float_noise():
-    sweep = "sweep={'clearance': [4.0e-4], 'mu': [0.30000000000000004, 0.1], " \
-            "'omega0': [50.00000000000001], 'e_N': [0.9]}"
-    proc = snakemake("-n", "--forceall", "--configfile", "config/smoke.yaml", "--config", sweep)
-    assert proc.returncode == 0, proc.stderr + proc.stdout
-    names = set(re.findall(r"runs/(\S+?)\.nc", proc.stdout + proc.stderr))
-    assert names == {"clearance~0.0004_mu~0.1_omega0~50.0_e_N~0.9",
-                     "clearance~0.0004_mu~0.3_omega0~50.0_e_N~0.9"}
+def test_a_sweep_of_ten_thousand_points_stops_before_any_job_until_max_runs_allows_it(results):
+    study = f"'results_dir': '{results}'"
+    proc = snakemake("-j2", "--configfile", "benchmarks/study10000.yaml", "--config",
+                     f"study={{{study}}}")
+    message = proc.stdout + proc.stderr
+    assert proc.returncode != 0 and not results.exists()
+    assert re.search(r"invalid configuration: study\.max_runs: 10,000 grid points x 1 model "
+                     r"\(nonsmooth\) = 10,000 runs in \d+ jobs, estimated [\d.]+ (min|h)", message)
+    assert "at most study.max_runs = 5,000 runs" in message
+    proc = snakemake("-n", "-j2", "--configfile", "benchmarks/study10000.yaml", "--config",
+                     f"study={{{study}, 'max_runs': 10000}}")
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0, out
+    assert "study: 10,000 grid points x 1 model (nonsmooth) = 10,000 runs" in out
+    assert job_counts(out)["simulate"] >= 100
 
 
 @pytest.mark.skipif(importlib.util.find_spec("snakemake_executor_plugin_slurm") is None,
@@ -110,7 +130,7 @@ def test_slurm_profile_dry_run():
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out
     assert "Group job runs" in out  # short runs are packed into few cluster jobs
-    assert job_counts(out)["simulate"] == 9
+    assert job_counts(out)["simulate"] >= 4
 
 
 def test_lint_is_clean():
@@ -120,19 +140,28 @@ def test_lint_is_clean():
 
 def _check_study(results: Path) -> xr.Dataset:
     """Outputs of a finished study exist and open; failed points are exactly the marker files."""
-    runs = sorted((results / "runs").glob("*.nc"))
-    assert runs and len(runs) == len(list((results / "impacts").glob("*.nc")))
+    from simcore.study.plan import FOLDERS
+
+    s = xr.load_dataset(results / "summary.nc")
+    axes = s.attrs["study_axes"].split()
+    assert {"clearance", "mu", "omega0", "e_N", "model"} <= set(s.dims)
+    meanings = s["model"].attrs["flag_meanings"].split()
+    n_runs = 0
+    for model, (run_dir, table_dir) in FOLDERS.items():
+        runs = sorted((results / run_dir).glob("*.nc"))
+        assert runs and len(runs) == len(list((results / table_dir).glob("*.nc")))
+        n_runs += len(runs)
+        for path in runs:
+            with xr.open_dataset(path) as run:
+                point = {key: run[key].item() for key in axes}
+                assert run["model"].item() == meanings.index(model)
+                failed = int(run.attrs.get("failed", 0))
+            at = dict(point, model=meanings.index(model))
+            assert float(s["failed"].sel(at)) == failed
+            assert bool(s["wall_time_s"].sel(at).isnull()) == bool(failed)
     assert list((results / "figures").glob("*.png"))
     assert not list(results.rglob(".*.tmp")), "a temporary file was left behind"
-    s = xr.load_dataset(results / "summary.nc")
-    assert {"clearance", "mu", "omega0", "e_N"} <= set(s.dims)
-    assert s["failed"].size == len(runs)
-    for path in runs:
-        with xr.open_dataset(path) as run:
-            point = {key: run[key].item() for key in ("clearance", "mu", "omega0", "e_N")}
-            failed = int(run.attrs.get("failed", 0))
-        assert float(s["failed"].sel(point)) == failed
-        assert bool(s["wall_time_s"].sel(point).isnull()) == bool(failed)
+    assert s["failed"].size == n_runs
     return s
 
 
@@ -142,6 +171,36 @@ def test_smoke_study_end_to_end(results):
                      f"study={{'results_dir': '{results}'}}", timeout=900)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     _check_study(results)
+
+
+@pytest.mark.slow
+def test_a_study_over_any_two_settings_runs_with_their_units_and_names(results):
+    """Issue 25: cage stiffness x Young's modulus, no code: the summary has both as dimensions
+    with the schema's units and long names, and figures are drawn for them."""
+    from simcore.config.parameters import parameter
+
+    proc = snakemake("-j2", "--configfile", "config/smoke.yaml", "--config",
+                     f"study={{'results_dir': '{results}'}}",
+                     "sweep={'clearance': [4.0e-4], 'mu': [0.01], 'omega0': [100.0], "
+                     "'e_N': [0.9], 'model.cage_stiffness': [1.0e+4, 1.0e+5], "
+                     "'youngs_modulus': [2.1e+9, 2.1e+11]}", timeout=1800)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    s = _check_study(results)
+    assert s.attrs["study_axes"].split() == ["clearance", "mu", "omega0", "e_N",
+                                             "cage_stiffness", "youngs_modulus"]
+    for key, units in (("model.cage_stiffness", "N m-1"), ("model.youngs_modulus", "Pa")):
+        name = parameter(key).name
+        assert s.sizes[name] == 2 and s[name].attrs["units"] == units
+        assert s[name].attrs["long_name"] == parameter(key).long_name
+    assert int(s["failed"].sum()) == 0
+    assert s["peak_force"].sizes["model"] == 2
+    # the heat maps are drawn over the two swept settings (analysis.figures.figure_layout)
+    from analysis.figures import figure_layout
+
+    layout = figure_layout(s)
+    assert (layout.x, layout.y) == ("cage_stiffness", "youngs_modulus")
+    names = {p.name for p in (results / "figures").glob("study_*.png")}
+    assert {"study_peak_force_outer_nonsmooth.png", "study_method_ratio_outer.png"} <= names
 
 
 @pytest.mark.slow
@@ -181,7 +240,7 @@ def test_killed_study_resumes_and_redoes_only_the_unfinished(results):
     os.killpg(proc.pid, signal.SIGTERM)
     proc.wait(timeout=120)
     done = {p: p.stat().st_mtime_ns for p in results.rglob("*.nc")}
-    assert len(done) < 4 + 4 + 1, "the study finished before it could be stopped"
+    assert len(done) < 8 + 8 + 1, "the study finished before it could be stopped"
     for path in done:
         xr.open_dataset(path).close()  # nothing half-written
     resumed = snakemake("-j2", "--rerun-incomplete", "--configfile", "config/smoke.yaml",

@@ -155,9 +155,15 @@ def read_yaml(path: str | Path):
 
 
 def load_schema() -> dict:
-    """Return the configuration JSON schema as a dict."""
+    """Return the configuration JSON schema as a dict, with the ``sweep`` section's keys
+    generated from the model, solver and analysis sections
+    (:func:`simcore.config.parameters.sweep_properties`)."""
+    from .parameters import sweep_properties
+
     with open(SCHEMA_PATH, encoding="utf-8") as fh:
-        return json.load(fh)
+        schema = json.load(fh)
+    schema["properties"]["sweep"]["properties"] = sweep_properties(schema)
+    return schema
 
 
 def _allowed(schema: Mapping[str, Any]) -> str:
@@ -209,6 +215,10 @@ def _format_error(error, root: Mapping[str, Any]) -> str:
         allowed = sorted(error.schema.get("properties", {}))
         extra = sorted(set(error.instance) - set(allowed))
         where = path + "." if path != "<config>" else ""
+        if path == "sweep":
+            return (f"sweep.{extra[0]}: unknown key; allowed: a numeric, boolean or enumerated "
+                    "key of model, solver or analysis as section.key (e.g. "
+                    "model.cage_stiffness, solver.dt), or a model key alone (e.g. clearance)")
         return (f"{where}{extra[0]}: unknown key; allowed keys here: " + ", ".join(allowed))
     node = _resolve(error.schema, root)
     value = error.instance
@@ -262,6 +272,24 @@ def _check_finite(node: Any, path: str) -> None:
         raise ConfigError(f"{path}: {node!r} is not allowed; allowed: a finite number")
 
 
+def _swept(cfg: Mapping[str, Any], key: str) -> list:
+    """Values of the model key ``key`` in the sweep section (short or long name)."""
+    sweep = cfg.get("sweep", {}) or {}
+    return list(sweep.get(key, [])) + list(sweep.get(f"model.{key}", []))
+
+
+def check_consistency(cfg: Mapping[str, Any]) -> None:
+    """The checks of :func:`validate_config` that need several keys at once, for a complete
+    configuration whose keys are each valid (e.g. one grid point of a study).
+
+    Raises
+    ------
+    ConfigError
+        One line naming the key.
+    """
+    _check_consistency(cfg)
+
+
 def _check_consistency(cfg: Mapping[str, Any]) -> None:
     """Checks that need several keys at once."""
     model, solver = cfg["model"], cfg["solver"]
@@ -282,14 +310,22 @@ def _check_consistency(cfg: Mapping[str, Any]) -> None:
             raise ConfigError(f"solver.output_dt: {out_dt!r} is not allowed; allowed: "
                               f"solver.dt ({dt}) or null with model.contact_model = nonsmooth "
                               "(the impulse filter needs every step)")
+    if solver["adaptive"]:
+        if model["contact_model"] != "compliant":
+            raise ConfigError("solver.adaptive: true is not allowed with model.contact_model = "
+                              f"{model['contact_model']}; allowed: false (adaptive steps are for "
+                              "the compliant model)")
+        if solver["dt_min"] > dt:
+            raise ConfigError(f"solver.dt_min: {solver['dt_min']!r} is not allowed; allowed: "
+                              f"<= solver.dt ({dt}), the largest adaptive step")
     if model["contact_model"] == "compliant" and model["damping_law"] == "flores":
-        e_values = list(cfg.get("sweep", {}).get("e_N", [])) + [model["e_N"]]
+        e_values = _swept(cfg, "e_N") + [model["e_N"]]
         if min(e_values) <= 0.0:
             raise ConfigError("model.e_N: 0 is not allowed with model.damping_law = flores in "
                               "the compliant model (chi = 8 (1 - e) / (5 e) is infinite); "
                               "allowed: (0, 1], or damping_law hunt_crossley or "
                               "lankarani_nikravesh")
-    clearances = list(cfg.get("sweep", {}).get("clearance", [])) + [model["clearance"]]
+    clearances = _swept(cfg, "clearance") + [model["clearance"]]
     for g in clearances:
         pitch = model["inner_radius"] + model["ball_radius"] + 0.5 * g
         chord = 2.0 * pitch * math.sin(math.pi / model["n_balls"])
@@ -315,6 +351,8 @@ def parse_override(item: str) -> tuple[list[str], Any]:
         raise ConfigError(f"{item}: an override must look like section.key=value")
     key, raw = item.split("=", 1)
     path = [p for p in key.strip().split(".") if p]
+    if path[:1] == ["sweep"] and len(path) > 2:  # sweep.model.cage_stiffness: one sweep key
+        path = ["sweep", ".".join(path[1:])]
     if len(path) < 2:
         raise ConfigError(f"{key}: an override must name a section and a key, e.g. model.mu=0")
     if len(path) > MAX_DEPTH:

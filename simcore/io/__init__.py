@@ -20,7 +20,8 @@ the smoke study:
 - no ``_FillValue`` on coordinates;
 - labels (``race``, ``body``, ``axis``, ``stage``) are stored as character arrays, which CF reads
   as string labels and xarray gives back as strings (``ds.race == "outer"`` keeps working);
-- the swept parameters (``clearance``, ``mu``, ``omega0``, ``e_N``) are coordinates of length-1
+- the swept parameters (``clearance``, ``mu``, ``omega0``, ``e_N``, and in a study every other
+  axis of its grid and the contact ``model``, :func:`study_coords`) are coordinates of length-1
   dimensions, so that ``xr.open_mfdataset("results/runs/*.nc", combine="by_coords")`` assembles a
   study's runs into one grid. Read one value with ``ds.clearance.item()``: ``float()`` refuses a
   length-1 array.
@@ -46,10 +47,15 @@ from .variables import (
     STORAGE,
     VARIABLES,
     parameter_coords,
+    study_coords,
 )
 
+#: The paper's four study parameters (coordinate names), axes of every study.
+BASE_PARAMETERS = tuple(PARAMETERS)
+
 __all__ = ["write_netcdf", "trajectory_dataset", "dataset_of_arrays", "failed_run_dataset",
-           "generalized", "open_run", "state_at", "parameter_coords", "history_line",
+           "generalized", "open_run", "state_at", "parameter_coords", "study_coords",
+           "history_line", "BASE_PARAMETERS",
            "keep_variables", "netcdf_encoding", "to_netcdf4", "global_attributes",
            "GENERALIZED_PARTS", "CONVENTIONS", "COORDINATES", "PARAMETERS", "STORAGE",
            "VARIABLES", "RUN_VARIABLES", "DEFAULT_KEEP"]

@@ -21,6 +21,7 @@ from .variables import (
     STAGES,
     STORAGE,
     VARIABLES,
+    base_parameters,
     parameter_coords,
 )
 
@@ -64,7 +65,7 @@ def trajectory_dataset(traj, model, layout, cfg: dict, compile_time_s: float = 0
                    VARIABLES[name].attrs(compliant, storage[name]))
             for name, value in values.items()}
     coords = run_coordinates(traj.time, int(cfg["model"]["n_balls"]), model.body_names)
-    coords.update(parameter_coords(cfg["model"]))
+    coords.update(parameter_coords(base_parameters(cfg["model"])))
     attrs = run_attributes(traj, layout, cfg, compile_time_s, compliant)
     ds = dataset_of_arrays(data, coords, attrs)
     for name in data:
@@ -166,6 +167,9 @@ def run_attributes(traj, layout, cfg: dict, compile_time_s: float, compliant: bo
     audit = traj.extras.get("energy_audit")
     if audit is not None:
         attrs.update(audit.summary(traj.energy))
+    steps = traj.extras.get("adaptive")
+    if steps is not None:  # adaptive steps: how many, how many redone, the smallest
+        attrs.update({k: v for k, v in steps.items() if k != "row_steps"})
     attrs["solver.output_dt"] = output_interval_s
     return attrs
 
@@ -218,4 +222,4 @@ def failed_run_dataset(cfg: dict, message: str) -> xr.Dataset:
     attrs = global_attributes(cfg, "failed run of the bearing study",
                               f"simcore.run failed: {message}")
     attrs.update({"failed": 1, "error": message})
-    return xr.Dataset(coords=parameter_coords(cfg["model"]), attrs=attrs)
+    return xr.Dataset(coords=parameter_coords(base_parameters(cfg["model"])), attrs=attrs)

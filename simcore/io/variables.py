@@ -23,6 +23,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..config.parameters import BASE_AXES, registry
+
 #: CF version the files declare.
 CONVENTIONS = "CF-1.10"
 
@@ -199,23 +201,24 @@ COORDINATES: dict[str, RunCoordinate] = {
 #: The sub-problems of a step, the labels of coordinate ``stage``.
 STAGES = ("smooth", "position", "velocity")
 
-#: The swept model parameters: units and long names, shared by every file that carries them.
-PARAMETERS = {
-    "clearance": ("m", "radial clearance of the bearing"),
-    "mu": ("1", "friction coefficient"),
-    "omega0": ("rad s-1", "crank speed (start speed for the free drive, the speed held by the "
-                          "constant drive)"),
-    "e_N": ("1", "normal restitution coefficient"),
-}
+#: The paper's four study parameters, ``{coordinate name: (units, long name)}`` (``clearance``,
+#: ``mu``, ``omega0``, ``e_N``): scalar coordinates of every run file (a study adds its other
+#: axes, :func:`study_coords`); taken from the registry of swept parameters
+#: (:mod:`simcore.config.parameters`), which derives them from the schema.
+PARAMETERS = {registry()[key].name: (registry()[key].units, registry()[key].long_name)
+              for key in BASE_AXES}
 
 
 def parameter_coords(values: dict, length_one: bool = True) -> dict:
-    """Coordinates of the swept parameters, with their units and long names.
+    """Coordinates of swept parameters, with their units and long names (a category as its
+    int8 code with ``flag_values``/``flag_meanings``), from the registry of swept parameters
+    (:mod:`simcore.config.parameters`).
 
     Parameters
     ----------
     values : dict
-        ``{"clearance": 4e-4, "mu": 0.01, ...}`` (keys of :data:`PARAMETERS`; others ignored).
+        ``{"clearance": 4e-4, "model.cage_stiffness": 1e5, "solver_dt": 1e-4, ...}``: keys
+        as a sweep writes them or coordinate names; keys that are not sweepable are ignored.
     length_one : bool
         True: each as the coordinate of a length-1 dimension of the same name (run files, so
         that ``open_mfdataset(..., combine="by_coords")`` works); False: scalar coordinates.
@@ -225,10 +228,33 @@ def parameter_coords(values: dict, length_one: bool = True) -> dict:
     dict
         ``{name: (dims, values, attrs)}`` for ``xarray.Dataset(coords=...)``.
     """
+    from ..config.parameters import canonical
+
+    params = registry()
     out = {}
-    for name, (units, long_name) in PARAMETERS.items():
-        if name in values:
-            value = float(values[name])
-            out[name] = ((name,), [value]) if length_one else ((), value)
-            out[name] += ({"units": units, "long_name": long_name},)
+    for key, value in values.items():
+        full = canonical(key, params)
+        if full is None:
+            continue
+        param = params[full]
+        data = param.stored(value)
+        out[param.name] = (((param.name,), [data]) if length_one else ((), data)) + (
+            param.attrs(),)
     return out
+
+
+def base_parameters(model: dict) -> dict:
+    """The values of :data:`PARAMETERS` in a ``model`` section."""
+    return {name: model[name] for name in PARAMETERS}
+
+
+def study_coords(ds, point: dict, axes, length_one: bool = True):
+    """``ds`` with a study's coordinates: every value of ``point`` (``{sweep key: value}``,
+    the grid point and ``model.contact_model``) as a coordinate (:func:`parameter_coords`),
+    and the global attribute ``study_axes``, the coordinate names of the study's grid axes
+    in order (space-separated), which the summary's dimensions follow."""
+    from ..config.parameters import parameter
+
+    ds = ds.assign_coords(parameter_coords(point, length_one=length_one))
+    ds.attrs["study_axes"] = " ".join(parameter(key).name for key in axes)
+    return ds

@@ -9,10 +9,14 @@ where Snakemake decides (when the workflow is parsed) and, before Snakemake look
 - removes every output netCDF file that cannot be opened;
 - removes the impact table of every run file that is missing, so that the simulate job that
   makes both remakes them;
+- removes the marker of every batch (the simulate job's output, ``results/.batches/<b>.json``)
+  one of whose files is missing, so that Snakemake runs that batch again;
 - removes the summary when it cannot be opened or when a file it summarises is missing (else
   Snakemake, finding the summary up to date, would not remake the missing intermediates).
 
-The next ``snakemake`` then remakes exactly those and everything that depends on them.
+The next ``snakemake`` then remakes exactly those and everything that depends on them; a batch
+that runs again skips its runs whose files are in place and carry the run's fingerprint
+(:func:`finished`).
 """
 
 from __future__ import annotations
@@ -37,7 +41,24 @@ def unreadable(path: str | Path) -> str | None:
     return None
 
 
-def repair_outputs(runs, impacts, summary, remove: bool = True) -> list[str]:
+def finished(run, table, fingerprint: str) -> bool:
+    """True when the run file ``run`` and its impact table ``table`` both open and carry the
+    attribute ``study_fingerprint`` equal to ``fingerprint`` (the same run made them)."""
+    import netCDF4
+
+    for path in (run, table):
+        if not Path(path).exists() or unreadable(path):
+            return False
+        try:
+            with netCDF4.Dataset(path, "r") as ds:
+                if getattr(ds, "study_fingerprint", None) != fingerprint:
+                    return False
+        except (OSError, RuntimeError, ValueError):
+            return False
+    return True
+
+
+def repair_outputs(runs, impacts, summary, remove: bool = True, batches=None) -> list[str]:
     """Remove the outputs that must be made again; return one line per removed file.
 
     Parameters
@@ -48,6 +69,9 @@ def repair_outputs(runs, impacts, summary, remove: bool = True) -> list[str]:
         The study's summary file.
     remove : bool
         False: only report (a dry run).
+    batches : dict, optional
+        ``{marker: [files of the batch]}``: a marker one of whose files is missing (or removed
+        here) is removed too.
     """
     lines = []
 
@@ -71,9 +95,17 @@ def repair_outputs(runs, impacts, summary, remove: bool = True) -> list[str]:
                 why = unreadable(table)
                 if why:
                     drop(table, f"cannot be opened ({why})")
+    def gone(path: Path) -> bool:
+        return not path.exists() or (not remove and any(line.startswith(f"{path}:")
+                                                        for line in lines))
+
+    for marker, files in (batches or {}).items():
+        marker = Path(marker)
+        lost = [p for p in map(Path, files) if gone(p)]
+        if marker.exists() and lost:
+            drop(marker, f"{len(lost)} of its batch's files are missing ({lost[0].name} ...)")
     if summary.exists():
-        missing = [p for p in runs + impacts if not p.exists() or (not remove and any(
-            line.startswith(f"{p}:") for line in lines))]
+        missing = [p for p in runs + impacts if gone(p)]
         why = unreadable(summary)
         if why:
             drop(summary, f"cannot be opened ({why})")

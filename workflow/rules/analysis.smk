@@ -1,11 +1,11 @@
-# One summary over the grid (docs/study.md); the impact tables it reads come from the simulate
-# jobs (workflow/rules/simulate.smk).
+# One summary over the grid and both contact models (docs/study.md); the run files and impact
+# tables it reads are made by the simulate jobs (workflow/rules/simulate.smk), whose markers
+# are its inputs.
 
 
 rule summarize:
     input:
-        runs=ALL_RUNS,
-        impacts=ALL_IMPACTS,
+        ALL_MARKERS,
     output:
         SUMMARY_NC,
     log:
@@ -13,6 +13,9 @@ rule summarize:
     benchmark:
         f"{LOGS}/summarize.benchmark.tsv"
     params:
+        runs=RUN_FILES,
+        impacts=TABLE_FILES,
+        axes=AXIS_NAMES,
         scheduler=config["study"]["dask_scheduler"],
         analysis=config["analysis"],
         revolutions=config["study"]["revolutions"],

@@ -1,30 +1,22 @@
-# Shared helpers of the study workflow: configuration checks, the parameter grid, paths.
+# Shared helpers of the study workflow: configuration checks, the study's plan, paths.
 #
 # Everything here runs when Snakemake parses the workflow, before any job starts: a bad
-# configuration stops the study with one line naming the key.
+# configuration, or a study larger than study.max_runs, stops the study with one line naming
+# the key. The plan itself (axes, grid, runs, cost, jobs) is simcore.study.plan.
 
-import copy
-import itertools
+import json
 import logging
-import math
-import re
+import os
 import sys
 from contextlib import contextmanager
 from pathlib import Path
 
-import pandas as pd
 from snakemake.exceptions import WorkflowError
-from snakemake.utils import Paramspace, validate
+from snakemake.utils import validate
 
 import simcore
-from simcore.config import SCHEMA_PATH
-
-# The swept model keys, in the order of the file names and of the summary's dimensions.
-SWEPT = ("clearance", "mu", "omega0", "e_N")
-
-def tidy(value):
-    """Round a parameter to 10 significant digits so that file names carry no float noise."""
-    return float(f"{float(value):.10g}")
+from simcore.config.parameters import registry
+from simcore.study import plan
 
 
 class _DropSchemaVersionWarning(logging.Filter):
@@ -54,28 +46,21 @@ def _checked_config(raw):
         full = simcore.validate_config(cfg)
     except simcore.ConfigError as exc:
         raise WorkflowError(f"invalid configuration: {exc}") from None
-    # The same JSON schema again, through Snakemake's own validator (fills the same defaults).
-    # Snakemake 9 validates with the draft 2020-12 rules, which read every keyword of our
-    # draft-07 schema the same way; its three-line warning about the version is muted.
+    # The same JSON schema again, through Snakemake's own validator (fills the same defaults):
+    # the schema as simcore loads it, with the sweep keys generated from the model, solver and
+    # analysis sections, written where Snakemake can read it. Snakemake 9 validates with the
+    # draft 2020-12 rules, which read every keyword of our draft-07 schema the same way; its
+    # three-line warning about the version is muted.
+    schema_file = Path(".snakemake", "bearingsim", "config.schema.json").absolute()
+    schema_file.parent.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(simcore.load_schema(), indent=1)
+    if not schema_file.exists() or schema_file.read_text() != text:
+        tmp = schema_file.with_name(f".{schema_file.name}.{os.getpid()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, schema_file)
     with _quiet_schema_version():
-        validate(full, str(SCHEMA_PATH))
+        validate(full, str(schema_file))
     return full
-
-
-def _grid(cfg):
-    """Full-factorial grid of the sweep; axes that are not swept use the model value."""
-    axes = {}
-    for key in SWEPT:
-        values = cfg["sweep"].get(key, [cfg["model"][key]])
-        rounded = sorted({tidy(v) for v in values})
-        if len(rounded) < len(values):
-            raise WorkflowError(
-                f"invalid configuration: sweep.{key}: {values!r} holds the same value twice "
-                "(after rounding to 10 significant digits)")
-        axes[key] = rounded
-    frame = pd.DataFrame(list(itertools.product(*axes.values())), columns=list(SWEPT),
-                         dtype=float)
-    return axes, frame
 
 
 def _study_config():
@@ -96,22 +81,33 @@ _full = _checked_config(_study_config())
 config.clear()
 config.update(_full)
 
-AXES, GRID = _grid(config)
-paramspace = Paramspace(GRID, filename_params="*")
-PARAMS = paramspace.wildcard_pattern  # clearance~{clearance}_mu~{mu}_omega0~{omega0}_e_N~{e_N}
 
-# One simulate (and one impacts) job loops over the batch axes for one combination of the other
-# ("outer") axes: a run of the paper's case takes well under a second, less than the start of a
-# job (Python, imports, Numba cache), so jobs of single runs would spend most time starting.
-BATCH = [key for key in SWEPT if key in config["study"]["batch_axes"]]
-OUTER = [key for key in SWEPT if key not in BATCH]
-if OUTER:
-    outer_space = Paramspace(GRID[OUTER].drop_duplicates().reset_index(drop=True),
-                             filename_params="*")
-    BATCH_NAME = outer_space.wildcard_pattern  # e.g. clearance~{clearance}_mu~{mu}
-else:
-    BATCH_NAME = "all"
+def _cores():
+    """Jobs that run at once: -j/--cores (a dry run, or a cluster, counts -j as nodes)."""
+    settings = getattr(workflow, "resource_settings", None)
+    counts = [getattr(settings, "cores", None), getattr(settings, "nodes", None)]
+    counts = [int(c) for c in counts if isinstance(c, (int, float)) and c >= 1]
+    return max(counts, default=1)
 
+
+def _invalid(exc):
+    return WorkflowError(f"invalid configuration: {exc}")
+
+
+# The study's axes ({section.key: values}), its size (stops above study.max_runs), its runs.
+try:
+    AXES = plan.study_axes(config)
+    SIZE = plan.check_size(config, AXES, _cores())
+    RUNS = plan.plan_runs(config, AXES)
+    _WARNINGS = plan.check_runs(RUNS)  # consistency and limits of every run, before any job
+except simcore.ConfigError as exc:
+    raise _invalid(exc) from None
+if workflow.is_main_process:
+    print(f"study: {SIZE}", file=sys.stderr, flush=True)
+    for line in _WARNINGS:
+        print(f"WARNING: {line}", file=sys.stderr)
+PARAMS = registry()
+AXIS_NAMES = [PARAMS[key].name for key in AXES]  # coordinates and summary dimensions, in order
 RES = config["study"]["results_dir"].rstrip("/")
 # Logs and benchmark tables are written while a job runs; they live outside the results folder,
 # so that every file under results/ is a finished product.
@@ -123,20 +119,49 @@ FIGURES = f"{RES}/figures"
 # hidden folder: Snakemake removes it once the figures are done)
 REFERENCE_FIGURES = f"{RES}/.reference_figures"
 
-ALL_RUNS = expand(f"{RES}/runs/{{p}}.nc", p=list(paramspace.instance_patterns))
-ALL_IMPACTS = expand(f"{RES}/impacts/{{p}}.nc", p=list(paramspace.instance_patterns))
+# One simulate job per batch of runs of about study.batch_seconds of estimated work
+# (simcore.study.plan.batches); its output is a small marker listing its runs, written once
+# every run file and impact table of the batch is in place. The run files themselves are made
+# by the job (each written to a temporary file and renamed), one per run:
+#   results/runs/<params>.nc, results/impacts/<params>.nc                  (nonsmooth)
+#   results/runs_compliant/<params>.nc, results/impacts_compliant/<params>.nc  (compliant twin)
+# A job skips a run whose two files are there and carry its fingerprint (plan.fingerprint), so
+# that a killed, repaired or regrouped study redoes only what is missing or changed.
+BATCHES = {f"b{i + 1:04d}": runs for i, runs in
+           enumerate(plan.batches(RUNS, config["study"]["batch_seconds"]))}
+BATCH_OF = {(run.name, run.model): batch for batch, runs in BATCHES.items() for run in runs}
+MARKER = f"{RES}/.batches/{{batch}}.json"
+ALL_MARKERS = expand(MARKER, batch=list(BATCHES))
+MODELS = list(config["study"]["models"])
+RUN_FILES = {model: [run.paths(RES)[0] for run in RUNS if run.model == model] for model in MODELS}
+TABLE_FILES = {model: [run.paths(RES)[1] for run in RUNS if run.model == model]
+               for model in MODELS}
+ALL_RUNS = [path for model in MODELS for path in RUN_FILES[model]]
+ALL_IMPACTS = [path for model in MODELS for path in TABLE_FILES[model]]
+
+# --forceall, or --forcerun simulate: every run is made again, not only the missing ones. The
+# workflow sets this variable for its jobs (they inherit its environment); nothing asks the
+# user for it.
+_dag = getattr(workflow, "dag_settings", None)
+if _dag is not None and (getattr(_dag, "forceall", False)
+                         or "simulate" in (getattr(_dag, "forcerun", None) or ())):
+    os.environ.update({"BEARINGSIM_STUDY_REDO": "1"})
 
 
 def _repair():
-    """Before Snakemake decides what to run: remove outputs that cannot be opened and the
-    impact tables of missing runs, so that the next run remakes them (simcore.study.repair). Only in
-    the main process (not inside cluster jobs); a dry run, lint or report only reports."""
+    """Before Snakemake decides what to run: remove outputs that cannot be opened, the impact
+    tables of missing runs, and the marker of every batch that misses a file, so that the next
+    run remakes them (simcore.study.repair). Only in the main process (not inside cluster jobs);
+    a dry run, lint or report only reports."""
     from simcore.study.repair import looking_only, repair_outputs
 
     if not workflow.is_main_process:
         return
     dry = looking_only(sys.argv)
-    for line in repair_outputs(ALL_RUNS, ALL_IMPACTS, SUMMARY_NC, remove=not dry):
+    markers = {MARKER.format(batch=batch): [path for run in runs for path in run.paths(RES)]
+               for batch, runs in BATCHES.items()}
+    for line in repair_outputs(ALL_RUNS, ALL_IMPACTS, SUMMARY_NC, remove=not dry,
+                               batches=markers):
         print(("would redo (dry run): " if dry else "repair: ") + line, file=sys.stderr)
 
 
@@ -144,118 +169,87 @@ _repair()
 
 
 wildcard_constraints:
-    clearance=r"[-+0-9.eE]+",
-    mu=r"[-+0-9.eE]+",
-    omega0=r"[-+0-9.eE]+",
-    e_N=r"[-+0-9.eE]+",
+    batch=r"b[0-9]+",
 
 
-def batch_files(kind):
-    """Files of one batch: outer axes stay wildcards, batch axes take every grid value."""
-    names = []
-    for values in itertools.product(*(AXES[key] for key in BATCH)):
-        fixed = dict(zip(BATCH, values))
-        parts = [f"{key}~{fixed[key]}" if key in fixed else f"{key}~{{{key}}}" for key in SWEPT]
-        names.append(f"{RES}/{kind}/{'_'.join(parts)}.nc")
-    return names
-
-
-def batch_points(wildcards):
-    """The swept values of every run of one batch, as dicts of plain floats."""
-    outer = {key: float(getattr(wildcards, key)) for key in OUTER}
-    points = []
-    for values in itertools.product(*(AXES[key] for key in BATCH)):
-        fixed = dict(outer, **dict(zip(BATCH, values)))
-        points.append({key: fixed[key] for key in SWEPT})
-    return points
-
-
-def run_length(omega0):
-    """End time of a run [s]: (analysis.settle + study.revolutions) crank revolutions at omega0,
-    rounded up to whole steps; solver.t_end where study.revolutions is null."""
-    revolutions = config["study"]["revolutions"]
-    if revolutions is None:
-        return config["solver"]["t_end"]
-    turns = config["analysis"]["settle"] + revolutions
-    steps = math.ceil(turns * 2.0 * math.pi / abs(omega0) / config["solver"]["dt"] - 1e-9)
-    return tidy(steps * config["solver"]["dt"])
-
-
-def _check_run_lengths():
-    if config["study"]["revolutions"] is None:
-        return
-    for omega0 in AXES["omega0"]:
-        if omega0 == 0.0:
-            raise WorkflowError(
-                "invalid configuration: omega0: 0.0 is not allowed with study.revolutions "
-                "(a run lasts (settle + revolutions) 2 pi/|omega0|); allowed: omega0 != 0, "
-                "or study.revolutions: null")
-        if run_length(omega0) > 1000.0:
-            raise WorkflowError(
-                f"invalid configuration: study.revolutions: {config['study']['revolutions']} "
-                f"at omega0 = {omega0} rad/s gives t_end = {run_length(omega0):.4g} s; "
-                "allowed: t_end <= 1000 s")
-
-
-_check_run_lengths()
-
-
-def run_config(point):
-    """Configuration of one run: model and solver sections with the point's values set, and
-    the run's length from study.revolutions (see run_length)."""
-    cfg = {"model": copy.deepcopy(config["model"]), "solver": copy.deepcopy(config["solver"])}
-    cfg["model"].update(point)
-    cfg["solver"]["t_end"] = run_length(point["omega0"])
-    return cfg
+def batch_runs(wildcards):
+    """What the simulate job of a batch makes: per run its name, model, coordinates, run
+    configuration, files, the variables it writes and its fingerprint."""
+    out = []
+    for run in BATCHES[wildcards.batch]:
+        run_path, table_path = run.paths(RES)
+        keep = run.keep(config["study"]["keep"])
+        out.append({"name": run.name, "model": run.model, "coords": run.coordinates(),
+                    "config": run.config, "run": run_path, "table": table_path, "keep": keep,
+                    "fingerprint": plan.fingerprint(run, keep, AXES)})
+    return out
 
 
 def batch_priority(wildcards):
-    """Scheduling priority of a simulate job: the time steps of its runs, in thousands. Batches
-    of unequal cost (say one speed each) then start longest first, so that the cheapest ones
-    come last and the cores finish together; batches of equal cost are left in any order."""
-    steps = sum(run_length(p["omega0"]) / config["solver"]["dt"] for p in batch_points(wildcards))
-    return round(steps / 1000.0, 3)
-
-
-def batch_configs(wildcards):
-    """Configurations of the runs of one batch (a change of any value reruns the batch)."""
-    return [run_config(p) for p in batch_points(wildcards)]
+    """Scheduling priority of a simulate job: its estimated work [s], so that the longest
+    batches start first and the cores finish together."""
+    return round(sum(run.seconds for run in BATCHES[wildcards.batch]), 1)
 
 
 def _reference_point():
-    """The grid point nearest to the model section (the paper's case), for the run figures."""
-    scaled = GRID.copy()
-    for key in SWEPT:
-        span = (max(AXES[key]) - min(AXES[key])) or 1.0
-        scaled[key] = (GRID[key] - config["model"][key]) / span
-    best = int((scaled**2).sum(axis=1).idxmin())
-    return {key: float(GRID.loc[best, key]) for key in SWEPT}
+    """The grid point nearest to the model section (the paper's case), for the run figures:
+    numeric axes compared over their span, categories equal or not."""
+    best, best_distance = None, None
+    for point in plan.grid(AXES):
+        distance = 0.0
+        for key, value in point.items():
+            param = PARAMS[key]
+            section, name = key.split(".", 1)
+            target = config[section][name]
+            if param.kind == "category":
+                distance += 0.0 if value == target else 1.0
+            else:
+                span = (max(AXES[key]) - min(AXES[key])) or 1.0
+                distance += ((float(value) - float(target)) / span) ** 2
+        if best_distance is None or distance < best_distance:
+            best, best_distance = point, distance
+    return best
 
-
-def _check_limits():
-    """Step size and memory of every run of the grid (simcore.config.limits), before any job."""
-    import warnings
-
-    from simcore.config.limits import check_run
-
-    for point in GRID.to_dict("records"):
-        cfg = run_config({key: float(value) for key, value in point.items()})
-        cfg = simcore.validate_config(dict(cfg, **{"study": config["study"]}))
-        try:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                check_run(cfg)
-        except simcore.ConfigError as exc:
-            where = ", ".join(f"{key}={value}" for key, value in point.items())
-            raise WorkflowError(f"invalid configuration: run {where}: {exc}") from None
-        for item in caught:
-            print(f"WARNING: {item.message}", file=sys.stderr)
-
-
-_check_limits()
 
 REFERENCE = _reference_point()
-REFERENCE_NAME = "_".join(f"{key}~{REFERENCE[key]}" for key in SWEPT)
+REFERENCE_NAME = plan.run_name(REFERENCE)
+REFERENCE_MARKER = MARKER.format(batch=BATCH_OF[(REFERENCE_NAME, MODELS[0])])
+REFERENCE_FILES = dict(zip(("run", "impacts"), next(
+    run.paths(RES) for run in RUNS if run.name == REFERENCE_NAME and run.model == MODELS[0]),
+    strict=True))
+
+
+def _axis_name(key, setting):
+    """The coordinate name of a study axis given as a sweep key or a name (study.figure_*)."""
+    full = simcore.config.parameters.canonical(str(key))
+    if full is None or full not in AXES:
+        raise _invalid(f"{setting}: {key!r} is not allowed; allowed: an axis of the study: "
+                       + ", ".join(AXIS_NAMES))
+    return PARAMS[full].name
+
+
+def _stored(key, value, setting):
+    """A grid value of an axis as the summary stores it (a category as its code)."""
+    full = simcore.config.parameters.canonical(str(key))
+    param = PARAMS[full]
+    try:
+        if param.plain(value) in AXES[full]:
+            stored = param.stored(value)
+            return float(stored) if param.kind == "number" else stored.item()
+    except (ValueError, TypeError):
+        pass
+    raise _invalid(f"{setting}.{key}: {value!r} is not allowed; allowed: one of the axis' "
+                   "values " + ", ".join(map(str, AXES[full])))
+
+
+# The layout of the study's heat maps: axes and held values by coordinate name (as the summary
+# names its dimensions), and the reference point's values, where other axes are held.
+FIGURE_AXES = [_axis_name(key, "study.figure_axes")
+               for key in (config["study"]["figure_axes"] or [])] or None
+FIGURE_FIXED = {_axis_name(key, "study.figure_fixed"): _stored(key, value, "study.figure_fixed")
+                for key, value in config["study"]["figure_fixed"].items()}
+REFERENCE_COORDS = {PARAMS[key].name: _stored(key, value, "reference")
+                    for key, value in REFERENCE.items()}
 
 
 def failed_points(summary_path):
@@ -270,8 +264,16 @@ def failed_points(summary_path):
         return []
     with netCDF4.Dataset(summary_path) as nc:
         failed = nc.variables["failed"]
-        order = [failed.dimensions.index(key) for key in SWEPT]
-        flags = np.ma.filled(failed[:], 0.0).transpose(order)
-        values = {key: np.asarray(nc.variables[key][:], dtype=float) for key in SWEPT}
-    return [", ".join(f"{key}={float(values[key][i])}" for key, i in zip(SWEPT, point))
-            for point in np.argwhere(flags > 0)]
+        dims = list(failed.dimensions)
+        flags = np.ma.filled(failed[:], 0.0)
+        values = {}
+        for dim in dims:
+            var = nc.variables.get(dim)
+            labels = np.asarray(var[:]) if var is not None else np.arange(len(nc.dimensions[dim]))
+            meanings = getattr(var, "flag_meanings", None) if var is not None else None
+            values[dim] = (meanings.split() if meanings else labels)
+    lines = []
+    for point in np.argwhere(flags > 0):
+        lines.append(", ".join(f"{dim}={values[dim][i]}" for dim, i in zip(dims, point,
+                                                                          strict=True)))
+    return lines

@@ -7,8 +7,7 @@
 
 rule reference_figures:
     input:
-        run=f"{RES}/runs/{REFERENCE_NAME}.nc",
-        impacts=f"{RES}/impacts/{REFERENCE_NAME}.nc",
+        REFERENCE_MARKER,
     output:
         temp(directory(REFERENCE_FIGURES)),
     log:
@@ -18,6 +17,7 @@ rule reference_figures:
     params:
         analysis=config["analysis"],
         reference=REFERENCE,
+        files=REFERENCE_FILES,
     threads: 1
     priority: 1000  # right after its batch, before the remaining simulate jobs
     resources:
@@ -48,6 +48,10 @@ rule figures:
     params:
         analysis=config["analysis"],
         reference=REFERENCE,
+        figure_axes=FIGURE_AXES,
+        figure_fixed=FIGURE_FIXED,
+        reference_coords=REFERENCE_COORDS,
+        axes=AXIS_NAMES,
     threads: 2  # the study's heat maps shared by two processes (workflow/scripts/figures.py)
     resources:
         runtime=10,

@@ -18,9 +18,6 @@ from simcore.startup.patches import freeze_heap_at_exit  # noqa: E402
 # patch gc_freeze; the scripts close their files before they end: written and renamed).
 freeze_heap_at_exit()
 
-# The swept model keys: file names, scalar coordinates of each run, dimensions of the summary.
-SWEPT = ("clearance", "mu", "omega0", "e_N")
-
 
 @contextmanager
 def job_log(path, mode="w"):
@@ -103,14 +100,10 @@ def set_threads(threads):
 
 
 def label(point):
-    """``clearance=0.0004, mu=0.01, ...`` for messages."""
-    return ", ".join(f"{key}={point[key]}" for key in SWEPT if key in point)
+    """``clearance=0.0004, mu=0.01, ...`` for messages (``point``: ``{section.key: value}``)."""
+    from simcore.study.plan import label as point_label
 
-
-def batch_label(wildcards):
-    """``clearance=0.0004, mu=0.01`` for the batch of a job (``all runs`` without wildcards)."""
-    items = [(key, value) for key, value in wildcards.items() if key in SWEPT]
-    return ", ".join(f"{key}={value}" for key, value in items) or "all runs"
+    return point_label(point)
 
 
 def process_start_time():

@@ -3,7 +3,8 @@ by rule ``reference_figures``) moved in -> results/figures/.
 
 The figures are drawn into a hidden folder next to the target and renamed into place at the
 end, so that results/figures/ never holds a half-drawn set. With two or more threads the
-study's heat maps are shared by forked processes, one quantity at a time.
+study's heat maps are shared by forked processes, one quantity at a time; the heat maps'
+axes, panels and fixed values follow ``study.figure_axes`` and ``study.figure_fixed``.
 """
 
 import time
@@ -26,7 +27,9 @@ STUDY_PARTS = 8
 
 def draw(part):
     """Draw one part of the study's heat maps into the hidden folder; return the paths."""
-    return list(plot_study(summary, tmp, (part, STUDY_PARTS)))
+    return list(plot_study(summary, tmp, (part, STUDY_PARTS), figure_axes=sm.params.figure_axes,
+                           figure_fixed=dict(sm.params.figure_fixed),
+                           reference=dict(sm.params.reference_coords)))
 
 
 with job_log(sm.log[0]):

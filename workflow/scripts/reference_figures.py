@@ -28,7 +28,8 @@ with job_log(sm.log[0]):
     settings = sm.params.analysis
     with folder_in_place(sm.output[0]) as tmp:
         written = []
-        with xr.open_dataset(sm.input.run) as run, xr.open_dataset(sm.input.impacts) as imp:
+        with xr.open_dataset(sm.params.files["run"]) as run, \
+                xr.open_dataset(sm.params.files["impacts"]) as imp:
             if int(run.attrs.get("failed", 0)):
                 print(f"reference run {label(sm.params.reference)} failed: no run figures")
             else:

@@ -1,21 +1,29 @@
-"""Job of rule ``simulate``: the runs of one batch -> results/runs/<params>.nc, and their impact
-tables -> results/impacts/<params>.nc, one of each per run, in one process.
+"""Job of rule ``simulate``: the runs of one batch -> their run files and impact tables (one of
+each per run, ``results/runs/``, ``results/impacts/`` for the nonsmooth model and
+``results/runs_compliant/``, ``results/impacts_compliant/`` for the compliant twin), then the
+batch's marker ``results/.batches/<batch>.json`` (the job's output, written last).
 
-Each run is simulated, written (``study.keep``), then its impact table (filter, Flores forces,
-compliant zooms of the largest impacts) is made from the run still in memory, at full
-precision (:func:`analysis.study_tables.impact_table`), and written: the process start, the
-imports and the Numba cache load are paid once per batch.
+Each run is simulated, its impact table (filter, Flores forces, compliant zooms of the largest
+impacts of a nonsmooth run) is made from the run in memory, at full precision
+(:func:`analysis.study_tables.impact_table`) and written, then the run file (its ``study.keep``
+variables); both carry the study's coordinates and the attribute ``study_fingerprint``. A run
+file on disk thus always has its table. The process start, the imports and the Numba cache
+load are paid once per batch.
+
+A run whose two files are in place, open and carry its fingerprint
+(:func:`simcore.study.plan.fingerprint`) is not made again (a killed, repaired or regrouped
+study redoes only what is missing or changed), unless ``BEARINGSIM_STUDY_REDO`` is set (the
+workflow sets it under ``--forceall`` or ``--forcerun simulate``).
 
 A run whose solver does not converge (``simcore.SolverError``, or a singular matrix,
-``numpy.linalg.LinAlgError``, raised from a kernel) does not stop the study: the
-error, naming the run's parameters, goes to the log and to the terminal, and a small marker
-file (the run's parameter coordinates, attribute ``failed = 1`` and the message) takes the place
-of the run, so that the summary shows this point as missing; its impact table is empty, with
-attribute ``failed = 1``.
+``numpy.linalg.LinAlgError``, raised from a kernel) does not stop the study: the error, naming
+the run's parameters, goes to the log and to the terminal, and a small marker file (the run's
+coordinates, attribute ``failed = 1`` and the message) takes the place of the run, so that the
+summary shows this point as missing; its impact table is empty, with attribute ``failed = 1``.
 
 The terminal gets one line per batch; the details of every run go to the job's simulate log,
 those of every impact table to its impacts log. The simulate log ends with a ``TIMING`` line
-(process start, imports, Numba load, integration, files, extraction, zooms), which
+(process start, imports, Numba load, integration per model, files, extraction, zooms), which
 ``benchmarks/bench_study.py`` sums into the study's breakdown.
 """
 
@@ -23,8 +31,12 @@ import time
 
 script_start = time.time()
 
+import json  # noqa: E402
+import os  # noqa: E402
+import tempfile  # noqa: E402
+from pathlib import Path  # noqa: E402
+
 from _job import (  # noqa: E402
-    batch_label,
     job_log,
     label,
     process_start_time,
@@ -35,63 +47,105 @@ from _job import (  # noqa: E402
 
 sm = snakemake  # noqa: F821  (injected by Snakemake)
 
+
+def write_marker(path, runs):
+    """The batch's marker: its runs' files and fingerprints, written atomically."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    done = [{key: run[key] for key in ("run", "table", "model", "fingerprint")} for run in runs]
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    with os.fdopen(fd, "w") as fh:
+        json.dump({"runs": done}, fh, indent=1)
+    os.replace(tmp, path)
+
+
 open(sm.log.impacts, "w").close()  # a new impacts log; each table appends its lines
 with job_log(sm.log.simulate) as terminal:
     batch_start = time.perf_counter()
     n_threads = set_threads(sm.threads)
-    remove_stale(list(sm.output.runs) + list(sm.output.impacts))
+    remove_stale([run[kind] for run in sm.params.runs for kind in ("run", "table")])
     from numpy.linalg import LinAlgError
 
     import simcore
     from analysis.study_tables import impact_table
-    from simcore.io import failed_run_dataset
+    from simcore.io import failed_run_dataset, study_coords
+    from simcore.study.repair import finished
 
     imported = time.time()
-    simulated = loading = tabulating = writing_runs = writing_tables = 0.0
+    integration = {"nonsmooth": 0.0, "compliant": 0.0}
+    steps = {"nonsmooth": 0, "compliant": 0}
+    loading = tabulating = writing_runs = writing_tables = 0.0
     stages = {"extract": 0.0, "zoom": 0.0}
-    n_failed = 0
-    for point, raw, path, table_path in zip(sm.params.points, sm.params.configs,
-                                            sm.output.runs, sm.output.impacts, strict=True):
-        cfg = simcore.validate_config(raw)
-        start = time.perf_counter()
+    n_failed = n_skipped = n_zooms = 0
+    redo = bool(os.environ.get("BEARINGSIM_STUDY_REDO"))
+    for run in sm.params.runs:
+        point = {k: v for k, v in run["coords"].items() if k != "model.contact_model"}
+        where = f"{label(point)} ({run['model']})"
+        if not redo and finished(run["run"], run["table"], run["fingerprint"]):
+            print(f"{where}: up to date, kept -> {run['run']}", flush=True)
+            n_skipped += 1
+            continue
+        cfg = simcore.validate_config(run["config"])
+        start_run = time.perf_counter()
         try:
             ds = simcore.run(cfg)
-            simulated += ds.attrs["wall_time_s"]
+            integration[run["model"]] += ds.attrs["wall_time_s"]
+            steps[run["model"]] += round(cfg["solver"]["t_end"] / cfg["solver"]["dt"])
             loading += ds.attrs["compile_time_s"]
         except (simcore.SolverError, LinAlgError) as exc:  # numerical failure of this run
-            message = f"run {label(point)} failed: {type(exc).__name__}: {exc}"
+            message = f"run {label(point)} failed ({run['model']} model): " \
+                      f"{type(exc).__name__}: {exc}"
             print(f"FAILED: {message}", flush=True)
-            print(f"WARNING: {message} -> recorded as missing in {path}", file=terminal)
+            print(f"WARNING: {message} -> recorded as missing in {run['run']}", file=terminal)
             ds = failed_run_dataset(cfg, message)
             n_failed += 1
-        written = time.perf_counter()
-        simcore.write_netcdf(ds, path, keep=sm.params.keep)  # study.keep
-        writing_runs += time.perf_counter() - written
-        print(f"{label(point)}: {time.perf_counter() - start:.2f} s "
-              f"(numba threads: {n_threads}) -> {path}", flush=True)
+        ds = study_coords(ds, run["coords"], sm.params.axes)
+        ds.attrs["study_fingerprint"] = run["fingerprint"]
+        simulated_at = time.perf_counter()
+        # the table first, the run file last: a run file on disk always has its table
         with job_log(sm.log.impacts, mode="a"):
             start = time.perf_counter()
-            impacts = impact_table(ds, sm.params.analysis, point, source=path, timings=stages)
+            settings = run["config"]["analysis"]
+            impacts = impact_table(ds, settings, run["coords"], source=run["run"],
+                                   timings=stages)
+            impacts = study_coords(impacts, run["coords"], sm.params.axes, length_one=False)
+            impacts.attrs["study_fingerprint"] = run["fingerprint"]
+            n_zooms += int(impacts["F_max_zoom"].notnull().sum()) if "F_max_zoom" in impacts \
+                else 0
             if impacts.attrs["failed"]:
-                print(f"{label(point)}: failed run, empty impact table", flush=True)
+                print(f"{where}: failed run, empty impact table", flush=True)
             else:
-                print(f"{label(point)}: {impacts.sizes.get('impact', 0)} impacts, "
-                      f"{time.perf_counter() - start:.2f} s -> {table_path}", flush=True)
+                print(f"{where}: {impacts.sizes.get('impact', 0)} impacts, "
+                      f"{time.perf_counter() - start:.2f} s -> {run['table']}", flush=True)
             written = time.perf_counter()
-            simcore.write_netcdf(impacts, table_path)
+            simcore.write_netcdf(impacts, run["table"])
             writing_tables += time.perf_counter() - written
             tabulating += time.perf_counter() - start
+        written = time.perf_counter()
+        simcore.write_netcdf(ds, run["run"], keep=run["keep"])  # study.keep
+        writing_runs += time.perf_counter() - written
+        print(f"{where}: {simulated_at - start_run:.2f} s "
+              f"(numba threads: {n_threads}) -> {run['run']}", flush=True)
+    write_marker(sm.output[0], sm.params.runs)
     total = time.perf_counter() - batch_start
+    simulated = sum(integration.values())
     failed = f", {n_failed} FAILED" if n_failed else ""
+    kept = f", {n_skipped} up to date" if n_skipped else ""
     print(f"impact tables (filter, forces, zooms): {tabulating:.1f} s", flush=True)
     print(timing_line(process_start=process_start_time(), script_start=script_start,
-                      imported=imported, end=time.time(), runs=len(sm.output.runs),
-                      numba_load=loading, integration=simulated,
+                      imported=imported, end=time.time(), cpu=time.process_time(),
+                      runs=len(sm.params.runs),
+                      skipped=n_skipped, numba_load=loading, integration=simulated,
+                      integration_nonsmooth=integration["nonsmooth"],
+                      integration_compliant=integration["compliant"],
+                      steps_nonsmooth=steps["nonsmooth"], steps_compliant=steps["compliant"],
+                      zooms=n_zooms,
                       run_other=total - (imported - script_start) - loading - simulated
                       - writing_runs - tabulating,
                       extract=stages["extract"], zoom=stages["zoom"],
                       write_runs=writing_runs, write_tables=writing_tables,
                       table_other=tabulating - writing_tables - sum(stages.values())),
           flush=True)
-    print(f"simulated {batch_label(sm.wildcards)}: {len(sm.output.runs)} run(s) in {total:.1f} s "
-          f"(integration {simulated:.1f} s, Numba load {loading:.1f} s){failed}", file=terminal)
+    print(f"simulated batch {sm.wildcards.batch}: {len(sm.params.runs)} run(s) in {total:.1f} s "
+          f"(integration {simulated:.1f} s, Numba load {loading:.1f} s){kept}{failed}",
+          file=terminal)

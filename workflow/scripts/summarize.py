@@ -1,4 +1,10 @@
-"""Job of rule ``summarize``: all runs and impact tables -> results/summary.nc."""
+"""Job of rule ``summarize``: the runs and impact tables of every model -> results/summary.nc.
+
+The job gets the files per contact model (``params.runs``, ``params.impacts``: ``{model:
+[paths]}``, the same grid points in the same order for each model) and the study's axes
+(``params.axes``, coordinate names in order); :func:`analysis.summary.summarize` joins them
+into one dataset with the axes and ``model`` as dimensions.
+"""
 
 import time
 
@@ -16,10 +22,12 @@ with job_log(sm.log[0]):
     imported = time.time()
 
     settings = dict(sm.params.analysis)
-    summary = summarize(list(sm.input.runs), list(sm.input.impacts),
+    summary = summarize(dict(sm.params.runs), dict(sm.params.impacts),
                         scheduler=sm.params.scheduler, num_workers=sm.threads,
                         settle=settings["settle"], force_levels=settings["force_levels"],
-                        settings=settings)
+                        settings=settings, models=list(sm.params.runs),
+                        axes=list(sm.params.axes))
+    summary.attrs["study_axes"] = " ".join(sm.params.axes)
     if sm.params.revolutions is not None:
         summary.attrs["study_revolutions"] = float(sm.params.revolutions)
     simcore.write_netcdf(summary, sm.output[0])

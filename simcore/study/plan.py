@@ -1,0 +1,398 @@
+"""The plan of a parameter study: its axes, its grid, the runs of each grid point (one per
+contact model of ``study.models``), what each run costs, and the jobs that run them.
+
+The Snakemake workflow (``workflow/rules/common.smk``) calls these functions when it parses the
+configuration, before any job starts; they need no Snakemake and are tested on their own.
+
+Axes
+    The paper's four parameters (``clearance``, ``mu``, ``omega0``, ``e_N``) are axes of every
+    study (their model value where not swept), followed by every other swept key, in the order
+    of the registry of swept parameters (:mod:`simcore.config.parameters`).
+Runs
+    Each grid point runs with every model of ``study.models``: the nonsmooth run (the paper's
+    method) and its compliant twin (:func:`twin_config`), same drive and window.
+Cost
+    A run's work is estimated from its number of steps and its model (:data:`COST`, measured on
+    this project's 2-core machine, see docs/study.md); runs are grouped into jobs of about
+    ``study.batch_seconds`` of estimated work (:func:`batches`), whatever the axes.
+Size
+    A study of more than ``study.max_runs`` runs stops before any job (:func:`check_size`).
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import itertools
+import json
+import math
+from collections import ChainMap
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from ..config import ConfigError, check_consistency
+from ..config.parameters import BASE_AXES, registry, run_name, sweep_axes, tidy
+
+#: Contact models a study can run at each grid point (code = position: the ``model`` axis).
+MODELS = ("nonsmooth", "compliant")
+#: Folders of the run files and impact tables of each model, under ``study.results_dir``.
+FOLDERS = {"nonsmooth": ("runs", "impacts"),
+           "compliant": ("runs_compliant", "impacts_compliant")}
+#: Variables of ``study.keep`` a compliant twin does not write: the restart state that only a
+#: compliant zoom reads (a twin is not zoomed) and the nonsmooth free approach speed; so its file
+#: (the same samples, plus ``F_N``) stays smaller than the nonsmooth run's.
+TWIN_DROPS = ("position", "angle", "velocity", "angular_velocity", "vn_free")
+#: A base axis that a swept key determines (``{base axis: key}``): where the key is swept the
+#: base axis is left out of the study's axes and each run's value comes from the key
+#: (:func:`resolve_determined`), e.g. the clearance of a clearance class.
+DETERMINED = {"model.clearance": "model.clearance_class"}
+#: Jobs a study is split into at least (or one per run): two or four cores share a small study.
+MIN_JOBS = 4
+
+
+@dataclass(frozen=True)
+class Cost:
+    """Seconds of work of one run on one core (the estimate of :func:`estimate_seconds`).
+
+    Measured with ``python benchmarks/bench_study.py`` (docs/study.md, "Cost"): the job logs'
+    TIMING lines give each stage's time summed over the runs of a study.
+    """
+
+    nonsmooth_step: float = 28e-6   # integration of one nonsmooth step [s]
+    compliant_step: float = 9e-6    # integration of one compliant step [s]
+    per_run: float = 0.12           # run file, impact extraction, table file [s]
+    per_zoom: float = 0.05          # one compliant zoom of analysis.zoom_top [s]
+    per_job: float = 1.0            # process start, imports, Numba cache load of a job [s]
+
+
+COST = Cost()
+
+
+@dataclass
+class Run:
+    """One run of a study."""
+
+    name: str            # file stem, the same for every model of a grid point
+    model: str           # "nonsmooth" or "compliant"
+    point: dict          # {section.key: value} of the study's axes
+    config: dict         # its model, solver and analysis sections
+    seconds: float       # estimated work [s]
+
+    def paths(self, results: str) -> tuple[str, str]:
+        """(run file, impact table) under the results folder ``results``."""
+        runs, impacts = FOLDERS[self.model]
+        return f"{results}/{runs}/{self.name}.nc", f"{results}/{impacts}/{self.name}.nc"
+
+    def keep(self, keep) -> list[str]:
+        """The variables of ``study.keep`` this run writes (:data:`TWIN_DROPS`)."""
+        if self.model == "nonsmooth":
+            return list(keep)
+        return [name for name in keep if name not in TWIN_DROPS]
+
+    def coordinates(self) -> dict:
+        """The point with the contact model: the scalar coordinates of the run's files."""
+        return dict(self.point, **{"model.contact_model": self.model})
+
+
+def study_axes(cfg: Mapping[str, Any]) -> dict[str, list]:
+    """The axes of a validated study configuration: ``{section.key: values}``.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the sweep key (see :func:`simcore.config.parameters.sweep_axes`), or
+        ``sweep.solver.t_end`` swept while ``study.revolutions`` sets each run's length.
+    """
+    try:
+        swept = sweep_axes(cfg.get("sweep", {}))
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+    if "solver.t_end" in swept and cfg["study"].get("revolutions") is not None:
+        raise ConfigError("sweep.solver.t_end: not allowed while study.revolutions sets each "
+                          "run's length; allowed: study.revolutions: null")
+    params = registry()
+    axes = {}
+    for key in params:
+        if key in swept:
+            axes[key] = swept[key]
+        elif key in BASE_AXES and DETERMINED.get(key) not in swept:
+            section, name = key.split(".", 1)
+            axes[key] = [params[key].plain(cfg[section][name])]
+    return axes
+
+
+def resolve_determined(model: dict) -> None:
+    """Set in a run's ``model`` section the values its other keys determine: the clearance of
+    ``model.clearance_class`` (ISO 5753-1, for the bore of ``model.bearing``; the model's
+    clearance is half the middle of the class's range, :func:`simcore.model.bearing.
+    model_clearance`)."""
+    if model.get("clearance_class") is None:
+        return
+    from ..model.bearing import bearing, model_clearance
+
+    try:
+        bore = bearing(model.get("bearing") or "6012-paper")["d"]
+        model["clearance"] = tidy(model_clearance(bore, model["clearance_class"]))
+    except (KeyError, ValueError) as exc:
+        raise ConfigError(str(exc).strip("'\"")) from None
+
+
+def grid_size(axes: Mapping[str, list]) -> int:
+    return math.prod(len(values) for values in axes.values())
+
+
+def grid(axes: Mapping[str, list]):
+    """The grid points ``{section.key: value}`` in order (the last axis varies fastest)."""
+    keys = list(axes)
+    for values in itertools.product(*axes.values()):
+        yield dict(zip(keys, values, strict=True))
+
+
+def run_length(cfg: Mapping[str, Any]) -> float:
+    """End time of a run [s] of the run configuration ``cfg``: (analysis.settle +
+    study.revolutions) crank revolutions at its omega0, rounded up to whole steps; solver.t_end
+    where ``revolutions`` is None."""
+    revolutions = cfg["study"]["revolutions"]
+    if revolutions is None:
+        return cfg["solver"]["t_end"]
+    omega0 = float(cfg["model"]["omega0"])
+    if omega0 == 0.0:
+        raise ConfigError("omega0: 0.0 is not allowed with study.revolutions (a run lasts "
+                          "(settle + revolutions) 2 pi/|omega0|); allowed: omega0 != 0, or "
+                          "study.revolutions: null")
+    dt = float(cfg["solver"]["dt"])
+    turns = float(cfg["analysis"]["settle"]) + float(revolutions)
+    steps = math.ceil(turns * 2.0 * math.pi / abs(omega0) / dt - 1e-9)
+    t_end = tidy(steps * dt)
+    if t_end > 1000.0:
+        raise ConfigError(f"study.revolutions: {revolutions} at omega0 = {omega0} rad/s gives "
+                          f"t_end = {t_end:.4g} s; allowed: t_end <= 1000 s")
+    return t_end
+
+
+def run_config(cfg: Mapping[str, Any], point: Mapping[str, Any]) -> dict:
+    """Configuration of the nonsmooth run of a grid point: the model, solver and analysis
+    sections with the point's values set, the run's length from ``study.revolutions``
+    (:func:`run_length`), and ``study.revolutions`` itself."""
+    out = {section: copy.deepcopy(dict(cfg[section])) for section in ("model", "solver",
+                                                                     "analysis")}
+    for key, value in point.items():
+        section, name = key.split(".", 1)
+        out[section][name] = value
+    if DETERMINED["model.clearance"] in point:
+        resolve_determined(out["model"])
+    out["model"]["contact_model"] = "nonsmooth"
+    out["solver"]["t_end"] = run_length(dict(out, study=cfg["study"]))
+    out["solver"]["output_dt"] = None
+    return out
+
+
+def twin_step(model: Mapping[str, Any], analysis: Mapping[str, Any], out_dt: float) -> float:
+    """Step of a compliant twin [s]: the Hertz contact time of a ball on a race at the crank
+    pin's speed (:func:`simcore.config.limits.hertz_contact_time`) over
+    ``analysis.zoom_steps_per_contact`` (as a compliant zoom's), rounded down to a whole
+    fraction of the output step ``out_dt`` [s]."""
+    from ..config.limits import hertz_contact_time
+
+    step = hertz_contact_time(model) / int(analysis["zoom_steps_per_contact"])
+    return out_dt / max(1, math.ceil(out_dt / step - 1e-9))
+
+
+def twin_config(run_cfg: Mapping[str, Any]) -> dict:
+    """The compliant twin of a nonsmooth run: the same model, drive and window with Hertz
+    contacts, its output step the nonsmooth step (``solver.output_dt``: per interval the
+    largest force, so no peak is lost; the same samples as the nonsmooth run); no zooms (a
+    compliant run is its own reference). Its steps are error-controlled (``solver.adaptive``),
+    at most the output step."""
+    twin = copy.deepcopy(dict(run_cfg))
+    twin["model"]["contact_model"] = "compliant"
+    out_dt = float(run_cfg["solver"]["dt"])
+    twin["solver"]["adaptive"] = True
+    twin["solver"]["dt"] = out_dt
+    twin["solver"]["output_dt"] = out_dt
+    twin["analysis"]["zoom_top"] = 0
+    return twin
+
+
+def work_seconds(contact_model: str, steps: float, zoom_top: int = 0,
+                 cost: Cost = COST) -> float:
+    """Estimated work of one run [s on one core]: its steps times the step cost of its model,
+    plus the files and the impact extraction, plus the zooms of a nonsmooth run (at most five
+    distinct impacts, :data:`COST`)."""
+    if contact_model == "compliant":
+        return cost.per_run + steps * cost.compliant_step
+    return cost.per_run + steps * cost.nonsmooth_step + min(int(zoom_top), 5) * cost.per_zoom
+
+
+def estimate_seconds(cfg: Mapping[str, Any], cost: Cost = COST) -> float:
+    """:func:`work_seconds` of a run configuration (an adaptive compliant run counted at the
+    fixed step of :func:`twin_step`, until its own cost is measured)."""
+    dt = float(cfg["solver"]["dt"])
+    if cfg["model"]["contact_model"] == "compliant" and cfg["solver"].get("adaptive"):
+        dt = twin_step(cfg["model"], cfg["analysis"], dt)
+    steps = float(cfg["solver"]["t_end"]) / dt
+    return work_seconds(cfg["model"]["contact_model"], steps,
+                        cfg["analysis"].get("zoom_top", 0), cost)
+
+
+def _view(cfg: Mapping[str, Any], point: Mapping[str, Any]) -> dict:
+    """The sections of ``cfg`` with the point's values on top, without copying."""
+    over: dict[str, dict] = {section: {} for section in ("model", "solver", "analysis")}
+    for key, value in point.items():
+        section, name = key.split(".", 1)
+        over[section][name] = value
+    view = {section: ChainMap(values, cfg[section]) for section, values in over.items()}
+    view["study"] = cfg["study"]
+    return view
+
+
+def point_seconds(cfg: Mapping[str, Any], point: Mapping[str, Any], models,
+                  cost: Cost = COST) -> float:
+    """Estimated work of a grid point's runs, one per model [s]: :func:`estimate_seconds` of
+    the runs :func:`plan_runs` would make, without making them."""
+    view = _view(cfg, point)
+    t_end, dt = run_length(view), float(view["solver"]["dt"])
+    total = 0.0
+    for model in models:
+        step = dt if model == "nonsmooth" else twin_step(view["model"], view["analysis"], dt)
+        total += work_seconds(model, t_end / step, view["analysis"].get("zoom_top", 0), cost)
+    return total
+
+
+def plan_runs(cfg: Mapping[str, Any], axes: Mapping[str, list] | None = None) -> list[Run]:
+    """Every run of the study, grid point by grid point, in the order of ``study.models``."""
+    axes = study_axes(cfg) if axes is None else axes
+    runs = []
+    models = list(cfg["study"]["models"])
+    for point in grid(axes):
+        name = run_name(point)
+        base = run_config(dict(cfg), point)
+        for model in models:
+            run_cfg = base if model == "nonsmooth" else twin_config(base)
+            runs.append(Run(name, model, point, run_cfg, estimate_seconds(run_cfg)))
+    return runs
+
+
+def duration(seconds: float) -> str:
+    """``42 s``, ``3.5 min``, ``2 h 05 min``."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.1f} min"
+    hours, minutes = divmod(round(seconds / 60), 60)
+    return f"{hours} h {minutes:02d} min"
+
+
+def job_count(work: float, n_runs: int, batch_seconds: float,
+              min_jobs: int = MIN_JOBS) -> int:
+    """Jobs of about ``batch_seconds`` for ``work`` seconds of ``n_runs`` runs (at least
+    ``min_jobs``, at most one per run)."""
+    return min(n_runs, max(math.ceil(work / float(batch_seconds)), int(min_jobs)))
+
+
+def size_line(cfg: Mapping[str, Any], axes: Mapping[str, list], cores: int,
+              cost: Cost = COST) -> tuple[int, str]:
+    """(number of runs, ``N grid points x M models = R runs in J jobs, estimated ...``) of a
+    study, from the configuration alone, before any run is planned."""
+    points = grid_size(axes)
+    models = list(cfg["study"]["models"])
+    n_runs = points * len(models)
+    work = sum(point_seconds(cfg, point, models, cost) for point in grid(axes))
+    n_jobs = job_count(work, n_runs, cfg["study"]["batch_seconds"])
+    wall = (work + n_jobs * cost.per_job) / max(1, min(int(cores), n_jobs))
+    line = (f"{points:,} grid point{'s' if points != 1 else ''} x {len(models)} "
+            f"model{'s' if len(models) != 1 else ''} ({', '.join(models)}) = {n_runs:,} runs "
+            f"in {n_jobs:,} jobs, estimated {duration(work)} of work: about {duration(wall)} "
+            f"on {cores} core{'s' if cores != 1 else ''}")
+    return n_runs, line
+
+
+def check_size(cfg: Mapping[str, Any], axes: Mapping[str, list], cores: int) -> str:
+    """The study's size line (:func:`size_line`); a study of more than ``study.max_runs``
+    runs is refused.
+
+    Raises
+    ------
+    ConfigError
+        ``study.max_runs: ...`` with the count and the estimate, before any run is planned.
+    """
+    n_runs, line = size_line(cfg, axes, cores)
+    limit = int(cfg["study"]["max_runs"])
+    if n_runs > limit:
+        raise ConfigError(f"study.max_runs: {line}; allowed: at most study.max_runs = "
+                          f"{limit:,} runs (raise study.max_runs to run this study)")
+    return line
+
+
+def check_runs(runs: list[Run]) -> list[str]:
+    """The checks that need several keys of each run (:func:`simcore.config.check_consistency`)
+    and the limits known before a run (step size, memory, contact step:
+    :func:`simcore.config.limits.check_run_of_config`), for every run of the study.
+
+    Returns
+    -------
+    list of str
+        Distinct warnings (policy ``warn``).
+
+    Raises
+    ------
+    ConfigError
+        One line naming the run's point and the key.
+    """
+    import warnings
+
+    from ..config.limits import check_run_of_config
+
+    messages: list[str] = []
+    for run in runs:
+        try:
+            check_consistency(run.config)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                found = check_run_of_config(run.config)
+        except ConfigError as exc:
+            raise ConfigError(f"run {label(run.point)} ({run.model}): {exc}") from None
+        for text in list(found) + [str(item.message) for item in caught]:
+            if text not in messages:
+                messages.append(text)
+    return messages
+
+
+def label(point: Mapping[str, Any]) -> str:
+    """``clearance=0.0004, mu=0.01, cage_stiffness=100000.0`` for messages."""
+    params = registry()
+    return ", ".join(f"{params[key].name}={value}" for key, value in point.items())
+
+
+def batches(runs: list[Run], batch_seconds: float, min_jobs: int = MIN_JOBS) -> list[list[Run]]:
+    """Group the runs into jobs of about ``batch_seconds`` of estimated work each.
+
+    As many jobs as the work needs (at least ``min_jobs``, at most one per run), filled
+    longest run first into the least loaded job (so that the jobs' estimates come out nearly
+    equal), each job's runs then in the study's order; jobs in decreasing estimated work.
+    """
+    if not runs:
+        return []
+    n_jobs = job_count(sum(run.seconds for run in runs), len(runs), batch_seconds, min_jobs)
+    loads = [0.0] * n_jobs
+    members: list[list[int]] = [[] for _ in range(n_jobs)]
+    order = sorted(range(len(runs)), key=lambda i: -runs[i].seconds)
+    for i in order:
+        job = min(range(n_jobs), key=lambda j: (loads[j], j))
+        loads[job] += runs[i].seconds
+        members[job].append(i)
+    jobs = [sorted(m) for m in members if m]
+    jobs.sort(key=lambda m: -sum(runs[i].seconds for i in m))
+    return [[runs[i] for i in m] for m in jobs]
+
+
+def fingerprint(run: Run, keep, axes) -> str:
+    """A hash of everything that makes a run's files: its configuration, the point with its
+    model, the study's axes, ``study.keep`` and the package version. A run whose files carry
+    the same fingerprint (attribute ``study_fingerprint``) is not made again."""
+    from .. import __version__
+
+    text = json.dumps({"config": run.config, "point": run.coordinates(),
+                       "axes": list(axes), "keep": list(keep), "version": __version__},
+                      sort_keys=True, default=str)
+    return hashlib.sha1(text.encode()).hexdigest()

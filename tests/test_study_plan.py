@@ -1,0 +1,295 @@
+"""The registry of swept parameters, sweep validation, and the study's plan (runs, compliant
+twins, cost, batches, size limit, fingerprints): simcore.config.parameters, simcore.study.plan."""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import simcore
+from simcore.config import load_schema
+from simcore.config.limits import hertz_contact_time
+from simcore.config.parameters import (
+    BASE_AXES,
+    MAX_NAME,
+    build_registry,
+    registry,
+    run_name,
+    udunits,
+)
+from simcore.study import plan
+
+
+def _study(*overrides, sweep=None):
+    """The default study's configuration with ``overrides``; ``sweep`` added to its sweep."""
+    cfg = simcore.load_config("config/config.yaml", overrides=list(overrides))
+    if sweep:
+        cfg["sweep"].update(sweep)
+    return simcore.validate_config(cfg)
+
+
+# --- the registry ---------------------------------------------------------------------------
+
+def test_registry_holds_every_numeric_or_enumerated_key_of_the_three_sections():
+    schema = load_schema()
+    params = registry()
+    for section in ("model", "solver", "analysis"):
+        for key, node in schema["properties"][section]["properties"].items():
+            sweepable = node.get("type") in ("number", "integer", "boolean") \
+                or "enum" in node or node.get("type") == ["number", "null"] or "oneOf" in node
+            assert (f"{section}.{key}" in params) == sweepable, (section, key)
+    assert "analysis.force_levels" not in params  # a list is not an axis
+    assert [params[k].name for k in BASE_AXES] == ["clearance", "mu", "omega0", "e_N"]
+    assert params["solver.dt"].name == "solver_dt" and params["solver.dt"].units == "s"
+    assert params["model.contact_model"].name == "model"
+
+
+def test_a_key_added_to_the_schema_is_an_axis_without_code():
+    schema = copy.deepcopy(load_schema())
+    schema["properties"]["model"]["properties"]["pin_stiffness"] = {
+        "type": "number", "minimum": 0, "default": 1.0,
+        "description": "stiffness of a new pin [N/m^1.5], made up for this test"}
+    schema["properties"]["solver"]["properties"]["scheme"] = {
+        "type": "string", "enum": ["a", "b/c"], "default": "a", "description": "a: one; b/c: two"}
+    params = build_registry(schema)
+    pin = params["model.pin_stiffness"]
+    assert (pin.name, pin.units, pin.long_name) == ("pin_stiffness", "N m-1.5",
+                                                     "stiffness of a new pin")
+    scheme = params["solver.scheme"]
+    assert scheme.kind == "category" and scheme.categories == ("a", "b/c")
+    assert scheme.name == "solver_scheme" and scheme.long_name == "scheme"
+    assert scheme.token("b/c") == "solver_scheme~b%2Fc"  # no path separator in a file name
+
+
+@pytest.mark.parametrize("text, units", [
+    ("m", "m"), ("-", "1"), ("rad/s", "rad s-1"), ("N s/m", "N s m-1"), ("m/s^2", "m s-2"),
+    ("kg m^2", "kg m2"), ("Pa", "Pa"), ("revolutions", "1"), ("N/m^1.5", "N m-1.5"),
+])
+def test_units_in_udunits_form(text, units):
+    assert udunits(text) == units
+
+
+def test_every_registered_unit_is_written_in_udunits_form():
+    for param in registry().values():
+        if param.kind == "category":
+            assert param.units is None and param.categories
+        else:
+            assert param.units and "/" not in param.units and "^" not in param.units, param
+
+
+# --- the sweep section ----------------------------------------------------------------------
+
+@pytest.mark.parametrize("sweep, words", [
+    ({"model.bogus": [1.0]}, "sweep.model.bogus: unknown key"),
+    ({"bogus": [1.0]}, "sweep.bogus: unknown key"),
+    ({"model.cage_stiffness": [-1.0]}, "sweep.model.cage_stiffness.0: -1.0 is not allowed"),
+    ({"model.drive": ["fast"]}, "sweep.model.drive.0: 'fast' is not allowed"),
+    ({"n_balls": [8.5]}, "sweep.n_balls.0"),
+    ({"solver.dt": []}, "sweep.solver.dt"),
+    ({"analysis.force_levels": [[1.0]]}, "sweep.analysis.force_levels: unknown key"),
+])
+def test_a_bad_sweep_key_or_value_is_refused_in_one_line(sweep, words):
+    with pytest.raises(simcore.ConfigError) as err:
+        simcore.validate_config({"sweep": sweep})
+    assert words in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("sweep, words", [
+    ({"clearance": [1e-4], "model.clearance": [2e-4]}, "the same key as"),
+    ({"model.contact_model": ["compliant"]}, "study.models"),
+    ({"solver.output_dt": [1e-4]}, "the study sets it"),
+    ({"mu": [0.01, 0.0100000000001]}, "the same value twice"),
+])
+def test_a_sweep_the_study_cannot_run_is_refused_before_any_run(sweep, words):
+    cfg = simcore.validate_config({"sweep": sweep})
+    with pytest.raises(simcore.ConfigError) as err:
+        plan.study_axes(cfg)
+    assert words in str(err.value)
+
+
+def test_axes_are_the_four_parameters_then_the_swept_keys_in_registry_order():
+    cfg = _study(sweep={"solver.dt": [1e-4, 5e-5], "cage_stiffness": [1e4, 1e5],
+                        "drive": ["free", "constant"]})
+    axes = plan.study_axes(cfg)
+    assert list(axes)[:4] == list(BASE_AXES)
+    order = list(registry())
+    assert list(axes)[4:] == sorted(list(axes)[4:], key=order.index)
+    assert axes["model.cage_stiffness"] == [1e4, 1e5] and axes["model.drive"] == ["free",
+                                                                                  "constant"]
+    assert plan.grid_size(axes) == 3 * 3 * 3 * 3 * 2 * 2 * 2
+
+
+# --- file names -----------------------------------------------------------------------------
+
+def test_file_names_carry_no_float_noise_and_are_unique_for_any_key():
+    noisy = {"model.clearance": 4e-4, "model.mu": 0.30000000000000004,
+             "model.omega0": 50.00000000000001, "model.e_N": 0.9}
+    assert run_name(noisy) == "clearance~0.0004_mu~0.3_omega0~50.0_e_N~0.9"
+    cfg = _study(sweep={"cage_stiffness": [1e4, 1e5], "drive": ["free", "constant"],
+                        "n_balls": [8, 9], "analysis.r_eff": ["concave", "paper"]})
+    names = [run_name(p) for p in plan.grid(plan.study_axes(cfg))]
+    assert len(set(names)) == len(names)
+    assert all(set(n) <= set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789"
+                             "._~+-%") for n in names)
+    assert "cage_stiffness~100000.0" in names[-1] and "n_balls~9" in names[-1]
+
+
+def test_a_sweep_key_with_dots_can_be_set_from_the_command_line():
+    cfg = simcore.load_config(overrides=["sweep.model.cage_stiffness=[1.0e+4, 1.0e+5]"])
+    assert cfg["sweep"] == {"model.cage_stiffness": [1e4, 1e5]}
+
+
+def test_a_long_name_is_shortened_and_stays_unique():
+    params = [k for k, p in registry().items() if p.kind == "number" and k.startswith("model")]
+    point_a = {key: 1.0 + i for i, key in enumerate(params)}
+    point_b = dict(point_a, **{params[-1]: 99.0})
+    a, b = run_name(point_a), run_name(point_b)
+    assert len(a) <= MAX_NAME and len(b) <= MAX_NAME and a != b
+
+
+# --- coordinates of the files ---------------------------------------------------------------
+
+def test_category_coordinates_are_codes_that_combine_by_coords(tmp_path):
+    from simcore.io import parameter_coords
+
+    files = []
+    for i, drive in enumerate(["free", "constant"]):
+        coords = parameter_coords({"model.drive": drive, "cage_stiffness": 1e5,
+                                   "model.contact_model": "compliant"})
+        ds = xr.Dataset({"x": ("t", np.arange(3.0) + i)}, coords=coords)
+        files.append(tmp_path / f"{i}.nc")
+        simcore.write_netcdf(ds, files[-1])
+    with xr.open_mfdataset(files, combine="by_coords", data_vars="all") as both:
+        assert list(both["drive"].values) == [0, 1]
+        assert both["drive"].attrs["flag_meanings"] == "free constant"
+        assert both["drive"].dtype == np.int8
+        assert both["cage_stiffness"].attrs["units"] == "N m-1"
+        assert int(both["model"].values[0]) == 1
+        np.testing.assert_array_equal(both["x"].sel(drive=1).squeeze(), [1.0, 2.0, 3.0])
+
+
+# --- the runs of a study --------------------------------------------------------------------
+
+def test_the_compliant_twin_resolves_the_hertz_contact_and_samples_the_nonsmooth_steps():
+    cfg = _study()
+    runs = plan.plan_runs(cfg)
+    assert len(runs) == 81 * 2
+    for ns, twin in zip(runs[::2], runs[1::2], strict=True):
+        assert (ns.model, twin.model) == ("nonsmooth", "compliant") and ns.name == twin.name
+        a, b = ns.config, twin.config
+        assert b["model"]["contact_model"] == "compliant"
+        assert {k: v for k, v in a["model"].items() if k != "contact_model"} == \
+            {k: v for k, v in b["model"].items() if k != "contact_model"}
+        assert b["solver"]["t_end"] == a["solver"]["t_end"]
+        assert b["solver"]["output_dt"] == a["solver"]["dt"]
+        per_output = b["solver"]["output_dt"] / b["solver"]["dt"]
+        assert abs(per_output - round(per_output)) < 1e-9
+        n = cfg["analysis"]["zoom_steps_per_contact"]
+        t_contact = hertz_contact_time(b["model"])
+        assert t_contact / (n + 1) < b["solver"]["dt"] <= t_contact / n * (1 + 1e-12) or \
+            b["solver"]["dt"] == a["solver"]["dt"]
+        # the run lasts (settle + revolutions) turns at its speed, whole steps
+        turns = (cfg["analysis"]["settle"] + cfg["study"]["revolutions"])
+        t_turns = turns * 2 * math.pi / a["model"]["omega0"]
+        assert t_turns <= a["solver"]["t_end"] < t_turns + a["solver"]["dt"] * (1 + 1e-9)
+
+
+def test_the_twin_writes_a_smaller_set_of_variables():
+    run = plan.plan_runs(_study())[1]
+    keep = run.keep(simcore.io.DEFAULT_KEEP)
+    assert "F_N" in keep and "Lambda_N" in keep and "position" not in keep
+
+
+def test_estimate_grows_with_the_steps_of_each_model():
+    cfg = _study()
+    run = plan.plan_runs(cfg)[0].config
+    longer = copy.deepcopy(run)
+    longer["solver"]["t_end"] = 2 * run["solver"]["t_end"]
+    steps = run["solver"]["t_end"] / run["solver"]["dt"]
+    delta = plan.estimate_seconds(longer) - plan.estimate_seconds(run)
+    assert delta == pytest.approx(steps * plan.COST.nonsmooth_step)
+    twin = plan.twin_config(run)
+    assert plan.estimate_seconds(twin) > plan.estimate_seconds(run)  # 200 steps per output
+
+
+def test_point_estimates_add_up_to_the_planned_runs():
+    cfg = _study()
+    axes = plan.study_axes(cfg)
+    runs = plan.plan_runs(cfg, axes)
+    total = sum(plan.point_seconds(cfg, p, cfg["study"]["models"]) for p in plan.grid(axes))
+    assert total == pytest.approx(sum(run.seconds for run in runs), rel=1e-12)
+
+
+@pytest.mark.parametrize("batch_seconds", [0.5, 5.0, 30.0, 1e4])
+def test_batches_hold_every_run_once_with_nearly_equal_work(batch_seconds):
+    runs = plan.plan_runs(_study())
+    jobs = plan.batches(runs, batch_seconds)
+    members = [id(run) for job in jobs for run in job]
+    assert sorted(members) == sorted(id(run) for run in runs)
+    total = sum(run.seconds for run in runs)
+    assert len(jobs) == min(len(runs), max(math.ceil(total / batch_seconds), plan.MIN_JOBS))
+    loads = [sum(run.seconds for run in job) for job in jobs]
+    # greedy longest-first: no job exceeds the mean by more than the longest run
+    assert max(loads) <= total / len(jobs) + max(run.seconds for run in runs) + 1e-9
+    assert loads == sorted(loads, reverse=True)
+
+
+def test_a_study_larger_than_max_runs_stops_with_its_count_and_estimate():
+    cfg = _study("study.max_runs=11", sweep={"clearance": [1e-4, 2e-4, 3e-4], "mu": [0.0, 0.01],
+                                             "omega0": [50.0], "e_N": [0.9]})
+    axes = plan.study_axes(cfg)
+    with pytest.raises(simcore.ConfigError) as err:
+        plan.check_size(cfg, axes, cores=2)
+    text = str(err.value)
+    assert text.startswith("study.max_runs: ") and "= 12 runs" in text and "estimated" in text
+    assert "at most study.max_runs = 11" in text and "\n" not in text
+    cfg["study"]["max_runs"] = 12
+    assert "= 12 runs" in plan.check_size(cfg, axes, cores=2)
+
+
+def test_every_run_is_checked_before_any_job():
+    cfg = _study("model.cage_damping=0.0", sweep={"cage_stiffness": [1e5, 1e9]})
+    with pytest.raises(simcore.ConfigError) as err:
+        plan.check_runs(plan.plan_runs(cfg))
+    assert "cage_stiffness=1000000000.0" in str(err.value) and "solver.dt" in str(err.value)
+
+
+# --- skipping what is done ------------------------------------------------------------------
+
+def test_a_run_is_finished_only_when_both_files_carry_its_fingerprint(tmp_path):
+    from simcore.study.repair import finished, repair_outputs
+
+    cfg = _study()
+    run = plan.plan_runs(cfg)[0]
+    keep = run.keep(cfg["study"]["keep"])
+    axes = plan.study_axes(cfg)
+    print_ = plan.fingerprint(run, keep, axes)
+    other = copy.deepcopy(run)
+    other.config["solver"]["tol"] = 2e-5
+    assert plan.fingerprint(other, keep, axes) != print_
+    paths = [tmp_path / "run.nc", tmp_path / "table.nc"]
+    assert not finished(*paths, print_)
+    for path in paths:
+        simcore.write_netcdf(xr.Dataset(attrs={"study_fingerprint": print_}), path)
+    assert finished(*paths, print_) and not finished(*paths, plan.fingerprint(other, keep, axes))
+    marker = tmp_path / "b0001.json"
+    marker.write_text("{}")
+    paths[1].unlink()
+    lines = repair_outputs([paths[0]], [paths[1]], tmp_path / "summary.nc",
+                           batches={marker: paths})
+    assert not marker.exists() and any("b0001.json" in line for line in lines)
+
+
+def test_the_twin_takes_error_controlled_steps_at_most_the_output_step():
+    run = plan.plan_runs(_study())[0].config
+    twin = plan.twin_config(run)
+    assert twin["solver"]["adaptive"] is True
+    assert twin["solver"]["dt"] == twin["solver"]["output_dt"] == run["solver"]["dt"]
+    fixed = plan.twin_step(twin["model"], twin["analysis"], run["solver"]["dt"])
+    steps = run["solver"]["t_end"] / fixed
+    assert plan.estimate_seconds(twin) == pytest.approx(
+        plan.work_seconds("compliant", steps), rel=1e-12)
