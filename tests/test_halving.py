@@ -1,0 +1,140 @@
+"""Retries of a failed nonsmooth step (solver.max_halvings).
+
+The case: the paper's mechanism at dt = 2e-4 s with the Newton iteration cap lowered to 5.
+Step 23 (t = 4.6 ms) then does not converge at h; taken as two steps of h/2 it does. The
+checks: the run goes on unflagged and counts the retry; without retries the same step is
+flagged and everything before it is bit for bit the same; and the retried step's outputs are
+those of two plain steps of h/2 from the same state, computed here by the kernel apart (impulses
+summed, the state at the step's end, the drive torque averaged).
+"""
+
+import copy
+import warnings
+
+import numpy as np
+import pytest
+
+import simcore
+from simcore import kernels as nb
+from simcore.model import SolverSettings
+from simcore.model.audit import ENERGY_FLOOR_J, drive_rate
+from simcore.model.driver import _allocate, _kernel_settings, _start
+from simcore.model.mechanism import crank_slider
+
+DT, MAX_ITER, T_END = 2e-4, 5, 0.005
+FAILING_STEP = 22  # index k of the step k -> k+1 that fails at h (found by the run below)
+
+
+def _config(max_halvings, **solver):
+    overrides = [f"solver.dt={DT}", f"solver.max_iter={MAX_ITER}", f"solver.t_end={T_END}",
+                 f"solver.max_halvings={max_halvings}", "solver.on_nonconvergence=warn"]
+    overrides += [f"solver.{k}={v}" for k, v in solver.items()]
+    return simcore.load_config(overrides=overrides)
+
+
+def _run(max_halvings):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ds = simcore.run(_config(max_halvings))
+    return ds, [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)]
+
+
+@pytest.fixture(scope="module")
+def runs():
+    return {m: _run(m) for m in (0, 4)}
+
+
+def test_a_step_failing_at_h_is_retried_and_the_run_goes_on_converged(runs):
+    ds, warned = runs[4]
+    assert ds["converged"].values.all(), "a retried step must not be flagged"
+    assert not warned
+    halvings = ds["halvings"].values
+    assert ds.attrs["n_retried_steps"] == np.count_nonzero(halvings) > 0
+    assert halvings[FAILING_STEP + 1] >= 1  # the step that fails at h (see the next test)
+    assert ds.attrs["n_unconverged_steps"] == 0
+
+
+def test_without_retries_the_same_step_is_flagged(runs):
+    ds0, warned = runs[0]
+    ds4, _ = runs[4]
+    conv = ds0["converged"].values
+    assert conv[FAILING_STEP + 1] == 0 and np.flatnonzero(conv == 0)[0] == FAILING_STEP + 1
+    assert ds0.attrs["n_retried_steps"] == 0 and not ds0["halvings"].values.any()
+    assert any(f"step {FAILING_STEP + 1}" in w for w in warned)
+    # the steps before it need no retry: the same bits with and without retries
+    for name in ("position", "velocity", "Lambda_N", "vn_free", "iterations"):
+        a = ds0[name].values[:FAILING_STEP + 1]
+        b = ds4[name].values[:FAILING_STEP + 1]
+        assert np.array_equal(a, b), name
+
+
+def test_an_unconverged_step_at_the_smallest_substep_stops_the_run():
+    # a cap of 1 iteration fails at every substep size: the run stops (on_nonconvergence:
+    # error) and the message says the step was retried
+    cfg = _config(2, max_iter=1, on_nonconvergence="error")
+    with pytest.raises(simcore.SolverError, match=r"up to 4 substeps \(solver.max_halvings = 2"):
+        simcore.run(cfg)
+
+
+def test_max_halvings_is_validated():
+    with pytest.raises(simcore.ConfigError, match="max_halvings"):
+        _config(11)
+    with pytest.raises(ValueError, match="solver.max_halvings"):
+        SolverSettings(1e-4, 1e-3, max_halvings=-1)
+
+
+def _clone(x):
+    return copy.deepcopy(x)  # (the work bundles share arrays: deepcopy keeps that)
+
+
+def _outputs(n_rows, ndof, nc):
+    rows = lambda *shape: np.zeros((n_rows, *shape))  # noqa: E731
+    return nb.ChunkOutputs(rows(ndof), rows(ndof), rows(nc), rows(nc), rows(nc), rows(nc),
+                           rows(nc), rows(nc), rows(nc), np.zeros(n_rows),
+                           np.zeros((n_rows, 3), np.int64), np.ones(n_rows, np.int8),
+                           np.zeros(n_rows), np.zeros(n_rows, np.int8))
+
+
+def test_a_retried_step_is_the_sum_of_two_plain_half_steps():
+    """The kernel's retried step against two steps of h/2 taken apart from the same state."""
+    cfg = _config(1)
+    model, _ = crank_slider(cfg["model"])
+    settings = SolverSettings.from_config(cfg)
+    start = _start(model, settings, None, None, 0.0)
+    out = _allocate(model, settings, start, 0.0)
+    rows = nb.ChunkOutputs(out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N, out.gap_N,
+                           out.vn_pre, out.vn_post, out.vn_free, out.energy, out.iterations,
+                           out.converged, out.drive_torque, out.halvings)
+    st = _kernel_settings(settings, start.drive_row, 0.0)
+    retry = nb.RetrySettings(1, float(settings.energy_tol), ENERGY_FLOOR_J, drive_rate(model))
+    k = FAILING_STEP
+    assert nb.integrate_chunk(0, k, st, start.arrays, start.state, rows, start.work, retry) < 0
+    state0, work0 = _clone(start.state), _clone(start.work)
+    # the step at h: retried once, converged
+    assert nb.integrate_chunk(k, k + 1, st, start.arrays, start.state, rows, start.work,
+                              retry) < 0
+    assert out.halvings[k + 1] == 1 and out.converged[k + 1] == 1
+    # the same step, apart: two plain steps of h/2 (2k and 2k+1 of a run at h/2)
+    half = st._replace(h=st.h / 2)
+    no_retry = retry._replace(max_halvings=0)
+    ndof, nc = state0.q.size, start.gap.size
+    ref = _outputs(2 * k + 3, ndof, nc)
+    ref.energy[2 * k] = out.energy[k]
+    assert nb.integrate_chunk(2 * k, 2 * k + 2, half, start.arrays, state0, ref, work0,
+                              no_retry) < 0
+    a, b = 2 * k + 1, 2 * k + 2  # the rows of the two half steps
+    lam_scale = np.abs(out.lambda_N[k + 1]).max()
+    assert lam_scale > 0
+    for name in ("lambda_N", "lambda_T"):
+        summed = getattr(ref, name)[a] + getattr(ref, name)[b]
+        np.testing.assert_allclose(getattr(out, name)[k + 1], summed, rtol=0,
+                                   atol=1e-9 * lam_scale, err_msg=name)
+    np.testing.assert_allclose(out.q[k + 1], ref.q[b], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(out.v[k + 1], ref.v[b], rtol=0,
+                               atol=1e-9 * np.abs(ref.v[b]).max())
+    torque = 0.5 * (ref.drive_torque[a] + ref.drive_torque[b])
+    assert out.drive_torque[k + 1] == pytest.approx(torque, rel=1e-9, abs=1e-9)
+    assert out.energy[k + 1] == pytest.approx(ref.energy[b], rel=1e-12)
+    # the step's iterations: the larger of its two substeps', per stage
+    np.testing.assert_array_equal(out.iterations[k + 1],
+                                  np.maximum(ref.iterations[a], ref.iterations[b]))
