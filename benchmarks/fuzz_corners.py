@@ -1,6 +1,7 @@
 """Random configurations over the whole input range; counts of what the tool refuses and flags.
 
     PYTHONPATH=. python benchmarks/fuzz_corners.py [N] [T_END] [SEED]     (default 300 0.1 11)
+    PYTHONPATH=. python benchmarks/fuzz_corners.py --hard [N] [T_END] [SEED] (default 16 0.02 5)
 
 Each configuration draws clearance 1e-6..2e-3 m, mu 0..0.5, omega0 1..400 rad/s, e_N and e_T
 0..1, 3..22 balls, cage stiffness 1e3..1e7 N/m, cage damping 0 (one in four) or 1..1e4 N s/m,
@@ -20,6 +21,13 @@ Counted per region (drive x mu > 0.3, omega0 > 200, clearance > 1 mm, no cage da
   tolerance); must be 0.
 
 The last line reads ``silent: <gains> <penetrations>`` (the slow test checks it).
+
+``--hard``: N configurations of the corner where nonsmooth steps fail most (constant drive,
+mu 0.3..0.5, omega0 100..400 rad/s, clearance 1..2 mm, no cage damping; e_N, e_T, balls and
+cage stiffness drawn as above; dt = 1e-4 s, halved until the step-size limit accepts it),
+each run with ``solver.max_halvings`` 0 and 4 (``on_nonconvergence = "warn"``). Per
+configuration: the steps flagged without retries, the steps retried and the steps still
+flagged with them, the largest halving, and the CPU time of both runs (kernels warm).
 """
 
 from __future__ import annotations
@@ -46,6 +54,74 @@ def draw(rng, t_end):
                   on_nonconvergence="warn")
     return ([f"model.{k}={v}" for k, v in model.items()]
             + [f"solver.{k}={v}" for k, v in solver.items()])
+
+
+def draw_hard(rng, t_end):
+    """One configuration of the hard corner (overrides for simcore.load_config)."""
+    model = dict(clearance=float(rng.uniform(1e-3, 2e-3)), mu=float(rng.uniform(0.3, 0.5)),
+                 omega0=float(rng.uniform(100, 400)), e_N=float(rng.uniform(0, 1)),
+                 e_T=float(rng.uniform(0, 1)), n_balls=int(rng.integers(3, 23)),
+                 cage_stiffness=float(np.exp(rng.uniform(np.log(1e3), np.log(1e7)))),
+                 cage_damping=0.0, drive="constant")
+    return ([f"model.{k}={v}" for k, v in model.items()]
+            + [f"solver.t_end={t_end}", "solver.on_nonconvergence=warn"])
+
+
+def accepted_dt(overrides, dt=1e-4):
+    """The largest dt / 2^m that the step-size limit accepts for these overrides [s]."""
+    import simcore
+    from simcore.config.limits import check_run_of_config
+
+    while True:
+        cfg = simcore.load_config(overrides=overrides + [f"solver.dt={dt}"])
+        try:
+            check_run_of_config(cfg)
+        except simcore.ConfigError:
+            dt /= 2
+        else:
+            return dt
+
+
+def hard_corners(n=16, t_end=0.02, seed=5):
+    """The table of ``--hard`` (see the module docstring); returns the steps still flagged
+    with retries, summed over the configurations."""
+    import simcore
+
+    rng = np.random.default_rng(seed)
+    simcore.run(simcore.load_config(overrides=["solver.t_end=0.001"]))  # compile or load
+    print(f"{n} hard-corner configurations, t_end = {t_end} s, seed {seed}")
+    print(f"{'mu':>5s} {'omega0':>7s} {'clear mm':>8s} {'balls':>5s} {'e_N':>5s} {'dt us':>6s} "
+          f"{'steps':>6s} "
+          f"{'flag(0)':>8s} {'retried':>8s} {'flag(4)':>8s} {'max L':>5s} {'cpu(0) s':>9s} "
+          f"{'cpu(4) s':>9s}")
+    totals = np.zeros(3, dtype=int)
+    cpu = np.zeros(2)
+    for _ in range(n):
+        overrides = draw_hard(rng, t_end)
+        overrides.append(f"solver.dt={accepted_dt(overrides)}")
+        res = []
+        for halvings in (0, 4):
+            cfg = simcore.load_config(overrides=overrides + [f"solver.max_halvings={halvings}"])
+            began = time.process_time()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                ds = simcore.run(cfg)
+            res.append((ds, time.process_time() - began))
+        (ds0, cpu0), (ds4, cpu4) = res
+        flag0 = int((ds0["converged"].values[1:] == 0).sum())
+        flag4 = int((ds4["converged"].values[1:] == 0).sum())
+        retried = int(ds4.attrs["n_retried_steps"])
+        totals += (flag0, retried, flag4)
+        cpu += (cpu0, cpu4)
+        m = cfg["model"]
+        print(f"{m['mu']:5.3f} {m['omega0']:7.1f} {1e3 * m['clearance']:8.3f} "
+              f"{m['n_balls']:5d} {m['e_N']:5.2f} {1e6 * cfg['solver']['dt']:6.2f} "
+              f"{ds4['converged'].size - 1:6d} {flag0:8d} "
+              f"{retried:8d} {flag4:8d} {int(ds4['halvings'].max()):5d} {cpu0:9.2f} "
+              f"{cpu4:9.2f}")
+    print(f"total: flagged without retries {totals[0]}, retried {totals[1]}, still flagged "
+          f"{totals[2]}; CPU {cpu[0]:.1f} s without, {cpu[1]:.1f} s with retries")
+    return int(totals[2])
 
 
 def independent_energy(ds, cfg):
@@ -142,5 +218,10 @@ def main(n=300, t_end=0.1, seed=11):
 
 if __name__ == "__main__":
     args = sys.argv[1:]
+    if args and args[0] == "--hard":
+        args = args[1:]
+        hard_corners(int(args[0]) if args else 16, float(args[1]) if len(args) > 1 else 0.02,
+                     int(args[2]) if len(args) > 2 else 5)
+        sys.exit(0)
     main(int(args[0]) if args else 300, float(args[1]) if len(args) > 1 else 0.1,
          int(args[2]) if len(args) > 2 else 11)
