@@ -1,13 +1,15 @@
 """Random configurations over the whole input range; counts of what the tool refuses and flags.
 
-    PYTHONPATH=. python benchmarks/fuzz_corners.py [N] [T_END] [SEED]     (default 300 0.1 11)
+    PYTHONPATH=. python benchmarks/fuzz_corners.py [N] [T_END] [SEED] [MAX_HALVINGS]
+    (default 300 0.1 11 4)
     PYTHONPATH=. python benchmarks/fuzz_corners.py --hard [N] [T_END] [SEED] (default 16 0.02 5)
 
 Each configuration draws clearance 1e-6..2e-3 m, mu 0..0.5, omega0 1..400 rad/s, e_N and e_T
 0..1, 3..22 balls, cage stiffness 1e3..1e7 N/m, cage damping 0 (one in four) or 1..1e4 N s/m,
 dt 1e-5..5e-4 s, both drives, rho_inf 0..1 (log-uniform where the range spans decades), and is
 run with the default policies except ``solver.on_nonconvergence = "warn"`` (so that the
-unconverged steps can be counted instead of stopping the run).
+unconverged steps can be counted instead of stopping the run) and ``solver.max_halvings =
+MAX_HALVINGS`` (the retries of a failed step; 0: none).
 
 Counted per region (drive x mu > 0.3, omega0 > 200, clearance > 1 mm, no cage damping):
 
@@ -161,7 +163,7 @@ def regions(cfg):
     return names
 
 
-def main(n=300, t_end=0.1, seed=11):
+def main(n=300, t_end=0.1, seed=11, max_halvings=4):
     import simcore
     from simcore.model.audit import ENERGY_FLOOR_J
 
@@ -170,7 +172,8 @@ def main(n=300, t_end=0.1, seed=11):
     silent_gain = silent_pen = 0
     start = time.perf_counter()
     for _ in range(n):
-        cfg = simcore.load_config(overrides=draw(rng, t_end))
+        cfg = simcore.load_config(overrides=draw(rng, t_end)
+                                  + [f"solver.max_halvings={max_halvings}"])
         row = {"n": 0, "refused": 0, "defect": 0, "flagged": 0, "steps": 0, "worst": 0.0,
                "gain": 0, "pen": 0}
         outcome = {}
@@ -200,7 +203,7 @@ def main(n=300, t_end=0.1, seed=11):
             r["n"] += 1
             for key, value in outcome.items():
                 r[key] = max(r[key], value) if key == "worst" else r[key] + value
-    print(f"{n} configurations, t_end = {t_end} s, seed {seed}, "
+    print(f"{n} configurations, t_end = {t_end} s, seed {seed}, max_halvings {max_halvings}, "
           f"{time.perf_counter() - start:.0f} s")
     print(f"{'region':28s} {'runs':>5s} {'refused':>8s} {'defect':>7s} {'flagged':>9s} "
           f"{'worst':>6s} {'gain':>5s} {'pen':>4s}")
@@ -224,4 +227,4 @@ if __name__ == "__main__":
                      int(args[2]) if len(args) > 2 else 5)
         sys.exit(0)
     main(int(args[0]) if args else 300, float(args[1]) if len(args) > 1 else 0.1,
-         int(args[2]) if len(args) > 2 else 11)
+         int(args[2]) if len(args) > 2 else 11, int(args[3]) if len(args) > 3 else 4)
