@@ -249,21 +249,34 @@ def test_conservative_run_reports_its_drift():
 
 
 def test_reproduction_with_warn_is_stopped_by_the_energy_audit(tmp_path):
-    """With the dt limit only warned about, the run that went from 33.6 J to 467 kJ stops at
-    the first step that creates energy, naming it; with both policies at warn, every such
-    step is flagged."""
+    """With the dt limit only warned about and no retries, the run that went from 33.6 J to
+    467 kJ stops at the first step that creates energy, naming it; with both policies at warn,
+    every such step is flagged."""
     out = tmp_path / "r.nc"
-    res, _ = cli(*sets(REPRO + ["solver.on_unresolved_dt=warn"]), "--out", str(out))
+    no_retry = REPRO + ["solver.on_unresolved_dt=warn", "solver.max_halvings=0"]
+    res, _ = cli(*sets(no_retry), "--out", str(out))
     assert res.returncode == 3 and not out.exists(), res.stderr
     assert "energy audit: step" in res.stderr and "created" in res.stderr
-    cfg = load_config(overrides=REPRO + ["solver.on_unresolved_dt=warn",
-                                         "solver.on_nonconvergence=warn"])
+    cfg = load_config(overrides=no_retry + ["solver.on_nonconvergence=warn"])
     with pytest.warns(RuntimeWarning):
         ds = simcore.run(cfg)
     flagged = ds["converged"].values[1:] == 0
     gained = ds["energy_error"].values[1:] > cfg["solver"]["energy_tol"] * 33.0
     assert gained.any() and np.all(flagged[gained])
     assert ds.attrs["n_unconverged_steps"] >= int(gained.sum())
+
+
+def test_reproduction_with_retries_takes_the_gaining_steps_in_halves():
+    """The same run with the default retries: the steps that create energy at h are taken
+    again in halves by the audit's criterion, so no step is flagged and the energy (free drive:
+    nothing puts energy in) never rises above its start by more than the audit allows."""
+    cfg = load_config(overrides=REPRO + ["solver.on_unresolved_dt=warn"])
+    ds = simcore.run(cfg)  # on_nonconvergence = error: a step flagged would stop it
+    assert ds.attrs["n_retried_steps"] > 0 and ds.attrs["n_unconverged_steps"] == 0
+    e = ds["energy"].values
+    assert e.max() <= e[0] * (1 + cfg["solver"]["energy_tol"])
+    assert np.all(ds["energy_error"].values[1:] <= cfg["solver"]["energy_tol"] * e[0]
+                  + ENERGY_FLOOR_J)
 
 
 @pytest.mark.parametrize("drive", ["free", "constant"])
