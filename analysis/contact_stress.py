@@ -291,7 +291,9 @@ def contact_stress(F, ball_radius, race_radius, race, E, nu, conformity=None, r_
         concave = race == "outer" and r_eff == "concave"
         R = effective_radius(ball_radius, race_radius, concave=concave)
         a, delta, p = hertz_circular(F, R, E_star)
-        K = 4.0 / 3.0 * E_star * math.sqrt(R)
+        from simcore.model.hertz import stiffness
+
+        K = stiffness(R, E_star)
         return {"contact_radius": a, "semi_minor": a, "delta": delta, "p_max": p, "K": K}
     R_x, R_y = groove_radii(ball_radius, race_radius, conformity, race)
     ell = elliptical_contact(R_x, R_y, E_star)

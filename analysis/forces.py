@@ -150,9 +150,9 @@ def hertz_stiffness(r1, r2, E1, nu1, E2, nu2, concave=False) -> float:
     E2 = _positive("E2", E2)
     nu1 = _poisson("nu1", nu1)
     nu2 = _poisson("nu2", nu2)
-    reff = effective_radius(r1, r2, concave)
-    sigma = (1.0 - nu1**2) / E1 + (1.0 - nu2**2) / E2
-    return 4.0 / (3.0 * sigma) * math.sqrt(reff)
+    from simcore.model.hertz import contact_modulus, stiffness
+
+    return stiffness(effective_radius(r1, r2, concave), contact_modulus(E1, nu1, E2, nu2))
 
 
 def flores_damping(K, e_N, v_pre) -> float:

@@ -24,6 +24,8 @@ it; no zoom could then stop before its window's end while that ball was free.)
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import xarray as xr
 
@@ -178,6 +180,7 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
     n = out.sizes.get("impact", 0)
     F_zoom = np.full(n, np.nan)
     t_zoom = np.full(n, np.nan)
+    flagged = np.zeros(n, dtype=np.int8)
     dt_zoom = np.full(n, np.nan)
     if zoom_top > 0 and n > 0:
         impulse = np.asarray(out["impulse"].values, dtype=float)
@@ -219,9 +222,15 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
                 groups[g] = ball_of_contact == int(out["ball"].values[row])
                 onset[g, int(out["contact"].values[row])] = True
             # (the zoom's arrays: its dataset would be built for three of them)
-            traj, _, _, zcfg = zoom_trajectory(run_ds, time, window=windows[time],
-                                               dt=steps[time], overrides=overrides,
-                                               watch_contacts=groups, watch_onset=onset)
+            # a zoom's flagged step (not converged, energy created, an integrity check such as
+            # an indentation beyond Hertz's range) flags its impacts instead of stopping the
+            # study: zoom_flagged
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                traj, _, _, zcfg = zoom_trajectory(
+                    run_ds, time, window=windows[time], dt=steps[time],
+                    overrides=[*overrides, "solver.on_nonconvergence=warn"],
+                    watch_contacts=groups, watch_onset=onset)
             F_N = traj.F_N
             output_dt = float(zcfg["solver"]["dt"]) * output_every(zcfg)
             for row in rows:
@@ -231,6 +240,7 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
                 F_zoom[row] = _episode_peak(F_N[:, same_ball].max(axis=1), F_contact)
                 t_zoom[row] = _first_episode(F_contact, output_dt)
                 dt_zoom[row] = steps[time]
+                flagged[row] = int(not np.all(traj.converged))
     out["F_max_zoom"] = ("impact", F_zoom, {
         "units": "N", "long_name": "largest contact force of the impact's ball during the "
         "impact (the ball's contact episode that contains the impact contact's first closing) "
@@ -243,6 +253,11 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
         "units": "s", "long_name": "time step of the compliant zoom of the impact (its shortest "
         "Hertz contact time over zoom_steps_per_contact, at most the run's step; NaN: not "
         "zoomed)"})
+    out["zoom_flagged"] = ("impact", flagged, {
+        "units": "1", "long_name": "1 where the compliant zoom of the impact flagged a step "
+        "(not converged, energy created, or an integrity check such as an indentation beyond "
+        "solver.max_indentation, Hertz's range)", "flag_values": np.array([0, 1], np.int8),
+        "flag_meanings": "no yes"})
     out.attrs.update({"zoom_top": zoom_top,
                       "zoom_steps_per_contact": int(steps_per_contact) if dt is None else 0,
                       "zoom_window": float(window), "zoom_max_window": float(max_window)})

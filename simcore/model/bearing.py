@@ -1,13 +1,32 @@
-"""Bearing catalogue and ISO 5753-1 clearance classes: from a catalogue entry to the model's
-radii and masses (docs/life.md, "From a catalogue entry to the model").
+"""The bearing: its geometry from one place (race radii, pitch circle, cage chord, the rings'
+lands), the bearing catalogue and the ISO 5753-1 clearance classes (docs/model.md, "The
+bearing"; docs/life.md, "From a catalogue entry to the model").
 
-Data files (each value with its source): ``simcore/data/bearings.yaml`` and
+Geometry. The model's bearing is planar: balls of radius r_B between an inner race of radius r_A
+(the groove bottom of the inner ring) and an outer race of radius r_C (the groove bottom of the
+outer ring), with the radial clearance g = r_C - r_A - 2 r_B as the input. Every radius the
+model, its limits, its integrity checks and the analysis need is computed by
+:class:`BearingGeometry`.
+
+The **lands** are the cylindrical shoulders of the rings beside the grooves: the inner ring's
+land at r_A + h, the outer ring's at r_C - h, with h the shoulder height (groove depth). When
+the balls bunch on one side (a soft cage) nothing else keeps the inner ring inside the outer
+one; in a real deep-groove bearing the lands then meet. Their radial distance with the rings
+concentric,
+
+    land gap = (r_C - h) - (r_A + h) = g + 2 r_B - 2 h,
+
+is the journal offset at which the ring guard contact of the model closes
+(:func:`simcore.model.mechanism.add_guard_contacts`).
+
+Catalogue. Data files (each value with its source): ``simcore/data/bearings.yaml`` and
 ``simcore/data/clearance_iso5753.yaml``.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
 
@@ -119,3 +138,88 @@ def clearance_range(bore: float, clearance_class: str) -> tuple[float, float, fl
 def model_clearance(bore: float, clearance_class: str) -> float:
     """The model's clearance g [m] for a class: half the middle of its ISO range."""
     return 0.5 * clearance_range(bore, clearance_class)[2]
+
+
+# ------------------------------------------------------------------------------------------
+# geometry
+# ------------------------------------------------------------------------------------------
+#: Shoulder height of each ring over the ball diameter [-] (groove depth). Deep-groove rings:
+#: the inner ring of a 6312 (catalogue shoulder diameter d1 = 81.86 mm, pitch diameter
+#: 95 mm, balls of 22.225 mm) has 0.20; docs/model.md gives the reasoning.
+SHOULDER_FRACTION = 0.2
+
+
+@dataclass(frozen=True)
+class BearingGeometry:
+    """Radii of the planar bearing [m].
+
+    Parameters
+    ----------
+    inner_radius : float
+        r_A, inner race (groove bottom) radius [m].
+    ball_radius : float
+        r_B [m].
+    clearance : float
+        Radial clearance g = r_C - r_A - 2 r_B [m].
+    n_balls : int
+        Number of balls.
+    shoulder_fraction : float
+        Shoulder height of each ring over the ball diameter [-] (:data:`SHOULDER_FRACTION`).
+    """
+
+    inner_radius: float
+    ball_radius: float
+    clearance: float
+    n_balls: int
+    shoulder_fraction: float = SHOULDER_FRACTION
+
+    @classmethod
+    def from_model(cls, model: dict) -> BearingGeometry:
+        """The geometry of a ``model`` section (keys ``inner_radius``, ``ball_radius``,
+        ``clearance``, ``n_balls``)."""
+        return cls(float(model["inner_radius"]), float(model["ball_radius"]),
+                   float(model["clearance"]), int(model["n_balls"]))
+
+    @property
+    def outer_radius(self) -> float:
+        """r_C = r_A + 2 r_B + g [m]."""
+        return self.inner_radius + 2.0 * self.ball_radius + self.clearance
+
+    @property
+    def pitch_radius(self) -> float:
+        """Radius of the ball centres with the rings concentric, r_A + r_B + g/2 [m]."""
+        return self.inner_radius + self.ball_radius + 0.5 * self.clearance
+
+    @property
+    def cage_chord(self) -> float:
+        """Distance of neighbouring ball centres evenly spaced on the pitch circle,
+        2 R_p sin(pi / n) [m] (the cage springs' rest length)."""
+        return 2.0 * self.pitch_radius * math.sin(math.pi / self.n_balls)
+
+    @property
+    def shoulder_height(self) -> float:
+        """h, height of each ring's land above its groove bottom [m]."""
+        return self.shoulder_fraction * 2.0 * self.ball_radius
+
+    @property
+    def inner_land_radius(self) -> float:
+        """Radius of the inner ring's land, r_A + h [m]."""
+        return self.inner_radius + self.shoulder_height
+
+    @property
+    def outer_land_radius(self) -> float:
+        """Radius of the outer ring's land, r_C - h [m]."""
+        return self.outer_radius - self.shoulder_height
+
+    @property
+    def land_gap(self) -> float:
+        """Journal offset at which the lands meet, g + 2 r_B - 2 h [m]."""
+        return self.outer_land_radius - self.inner_land_radius
+
+    def balls_fit(self) -> bool:
+        """True when n balls evenly spaced on the pitch circle do not overlap."""
+        return self.cage_chord > 2.0 * self.ball_radius
+
+    def max_balls(self) -> int:
+        """Most balls that fit evenly spaced on the pitch circle without overlapping."""
+        return int(math.pi / math.asin(min(1.0, self.ball_radius / self.pitch_radius)))

@@ -16,12 +16,18 @@ DEFAULT_DT = 1e-6       # [s]
 def config_of_run(run_ds) -> dict:
     """The model and solver sections of the configuration that made ``run_ds`` (from its
     ``model.*`` / ``solver.*`` attributes)."""
+    from ..config import load_schema
+
+    sections = load_schema()["properties"]
     cfg: dict = {"model": {}, "solver": {}}
     for key, value in run_ds.attrs.items():
         section, _, name = key.partition(".")
         if section in cfg and name:
             if isinstance(value, np.generic):
                 value = value.item()
+            node = sections[section]["properties"].get(name, {})
+            if node.get("type") == "boolean" and value in (0, 1):
+                value = bool(value)  # netCDF attributes store booleans as integers
             cfg[section][name] = value
     return cfg
 
