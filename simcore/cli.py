@@ -89,7 +89,8 @@ def _zoom_main(args) -> int:
         with xr.open_dataset(args.run) as run_ds:
             run_ds = run_ds.load()
     except (OSError, ValueError) as exc:
-        print(f"error: RUN: cannot read {args.run}: {exc}", file=sys.stderr)
+        print(f"error: RUN: cannot read {args.run}: {str(exc).splitlines()[0]}",
+              file=sys.stderr)
         return 2
     from .io import write_netcdf
     from .study.zoom import start_index, zoom, zoom_config
@@ -99,7 +100,9 @@ def _zoom_main(args) -> int:
         start_index(run_ds, args.time)
     except ConfigError as exc:
         msg = str(exc)
-        if msg.startswith("time:"):
+        if msg.startswith("run:"):
+            msg = f"RUN: {args.run}:" + msg[len("run:"):]
+        elif msg.startswith("time:"):
             msg = "--time:" + msg[len("time:"):]
         elif msg.startswith("solver.t_end:"):
             msg = "--window:" + msg[len("solver.t_end:"):]
@@ -133,33 +136,116 @@ def _zoom_main(args) -> int:
     return 0
 
 
-def check_out(out: str) -> str | None:
-    """Why ``--out`` cannot be written (one line), or None: checked before the simulation."""
-    import os
-    from pathlib import Path
+#: characters the atomic writer adds to a file name for its temporary file (``.NAME.`` +
+#: eight random characters + ``.tmp``) and the check below for its probe (``.probe``)
+TEMP_NAME_EXTRA = 16
 
-    path = Path(out)
-    if path.is_dir():
-        return f"--out: {out} is a directory; allowed: a file name ending in .nc"
-    if path.suffix != ".nc":
-        return f"--out: {out} is not allowed; allowed: a file name ending in .nc"
-    if path.exists() and not path.is_file():
-        return f"--out: {out} exists and is not a regular file"
-    folder = path.resolve().parent
-    if not folder.is_dir():
-        return f"--out: folder {folder} does not exist"
-    if not os.access(folder, os.W_OK | os.X_OK):
-        return f"--out: folder {folder} is not writable"
-    # root passes os.access everywhere: try what the writer will do, create a file there
-    import tempfile
+
+def _name_max(folder) -> int:
+    """Longest file name [bytes] in ``folder`` (its file system's NAME_MAX; 255 when unknown)."""
+    import os
 
     try:
-        fd, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=folder)
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (OSError, ValueError, AttributeError):
+        return 255
+
+
+def _writable_folder(folder, option: str) -> str | None:
+    """Why no file can be created in the existing ``folder`` (one line), or None."""
+    import os
+    import tempfile
+
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return f"{option}: folder {folder} is not writable"
+    # root passes os.access everywhere: try what the writer will do, create a file there
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".", suffix=".probe", dir=folder)
     except OSError as exc:
-        return f"--out: folder {folder} is not writable ({exc.strerror})"
+        return f"{option}: folder {folder} is not writable ({exc.strerror})"
     os.close(fd)
     os.unlink(probe)
     return None
+
+
+def _name_problem(path, option: str, extra: int) -> str | None:
+    """Why the names of ``path`` are too long for its file system (one line), or None."""
+    import os
+
+    try:
+        name_max = _name_max(path.parent if path.parent.is_dir() else ".")
+    except OSError:  # the folder's own name is too long to look at
+        name_max = _name_max(".")
+    for i, part in enumerate(path.parts):
+        size = len(os.fsencode(part))
+        limit = name_max - (extra if i == len(path.parts) - 1 else 0)
+        if size > limit:
+            return (f"{option}: a name of {size} bytes ({part[:24]}...) is not allowed; "
+                    f"allowed: at most {limit} bytes (the file system's limit"
+                    + (f", less {extra} for the temporary file written first)"
+                       if limit < name_max else ")"))
+    if len(os.fsencode(str(path.resolve()))) > 4000:
+        return f"{option}: a path of more than 4000 bytes is not allowed"
+    return None
+
+
+def check_out(out: str, option: str = "--out", suffix: str = ".nc") -> str | None:
+    """Why ``out`` cannot be written as a result file (one line), or None: checked before any
+    work, the same rules for every command (``python -m simcore run|zoom``, ``python -m
+    analysis``): a name ending in ``suffix``, not a directory, short enough for the file
+    system with the temporary name of the atomic writer, in an existing writable folder.
+
+    Parameters
+    ----------
+    out : str
+        The path given.
+    option : str
+        The option's name in the message.
+    suffix : str
+        Required file name ending.
+    """
+    from pathlib import Path
+
+    path = Path(out)
+    problem = _name_problem(path, option, TEMP_NAME_EXTRA)
+    if problem:
+        return problem
+    try:
+        if path.is_dir():
+            return f"{option}: {out} is a directory; allowed: a file name ending in {suffix}"
+        if path.suffix != suffix:
+            return f"{option}: {out} is not allowed; allowed: a file name ending in {suffix}"
+        if path.exists() and not path.is_file():
+            return f"{option}: {out} exists and is not a regular file"
+        folder = path.resolve().parent
+        if not folder.is_dir():
+            return f"{option}: folder {folder} does not exist"
+    except OSError as exc:
+        return f"{option}: {out} cannot be used ({exc.strerror})"
+    return _writable_folder(folder, option)
+
+
+def check_outdir(outdir: str, option: str = "--outdir") -> str | None:
+    """Why files cannot be written into the folder ``outdir`` (one line), or None: it is a
+    writable directory, or it does not exist and its nearest existing parent is one (the
+    command creates it); names short enough for the file system."""
+    from pathlib import Path
+
+    path = Path(outdir)
+    problem = _name_problem(path, option, 0)
+    if problem:
+        return problem
+    try:
+        if path.exists() and not path.is_dir():
+            return f"{option}: {outdir} exists and is not a directory; allowed: a folder"
+        existing = path.resolve()
+        while not existing.exists():
+            existing = existing.parent
+        if not existing.is_dir():
+            return f"{option}: {existing} is not a directory"
+    except OSError as exc:
+        return f"{option}: {outdir} cannot be used ({exc.strerror})"
+    return _writable_folder(existing, option)
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):

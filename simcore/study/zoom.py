@@ -13,21 +13,33 @@ DEFAULT_WINDOW = 2e-3   # [s]
 DEFAULT_DT = 1e-6       # [s]
 
 
+def check_run_dataset(run_ds) -> None:
+    """Refuse, in one line naming ``run``, a dataset that is not a run of this tool: a zoom
+    needs its ``time``, its configuration (``model.*`` and ``solver.*`` attributes) and its
+    state."""
+    from ..io import GENERALIZED_PARTS
+
+    if "time" not in run_ds.variables:
+        raise ConfigError("run: the file has no variable 'time'; allowed: a run file of "
+                          "python -m simcore run (or simcore.run)")
+    if not any(str(key).startswith("model.") for key in run_ds.attrs):
+        raise ConfigError("run: the file has no model.* attributes (the configuration of the "
+                          "run); allowed: a run file of python -m simcore run (or simcore.run)")
+    for name, parts in GENERALIZED_PARTS.items():  # a run file has q and v in parts
+        if name not in run_ds and not all(part in run_ds for part in parts):
+            raise ConfigError(f"run: the run file has no variable {name!r} (needed to restart "
+                              "from its state)")
+
+
 def config_of_run(run_ds) -> dict:
     """The model and solver sections of the configuration that made ``run_ds`` (from its
     ``model.*`` / ``solver.*`` attributes)."""
-    from ..config import load_schema
-
-    sections = load_schema()["properties"]
     cfg: dict = {"model": {}, "solver": {}}
     for key, value in run_ds.attrs.items():
         section, _, name = key.partition(".")
         if section in cfg and name:
             if isinstance(value, np.generic):
                 value = value.item()
-            node = sections[section]["properties"].get(name, {})
-            if node.get("type") == "boolean" and value in (0, 1):
-                value = bool(value)  # netCDF attributes store booleans as integers
             cfg[section][name] = value
     return cfg
 
@@ -37,6 +49,7 @@ def zoom_config(run_ds, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(),
     """Validated configuration of a zoom on ``run_ds``: the run's model with
     ``contact_model = compliant``, step ``dt`` [s] for ``window`` [s], then ``overrides``
     (``section.key=value`` strings)."""
+    check_run_dataset(run_ds)
     cfg = config_of_run(run_ds)
     cfg["model"]["contact_model"] = "compliant"
     cfg["solver"].update({"dt": float(dt), "t_end": float(window), "output_dt": output_dt})
@@ -125,12 +138,8 @@ def zoom_trajectory(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, override
     configuration that made it (what :func:`zoom` turns into its dataset). Same parameters and
     errors as :func:`zoom`; for code that reads a few arrays of many zooms
     (:func:`analysis.zoom.add_zoom_forces`)."""
-    from ..io import GENERALIZED_PARTS, state_at
+    from ..io import state_at
 
-    for name, parts in GENERALIZED_PARTS.items():  # a run file has q and v in parts
-        if name not in run_ds and not all(part in run_ds for part in parts):
-            raise ConfigError(f"run: the run file has no variable {name!r} (needed to restart "
-                              "from its state)")
     cfg = zoom_config(run_ds, window=window, dt=dt, overrides=overrides, output_dt=output_dt)
     i = start_index(run_ds, time)
     model, layout = crank_slider(cfg["model"])
