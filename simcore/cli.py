@@ -66,6 +66,7 @@ def summary_lines(ds) -> list[str]:
                  f"contact {int(ds.contact[k[1]])} (ball {int(ds.ball[k[1]])}, "
                  f"{ds.race.values[k[1]]} race)")
     lines.append(f"min gap_N: {float(ds['gap_N'].min()):.3g} m")
+    lines.append(bearing_line(ds))
     if "F_N" in ds:
         F = ds["F_N"]
         k = np.unravel_index(int(np.argmax(F.values)), F.shape)
@@ -73,6 +74,20 @@ def summary_lines(ds) -> list[str]:
                      f"contact {int(ds.contact[k[1]])} (ball {int(ds.ball[k[1]])}, "
                      f"{ds.race.values[k[1]]} race)")
     return lines
+
+
+def bearing_line(ds) -> str:
+    """The bearing of a run, its guard contacts and its integrity checks, in one line."""
+    a = ds.attrs
+    clearance_class = a.get("model.clearance_class")
+    line = (f"bearing: {a.get('model.bearing', '?')}, clearance {a['model.clearance']:.4g} m"
+            + (f" (class {clearance_class})" if clearance_class else ""))
+    if "guard" in ds.coords:
+        line += (f"; guard contacts closed on {a['guard_ball_ball_closed_samples']} samples "
+                 f"(ball against ball), {a['guard_rings_closed_samples']} (the rings' lands)")
+    else:
+        line += "; no guard contacts (model.guard_contacts = false)"
+    return line + f"; integrity checks: {a.get('integrity_violations', 'none')}"
 
 
 def _zoom_main(args) -> int:

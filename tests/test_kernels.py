@@ -75,7 +75,7 @@ def test_contact_rows_match_finite_differences(bearing):
     wN, wT = np.zeros(6), np.zeros(6)
     eps = 1e-8
     for k in range(arr.ct_type.size):
-        g = nb.contact_rows(q, k, arr.ct_type, arr.ct_body, arr.ct_geom, wN, wT)
+        nb.contact_rows(q, k, arr.ct_type, arr.ct_body, arr.ct_geom, wN, wT)
         row = np.zeros(q.size)
         nb.scatter_row(row, wN, arr.ct_body[k, 0], arr.ct_body[k, 1])
         fd = np.zeros(q.size)

@@ -258,30 +258,50 @@ def validate_config(config: Mapping[str, Any]) -> dict:
     if not isinstance(config, Mapping):
         raise ConfigError("<config>: the configuration must be a mapping of sections")
     cfg = copy.deepcopy(dict(config))
+    given = cfg.get("model")
+    explicit = set(given) if isinstance(given, Mapping) else set()  # (before the defaults)
     _fill_defaults(cfg, schema)
-    _booleans_from_integers(cfg, schema)
+    _coerce_scalars(cfg, schema)
     _check_finite(cfg, "")
     validator = jsonschema.Draft7Validator(schema)
     errors = sorted(validator.iter_errors(cfg), key=lambda e: (len(e.absolute_path), str(e.path)))
     if errors:
         raise ConfigError(_format_error(errors[0], schema))
+    _resolve_bearing(cfg, explicit)
     _check_magnitudes(cfg)
     _check_consistency(cfg)
     return cfg
 
 
-def _booleans_from_integers(cfg: dict, schema: Mapping[str, Any]) -> None:
-    """0 and 1 as false and true for the boolean keys of the sections: a run file's netCDF
-    attributes store the booleans of its configuration as integers."""
+def _resolve_bearing(cfg: dict, explicit: set) -> None:
+    """The catalogue entry ``model.bearing`` and ``model.clearance_class`` applied to the
+    ``model`` section (:func:`simcore.model.bearing.resolve_model`); ``explicit``: the model
+    keys the configuration gave."""
+    from ..model.bearing import resolve_model
+
+    try:
+        cfg["model"] = resolve_model(cfg["model"], explicit)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+
+
+def _coerce_scalars(cfg: dict, schema: Mapping[str, Any]) -> None:
+    """0 and 1 as false and true for the boolean keys of the sections (a run file's netCDF
+    attributes store the booleans of its configuration as integers), and a whole number as
+    its text for the keys that take a name only (YAML reads the catalogue name 6012 as a
+    number)."""
     for section, node in schema.get("properties", {}).items():
         values = cfg.get(section)
         if not isinstance(values, dict):
             continue
         for key, sub in node.get("properties", {}).items():
             value = values.get(key)
-            if (sub.get("type") == "boolean" and not isinstance(value, bool)
-                    and isinstance(value, int) and value in (0, 1)):
+            if isinstance(value, bool) or not isinstance(value, int):
+                continue
+            if sub.get("type") == "boolean" and value in (0, 1):
                 values[key] = bool(value)
+            elif sub.get("type") == "string" and "enum" not in sub:
+                values[key] = str(value)
 
 
 def _check_magnitudes(cfg: Mapping[str, Any]) -> None:

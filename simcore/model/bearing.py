@@ -29,6 +29,7 @@ import math
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
+from typing import Any, Iterable, Mapping
 
 import yaml
 
@@ -138,6 +139,106 @@ def clearance_range(bore: float, clearance_class: str) -> tuple[float, float, fl
 def model_clearance(bore: float, clearance_class: str) -> float:
     """The model's clearance g [m] for a class: half the middle of its ISO range."""
     return 0.5 * clearance_range(bore, clearance_class)[2]
+
+
+#: what each model key the catalogue can fix needs of an entry
+_NEEDS = {"ball_radius": ("D_w",), "n_balls": ("Z",), "inner_radius": ("D_pw", "D_w")}
+
+
+def catalogue_values(name: str, explicit: Mapping[str, Any]) -> dict:
+    """The ``model`` keys that the catalogue entry ``name`` fixes and ``explicit`` does not
+    give (SI units): the mapping of :func:`model_geometry`, with the explicit values standing
+    in for what the entry lacks.
+
+    Parameters
+    ----------
+    name : str
+        Catalogue entry (``model.bearing``).
+    explicit : mapping
+        The model values given explicitly (they win over the entry's).
+
+    Returns
+    -------
+    dict
+        Values for the keys of ``model_geometry`` not in ``explicit``: the radii and the ball
+        count from D_w, D_pw, Z; the ball's mass and inertia as the entry gives them, else a
+        steel sphere of the ball's diameter (the explicit ``ball_radius`` when given); the
+        race masses and inertias where the entry gives them.
+
+    Raises
+    ------
+    ValueError
+        One line naming ``model.bearing``, the entry's missing value and the keys that can
+        stand in for it.
+    """
+    entry = bearing(name)
+    values: dict[str, Any] = {}
+    for key, needs in _NEEDS.items():
+        if key in explicit:
+            continue
+        missing = [n for n in needs if entry.get(n) is None
+                   and not (n == "D_w" and "ball_radius" in explicit)]
+        if missing:
+            raise ValueError(
+                f"model.bearing: {name!r} has no {missing[0]} ({entry['sources'][missing[0]]}); "
+                f"allowed: an entry with it, or model.{key} given explicitly")
+    d_w = (entry["D_w"] * 1e-3 if entry.get("D_w") is not None
+           else 2.0 * float(explicit["ball_radius"]))
+    if "ball_radius" not in explicit:
+        values["ball_radius"] = 0.5 * d_w
+    if "inner_radius" not in explicit:
+        values["inner_radius"] = 0.5 * (entry["D_pw"] * 1e-3 - d_w)
+    if "n_balls" not in explicit:
+        values["n_balls"] = int(entry["Z"])
+    mass = explicit.get("ball_mass", entry.get("ball_mass"))
+    if mass is None:
+        mass = STEEL_DENSITY * math.pi * d_w**3 / 6.0
+    if "ball_mass" not in explicit:
+        values["ball_mass"] = mass
+    if "ball_inertia" not in explicit:
+        inertia = entry.get("ball_inertia")
+        values["ball_inertia"] = mass * d_w**2 / 10.0 if inertia is None else inertia
+    for key in MASS_KEYS[2:]:
+        if key not in explicit and entry.get(key) is not None:
+            values[key] = entry[key]
+    return values
+
+
+def resolve_model(model: Mapping[str, Any], explicit: Iterable[str]) -> dict:
+    """A ``model`` section with its bearing resolved: the catalogue entry ``model.bearing``
+    fixes the radii, ball count and masses not in ``explicit``, and ``model.clearance_class``
+    (when not None) the clearance (half the middle of the class's ISO 5753-1 range for the
+    entry's bore), whatever ``model.clearance`` says.
+
+    This is what :func:`simcore.config.validate_config` applies, the keys of the ``model``
+    section it was given being ``explicit``; a study that sweeps ``model.bearing`` or
+    ``model.clearance_class`` resolves each grid point with it (or validates each point's
+    configuration with only the keys the user gave).
+
+    Parameters
+    ----------
+    model : mapping
+        A complete ``model`` section (defaults filled), with ``bearing`` and
+        ``clearance_class``.
+    explicit : iterable of str
+        The keys of ``model`` the user gave.
+
+    Returns
+    -------
+    dict
+        A new ``model`` section.
+
+    Raises
+    ------
+    ValueError
+        One line naming ``model.bearing`` or ``model.clearance_class``.
+    """
+    explicit = set(explicit)
+    out = dict(model)
+    out.update(catalogue_values(out["bearing"], {k: out[k] for k in explicit if k in out}))
+    if out.get("clearance_class") is not None:
+        out["clearance"] = model_clearance(bearing(out["bearing"])["d"], out["clearance_class"])
+    return out
 
 
 # ------------------------------------------------------------------------------------------
