@@ -13,6 +13,7 @@ import yaml
 
 import simcore
 from simcore.config import ConfigError, load_config, load_schema
+from simcore.model import bearing as bearing_module
 from simcore.model.bearing import BearingGeometry, resolve_model
 from simcore.model.mechanism import crank_slider
 
@@ -43,30 +44,42 @@ def test_clearance_class_is_half_the_middle_of_its_iso_range(clearance_class):
     assert cfg["model"]["clearance"] == pytest.approx(0.5 * 0.5 * (lo + hi) * 1e-6, rel=1e-12)
 
 
-def test_a_class_missing_from_the_table_and_an_unknown_entry_are_refused():
-    with pytest.raises(ConfigError, match=r"^model\.clearance_class: C5 is not available"):
-        load_config(overrides=["model.clearance_class=C5"])  # the table's cell is left out
+def test_unknown_classes_and_entries_and_an_entry_without_its_balls_are_refused(monkeypatch):
     with pytest.raises(ConfigError, match=r"^model\.clearance_class: 'C7' is not allowed"):
         load_config(overrides=["model.clearance_class=C7"])
     with pytest.raises(ConfigError, match=r"^model\.bearing: 'x' is not allowed; allowed: "):
         load_config(overrides=["model.bearing=x"])
-    with pytest.raises(ConfigError, match=r"^model\.bearing: '6205' has no D_w"):
-        load_config(overrides=["model.bearing=6205"])  # YAML's number 6205 names the entry
+    entries = dict(bearing_module.catalogue())
+    entries["9999"] = dict(entries["6205"], D_w=None, Z=None,
+                           sources=dict(entries["6205"]["sources"], D_w="none", Z="none"))
+    monkeypatch.setattr(bearing_module, "catalogue", lambda: entries)
+    with pytest.raises(ConfigError, match=r"^model\.bearing: '9999' has no D_w \(none\); "
+                                          r"allowed: an entry with it, or model\.ball_radius"):
+        load_config(overrides=["model.bearing=9999"])  # YAML's number 9999 names the entry
+    cfg = load_config(overrides=["model.bearing=9999", "model.ball_radius=0.004",
+                                 "model.n_balls=9"])["model"]
+    assert cfg["inner_radius"] == pytest.approx(0.5 * entries["6205"]["D_pw"] * 1e-3 - 0.004)
 
 
-def test_explicit_values_win_and_stand_in_for_what_an_entry_lacks():
-    cfg = load_config(overrides=["model.bearing=6205", "model.ball_radius=0.004",
-                                 "model.n_balls=9", "model.clearance_class=CN"])["model"]
-    d_w = 0.008
-    assert cfg["ball_radius"] == 0.004 and cfg["n_balls"] == 9
-    assert cfg["inner_radius"] == pytest.approx(0.5 * (38.5e-3 - d_w))  # the entry's D_pw
-    mass = 7850.0 * math.pi * d_w**3 / 6.0  # a steel ball of the explicit diameter
+def test_an_entry_and_its_class_and_explicit_values_winning():
+    entry = bearing_module.catalogue()["6205"]
+    cfg = load_config(overrides=["model.bearing=6205", "model.clearance_class=CN"])["model"]
+    d_w, d_pw = entry["D_w"] * 1e-3, entry["D_pw"] * 1e-3
+    assert cfg["ball_radius"] == 0.5 * d_w and cfg["n_balls"] == entry["Z"]
+    assert cfg["inner_radius"] == pytest.approx(0.5 * (d_pw - d_w), rel=1e-14)
+    mass = 7850.0 * math.pi * d_w**3 / 6.0  # a steel ball
     assert cfg["ball_mass"] == pytest.approx(mass) and cfg["ball_inertia"] == pytest.approx(
         mass * d_w**2 / 10.0)
-    lo, hi = _row(25.0)["CN"]
+    lo, hi = _row(entry["d"])["CN"]
     assert cfg["clearance"] == pytest.approx(0.25 * (lo + hi) * 1e-6)
-    # the paper's masses stay where the entry gives none
+    # the paper's race masses stay where the entry gives none
     assert cfg["inner_mass"] == 8e-3 and cfg["outer_inertia"] == 6.523e-6
+    # an explicit ball: on the entry's pitch circle, a steel ball of its own size
+    mine = load_config(overrides=["model.bearing=6205", "model.ball_radius=0.004",
+                                  "model.n_balls=10"])["model"]
+    assert mine["n_balls"] == 10 and mine["ball_radius"] == 0.004
+    assert mine["inner_radius"] == pytest.approx(0.5 * d_pw - 0.004, rel=1e-14)
+    assert mine["ball_mass"] == pytest.approx(7850.0 * math.pi * 0.008**3 / 6.0)
 
 
 def test_resolve_model_is_what_a_study_applies_per_grid_point():
@@ -78,15 +91,17 @@ def test_resolve_model_is_what_a_study_applies_per_grid_point():
     assert point["clearance"] == base["clearance"]  # the input is not changed
 
 
-def test_another_catalogue_bearing_runs_the_papers_case():
-    cfg = load_config(overrides=["model.bearing=6205", "model.ball_radius=0.004",
-                                 "model.n_balls=9", "model.clearance_class=C3",
+@pytest.mark.parametrize("name", ["6012", "6205"])
+def test_catalogue_bearings_run_the_papers_case(name):
+    cfg = load_config(overrides=[f"model.bearing={name}", "model.clearance_class=C3",
                                  "solver.t_end=0.01"])
     ds = simcore.run(cfg)
+    entry = bearing_module.catalogue()[name]
     assert int(ds["converged"].min()) == 1 and ds.attrs["integrity_violations"] == "none"
-    assert ds.attrs["model.bearing"] == "6205" and ds.sizes["contact"] == 18
+    assert ds.attrs["model.bearing"] == name and ds.sizes["contact"] == 2 * entry["Z"]
     assert ds.attrs["outer_radius"] == pytest.approx(
-        cfg["model"]["inner_radius"] + 0.008 + cfg["model"]["clearance"], rel=1e-12)
+        cfg["model"]["inner_radius"] + entry["D_w"] * 1e-3 + cfg["model"]["clearance"],
+        rel=1e-12)
 
 
 def test_bearing_geometry_is_the_one_the_model_is_built_with():

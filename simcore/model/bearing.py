@@ -147,8 +147,10 @@ _NEEDS = {"ball_radius": ("D_w",), "n_balls": ("Z",), "inner_radius": ("D_pw", "
 
 def catalogue_values(name: str, explicit: Mapping[str, Any]) -> dict:
     """The ``model`` keys that the catalogue entry ``name`` fixes and ``explicit`` does not
-    give (SI units): the mapping of :func:`model_geometry`, with the explicit values standing
-    in for what the entry lacks.
+    give (SI units): the mapping of :func:`model_geometry`, the explicit values entering it
+    where they stand for the entry's (an explicit ball radius: the inner race radius
+    D_pw / 2 - r_B puts the ball's centre on the entry's pitch circle, and a steel ball's mass
+    follows from it) and standing in for what the entry lacks.
 
     Parameters
     ----------
@@ -182,8 +184,9 @@ def catalogue_values(name: str, explicit: Mapping[str, Any]) -> dict:
             raise ValueError(
                 f"model.bearing: {name!r} has no {missing[0]} ({entry['sources'][missing[0]]}); "
                 f"allowed: an entry with it, or model.{key} given explicitly")
-    d_w = (entry["D_w"] * 1e-3 if entry.get("D_w") is not None
-           else 2.0 * float(explicit["ball_radius"]))
+    # the ball the model gets: an explicit radius wins over the entry's D_w wherever it enters
+    d_w = (2.0 * float(explicit["ball_radius"]) if "ball_radius" in explicit
+           else entry["D_w"] * 1e-3)
     if "ball_radius" not in explicit:
         values["ball_radius"] = 0.5 * d_w
     if "inner_radius" not in explicit:
