@@ -1,7 +1,7 @@
 """Random configurations: does the bearing stay whole, and is every violation flagged?
 
     nice python benchmarks/fuzz.py [--runs 300] [--compliant 40] [--seed 2611] [--t-end 0.05]
-                                   [--no-guards] [--json FILE]
+                                   [--no-guards] [--timeout 300] [--json FILE]
 
 Each configuration draws clearance 1e-6..2e-3 m, mu 0..0.5, omega0 1..400 rad/s, e_N and e_T
 0..1, 3..22 balls, cage stiffness 1e3..1e7 N/m, cage damping 0 (one in four) or 1..1e4 N s/m,
@@ -22,18 +22,22 @@ recomputed here from the stored arrays, independently of :mod:`simcore.model.int
 - indentation (compliant): the deepest contact, against ``solver.max_indentation`` r_B;
 - finite: every stored number finite.
 
+Each run is a process of its own (``--one``), stopped after ``--timeout`` seconds: a run that
+takes longer is counted as such, with its configuration.
+
 Counted: refused before the run (one line), stopped with an error (a non-finite state or a
-singular matrix, one line), crashes (any other exception: must be 0), runs with a NaN (must be
-0), runs where a row violates an invariant and is not flagged in ``converged`` (must be 0),
-runs with flagged rows and by which check or cause, and runs where the guard contacts closed.
-The last line reads ``unflagged: <runs> crashes: <runs> nan: <runs>`` (the slow test checks
-it).
+singular matrix, one line), crashes (any other exception, or a process that died: must be 0),
+runs over the time limit, runs with a NaN (must be 0), runs where a row violates an invariant
+and is not flagged in ``converged`` (must be 0), runs with flagged rows and by which check or
+cause, and runs where the guard contacts closed. The last line reads
+``unflagged: <runs> crashes: <runs> nan: <runs>`` (the slow test checks it).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import subprocess
 import sys
 import time
 import traceback
@@ -149,7 +153,7 @@ def run_one(overrides: list[str]) -> dict:
             causes["energy audit"] += 1
         elif "did not converge" in text:
             causes["not converged"] += 1
-    return dict(record, outcome="ran", nan=nan, flagged_rows=int(flagged.sum()),
+    return dict(record, outcome="ran", nan=bool(nan), flagged_rows=int(flagged.sum()),
                 rows=int(flagged.size), broken={k: int(v.sum()) for k, v in broken.items()},
                 unflagged=unflagged, causes=dict(causes),
                 integrity=ds.attrs.get("integrity_violations", "none"),
@@ -171,7 +175,8 @@ def summary(records: list[dict]) -> list[str]:
         lines.append(
             f"{kind:9s} runs {len(rs):4d}: refused {sum(r['outcome'] == 'refused' for r in rs)}, "
             f"stopped with an error {sum(r['outcome'] == 'error' for r in rs)}, crashes "
-            f"{sum(r['outcome'] == 'crash' for r in rs)}, ran {len(ran)}; NaN "
+            f"{sum(r['outcome'] == 'crash' for r in rs)}, over the time limit "
+            f"{sum(r['outcome'] == 'timeout' for r in rs)}, ran {len(ran)}; NaN "
             f"{sum(r['nan'] for r in ran)}; runs with flagged rows "
             f"{sum(r['flagged_rows'] > 0 for r in ran)} (by cause, runs: {dict(causes)}); runs "
             f"breaking an invariant {sum(any(r['broken'].values()) for r in ran)}, of them "
@@ -180,14 +185,33 @@ def summary(records: list[dict]) -> list[str]:
             f"{sum(r['guard_rings'] > 0 for r in ran)}")
     refused = Counter(r["why"] for r in records if r["outcome"] == "refused")
     lines.append(f"refused by key: {dict(refused)}")
+    times = [r["wall_time_s"] for r in records if r["outcome"] == "ran"]
+    if times:
+        lines.append(f"integration time of a run: median {np.median(times):.2f} s, largest "
+                     f"{max(times):.1f} s")
     for r in records:
-        if r["outcome"] in ("error", "crash"):
+        if r["outcome"] in ("error", "crash", "timeout"):
             lines.append(f"{r['outcome']}: {' '.join(r['overrides'])}: {r['why']}")
     ran = [r for r in records if r["outcome"] == "ran"]
     lines.append(f"unflagged: {sum(any(r['unflagged'].values()) for r in ran)} crashes: "
                  f"{sum(r['outcome'] == 'crash' for r in records)} nan: "
                  f"{sum(r['nan'] for r in ran)}")
     return lines
+
+
+def run_in_process(overrides: list[str], timeout: float) -> dict:
+    """:func:`run_one` in a process of its own, stopped after ``timeout`` seconds."""
+    cmd = [sys.executable, __file__, "--one", json.dumps(overrides)]
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return {"overrides": overrides, "outcome": "timeout",
+                "why": f"still running after {timeout:g} s"}
+    lines = proc.stdout.strip().splitlines()
+    if proc.returncode != 0 or not lines:
+        return {"overrides": overrides, "outcome": "crash",
+                "why": f"exit {proc.returncode}: {proc.stderr[-400:]}"}
+    return json.loads(lines[-1])
 
 
 def main(argv=None) -> int:
@@ -197,8 +221,14 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=2611)
     p.add_argument("--t-end", type=float, default=0.05, help="duration of each run [s]")
     p.add_argument("--no-guards", action="store_true", help="model.guard_contacts = false")
+    p.add_argument("--timeout", type=float, default=300.0,
+                   help="seconds after which a run's process is stopped")
     p.add_argument("--json", default=None, help="write every run's record to this file")
+    p.add_argument("--one", default=None, help=argparse.SUPPRESS)  # a child: one run
     args = p.parse_args(argv)
+    if args.one is not None:
+        print(json.dumps(run_one(json.loads(args.one)), default=str))
+        return 0
     rng = np.random.default_rng(args.seed)
     compliant = set(rng.choice(args.runs, size=min(args.compliant, args.runs), replace=False))
     records = []
@@ -207,7 +237,7 @@ def main(argv=None) -> int:
         overrides = draw(rng, args.t_end, i in compliant)
         if args.no_guards:
             overrides.append("model.guard_contacts=false")
-        records.append(run_one(overrides))
+        records.append(run_in_process(overrides, args.timeout))
         print(f"{i + 1}/{args.runs} {records[-1]['outcome']} "
               f"{records[-1].get('integrity', '')} {records[-1].get('causes', '')}",
               file=sys.stderr, flush=True)

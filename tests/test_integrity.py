@@ -168,3 +168,20 @@ def test_the_paper_case_is_unchanged_by_the_guard_contacts():
     assert with_guards.attrs["guard_ball_ball_closed_samples"] == 0
     for name in without.data_vars:
         np.testing.assert_array_equal(with_guards[name].values, without[name].values, name)
+
+
+@pytest.mark.slow
+def test_fuzz_finds_no_unflagged_violation_crash_or_nan():
+    """A smaller run of benchmarks/fuzz.py (40 configurations, 6 compliant, 0.02 s each; the
+    full 300 are in docs/reliability.md)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "fuzz.py"
+    proc = subprocess.run([sys.executable, str(script), "--runs", "40", "--compliant", "6",
+                           "--t-end", "0.02", "--seed", "7"], capture_output=True, text=True,
+                          timeout=1800)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    last = proc.stdout.strip().splitlines()[-1]
+    assert last == "unflagged: 0 crashes: 0 nan: 0", proc.stdout
