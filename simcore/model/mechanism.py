@@ -347,8 +347,8 @@ def pinched_balls(n_balls=3, load=50.0, inner_radius=0.033745, ball_radius=0.005
     """
     gravity = 9.81
     m = Model(gravity=gravity)
-    rC = inner_radius + 2.0 * ball_radius
-    pitch = inner_radius + ball_radius
+    geometry = BearingGeometry(inner_radius, ball_radius, 0.0, n_balls)  # zero clearance
+    rC, pitch = geometry.outer_radius, geometry.pitch_radius
     outer = m.add_body("outer", outer_mass + load / gravity, 1e-4, q0=(0.0, 0.0, 0.0))
     m.add_prismatic(outer, (0.0, 0.0), origin=(0.0, 0.0), angle=np.pi / 2, phi=0.0)
     spread = np.radians(20.0)
