@@ -144,16 +144,24 @@ class BearingChecks:
         q = traj.q[row0:row1]
         idx = 3 * np.asarray(self.balls)
         x, y = q[:, idx], q[:, idx + 1]
-        i, j = np.triu_indices(len(self.balls), 1)
-        dist = np.hypot(x[:, j] - x[:, i], y[:, j] - y[:, i])
-        closest = dist.min(axis=1)
-        pair = dist.argmin(axis=1)
+        n = idx.size
+        # every pair, as the balls' distances to the ball s places further round the ring
+        closest2 = np.full(q.shape[0], np.inf)
+        for shift in range(1, n // 2 + 1):
+            d2 = (x - np.roll(x, -shift, axis=1)) ** 2 + (y - np.roll(y, -shift, axis=1)) ** 2
+            np.minimum(closest2, d2.min(axis=1), out=closest2)
         bound = (2.0 * self.ball_radius - self.deflection(settings)
                  - settings.position_tolerance)
-        return _first("ball spacing", ~(closest >= bound), row0, lambda r: (
-            f"the centres of balls {i[pair[r]]} and {j[pair[r]]} are {closest[r]:.4g} m apart; "
-            f"allowed: >= {bound:.4g} m (a ball diameter {2.0 * self.ball_radius:.4g} m minus "
-            f"{self.deflection(settings):.3g} m of Hertz deflection)"))
+
+        def detail(r):
+            i, j = np.triu_indices(n, 1)
+            dist = np.hypot(x[r, j] - x[r, i], y[r, j] - y[r, i])
+            k = int(dist.argmin())
+            return (f"the centres of balls {i[k]} and {j[k]} are {dist[k]:.4g} m apart; "
+                    f"allowed: >= {bound:.4g} m (a ball diameter {2.0 * self.ball_radius:.4g} m "
+                    f"minus {self.deflection(settings):.3g} m of Hertz deflection)")
+
+        return _first("ball spacing", ~(np.sqrt(closest2) >= bound), row0, detail)
 
     def slider_reach(self, traj, row0: int, row1: int, settings: CheckSettings):
         """The slider reach check on rows ``row0 .. row1 - 1``."""
