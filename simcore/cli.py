@@ -56,7 +56,7 @@ def summary_lines(ds) -> list[str]:
         lines.append(f"  {stage:<10}                 {it[:, j].max():4d}  {it[:, j].mean():4.2f}"
                      f"   ({paper_max[stage]} / {paper_mean[stage]})")
     lines.append(f"unconverged steps: {int((ds['converged'].values[1:] == 0).sum())}"
-                 " (a step creating energy counts as unconverged)")
+                 " (a step creating energy or breaking an integrity check counts as unconverged)")
     if "energy_max_gain_J" in ds.attrs:
         lines.append(f"energy audit: largest gain of a step {ds.attrs['energy_max_gain_J']:.3g} J "
                      f"({ds.attrs['energy_max_gain_relative']:.2g} of the energy scale; "
