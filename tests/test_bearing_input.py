@@ -120,3 +120,18 @@ def test_bearing_geometry_is_the_one_the_model_is_built_with():
     assert geometry.max_balls() == max(fits) == 22
     assert BearingGeometry(r_a, r_b, g, 22).balls_fit()
     assert not BearingGeometry(r_a, r_b, g, 23).balls_fit()
+
+
+def test_one_hertz_stiffness_for_the_model_and_the_analysis():
+    from analysis import hertz_stiffness as analysis_stiffness
+    from simcore.model.hertz import hertz_stiffness
+
+    r_a, r_b, r_c, E, nu = 0.033745, 0.0055, 0.045145, 2.1e9, 0.3
+    assert analysis_stiffness(r_b, r_a, E, nu, E, nu) == hertz_stiffness("outside", r_a, r_b, E,
+                                                                         nu)
+    assert analysis_stiffness(r_b, r_c, E, nu, E, nu, concave=True) == hertz_stiffness(
+        "inside", r_c, r_b, E, nu)
+    # the closed form, for two materials: K = 4 / (3 (s1 + s2)) sqrt(R), s = (1 - nu^2) / E
+    K = analysis_stiffness(r_b, r_a, 2.1e11, 0.3, 7e10, 0.33)
+    sigma = (1 - 0.3**2) / 2.1e11 + (1 - 0.33**2) / 7e10
+    assert K == pytest.approx(4 / (3 * sigma) * math.sqrt(r_a * r_b / (r_a + r_b)), rel=1e-14)

@@ -6,13 +6,14 @@ delta with F = K delta^(3/2), K = (4/3) E* sqrt(R_eff):
 
 - contact modulus E* = 1 / ((1 - nu_1^2)/E_1 + (1 - nu_2^2)/E_2), E / (2 (1 - nu^2)) for two
   bodies of the same material;
-- effective radius of the model's contact elements (:data:`CONTACT_KINDS`): ``plane``
+- effective radius of the model's contact elements (:data:`ELEMENT_KINDS`): ``plane``
   R_eff = r_b (a sphere on a plane), ``outside`` r_a r_b / (r_a + r_b) (sphere on sphere,
   convex), ``inside`` r_a r_b / (r_a - r_b) (sphere b inside the hollow sphere a, concave).
 
 The Numba kernels receive K per contact in ``ModelArrays.ct_hertz``
 (:meth:`simcore.model.Model.arrays`); ``analysis.hertz_stiffness`` keeps its own signature
-(two materials, a ``concave`` flag) and calls :func:`stiffness` here.
+(two materials, a ``concave`` flag) and calls :func:`contact_modulus` and :func:`stiffness`
+here: for one material it gives the model's K to the last digit.
 """
 
 from __future__ import annotations
@@ -44,10 +45,10 @@ def contact_modulus(youngs_modulus: float, poisson_ratio: float,
     float
         E* [Pa].
     """
-    if youngs_modulus_2 is None and poisson_ratio_2 is None:
-        return youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
     e2 = youngs_modulus if youngs_modulus_2 is None else youngs_modulus_2
     nu2 = poisson_ratio if poisson_ratio_2 is None else poisson_ratio_2
+    if e2 == youngs_modulus and nu2 == poisson_ratio:  # one material: the model's own digits
+        return youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
     return 1.0 / ((1.0 - poisson_ratio**2) / youngs_modulus + (1.0 - nu2**2) / e2)
 
 
