@@ -236,11 +236,15 @@ def resolve_model(model: Mapping[str, Any], explicit: Iterable[str]) -> dict:
     ValueError
         One line naming ``model.bearing`` or ``model.clearance_class``.
     """
+    from ..config.parameters import tidy
+
     explicit = set(explicit)
     out = dict(model)
     out.update(catalogue_values(out["bearing"], {k: out[k] for k in explicit if k in out}))
     if out.get("clearance_class") is not None:
-        out["clearance"] = model_clearance(bearing(out["bearing"])["d"], out["clearance_class"])
+        # (to 10 digits, as a study's grid point has it: simcore.study.plan.resolve_determined)
+        out["clearance"] = tidy(model_clearance(bearing(out["bearing"])["d"],
+                                                out["clearance_class"]))
     return out
 
 
