@@ -39,7 +39,7 @@ def test_registry_holds_every_numeric_or_enumerated_key_of_the_three_sections():
     params = registry()
     for section in ("model", "solver", "analysis"):
         for key, node in schema["properties"][section]["properties"].items():
-            sweepable = node.get("type") in ("number", "integer") or "enum" in node \
+            sweepable = node.get("type") in ("number", "integer", "boolean") or "enum" in node \
                 or node.get("type") == ["number", "null"] or "oneOf" in node
             assert (f"{section}.{key}" in params) == sweepable, (section, key)
     assert "analysis.force_levels" not in params  # a list is not an axis
