@@ -128,11 +128,10 @@ def resolve_determined(model: dict) -> None:
     model_clearance`)."""
     if model.get("clearance_class") is None:
         return
-    from ..model.bearing import bearing, model_clearance
+    from ..model.bearing import resolve_model
 
-    try:
-        bore = bearing(model.get("bearing") or "6012-paper")["d"]
-        model["clearance"] = tidy(model_clearance(bore, model["clearance_class"]))
+    try:  # (every key of the section is given: only the class's clearance is resolved)
+        model["clearance"] = resolve_model(model, model.keys())["clearance"]
     except (KeyError, ValueError) as exc:
         raise ConfigError(str(exc).strip("'\"")) from None
 
