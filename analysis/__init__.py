@@ -15,7 +15,14 @@ top_forces(impacts_ds, n=3, race="outer")
 series_stiffness(K1, K2) -> K of two Hertz contacts in series [N/m^1.5]
 contact_stress(F, ball_radius, race_radius, race, E, nu, conformity=None) -> a, b, delta, p_max
 analysis.dt_check.dt_check(run_ds, t_check=None, tol=0.1, n=6) (rerun at dt/2 and compare)
-analysis.figures.plot_run / plot_study (imported lazily: matplotlib is only loaded there)
+analysis.zoom.add_zoom_forces(run_ds, impacts_ds, zoom_top=5, ...) (compliant zooms, flag
+    method_disagrees)
+analysis.episodes.contact_episodes(run_ds) (a compliant run's table)
+analysis.summary.point_numbers(run_ds, impacts_ds, settings) / summarize(runs, tables, ...)
+    (the study's summary over its axes and both contact models)
+analysis.run_life.compliant_life(run_ds, settle_time, settings) (L10, L10r of a compliant run)
+analysis.figures.plot_run / plot_study / plot_life (imported lazily: matplotlib is only loaded
+    there)
 """
 
 from .contact_stress import contact_stress, elliptical_contact, hertz_circular

@@ -5,7 +5,7 @@
     python -m analysis top-forces RUN.nc [-n 3]
     python -m analysis dt-check RUN.nc [--t-check T] [--tol 0.1] [-n 6] [--out IMPACTS.nc]
     python -m analysis figures RUN.nc --outdir DIR [--impacts IMPACTS.nc] [--prefix NAME]
-    python -m analysis study-figures SUMMARY.nc [--outdir DIR]
+    python -m analysis study-figures SUMMARY.nc [--outdir DIR] [--axes X Y ...] [--fixed AXIS=V ...]
 """
 
 from __future__ import annotations
@@ -77,6 +77,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("summary")
     p.add_argument("--outdir", default=None,
                    help="output folder (default: figures/ next to SUMMARY.nc)")
+    p.add_argument("--axes", nargs="+", default=None, metavar="AXIS",
+                   help="x, y (and panel columns, rows) of the heat maps (default: the first "
+                        "swept axes)")
+    p.add_argument("--fixed", nargs="+", default=(), metavar="AXIS=VALUE",
+                   help="hold other swept axes at a grid value (default: the middle value)")
     return ap
 
 
@@ -183,6 +188,36 @@ def check_args(args) -> str | None:
     return None
 
 
+def _study_figures(args) -> int:
+    """``study-figures``: the study's heat maps and its table from a summary file."""
+    from pathlib import Path
+
+    import xarray as xr
+
+    from .figures import plot_study
+    from .summary import summary_table
+
+    outdir = Path(args.outdir or Path(args.summary).parent / "figures")
+    fixed = {}
+    for item in args.fixed:
+        axis, _, value = item.partition("=")
+        try:
+            fixed[axis] = float(value)
+        except ValueError:
+            print(f"error: --fixed: {item!r} is not allowed; allowed: AXIS=NUMBER",
+                  file=sys.stderr)
+            return 2
+    with xr.open_dataset(args.summary) as ds:
+        summary = ds.load()
+    for p in plot_study(summary, outdir, figure_axes=args.axes, figure_fixed=fixed):
+        print(p)
+    table = summary_table(summary)
+    table.to_csv(outdir / "summary_table.csv", index=False)
+    print(outdir / "summary_table.csv")
+    print(table.to_string(index=False))
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point; returns the exit status."""
     args = build_parser().parse_args(argv)
@@ -194,21 +229,7 @@ def main(argv=None) -> int:
 
     try:
         if args.cmd == "study-figures":
-            from pathlib import Path
-
-            from .figures import plot_study
-            from .summary import summary_table
-
-            outdir = Path(args.outdir or Path(args.summary).parent / "figures")
-            with xr.open_dataset(args.summary) as ds:
-                summary = ds.load()
-            for p in plot_study(summary, outdir):
-                print(p)
-            table = summary_table(summary)
-            table.to_csv(outdir / "summary_table.csv", index=False)
-            print(outdir / "summary_table.csv")
-            print(table.to_string(index=False))
-            return 0
+            return _study_figures(args)
         with xr.open_dataset(args.run) as ds:
             run_ds = ds.load()
         if args.cmd == "impacts":

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import matplotlib
@@ -23,7 +24,11 @@ import xarray as xr  # noqa: E402
 from .filtering import impact_masks, split_impulses, zero_threshold  # noqa: E402
 from .impacts import STUDY_PARAMETERS  # noqa: E402
 
-__all__ = ["plot_run", "plot_reference", "plot_study", "run_label", "run_prefix"]
+__all__ = ["plot_run", "plot_reference", "plot_study", "plot_life", "run_label", "run_prefix",
+           "figure_layout",
+           "FigureLayout", "grid_axes", "MAX_PANELS", "MAX_CELLS"]
+
+RACE_NAMES = ("inner", "outer")
 
 _PARAM = {
     # name: (label, unit shown, factor from SI)
@@ -589,32 +594,226 @@ def plot_reference(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, outdir, se
 
 # --- the study: every grid point --------------------------------------------------------------
 
+#: Largest page a study figure draws: panels (columns x rows) and cells along x or y. A larger
+#: grid gets a page that says so (choose study.figure_axes, or fix more axes).
+MAX_PANELS = 36
+MAX_CELLS = 30
+_MODEL_NAMES = ("nonsmooth", "compliant")
+_MODEL_TITLES = {0: "the paper's method (nonsmooth)", 1: "compliant model (reference)"}
+
+
+@dataclass
+class StudyQuantity:
+    """One quantity of the study figures: a DataArray over the grid's axes."""
+
+    stem: str          # file name stem
+    data: xr.DataArray
+    label: str         # colour-bar label
+    how: str           # reduction over the other axes in the pairs figure: max, mean, median
+    kind: str = "plain"  # plain, or ratio (a diverging scale around 1)
+
+
+@dataclass
+class FigureLayout:
+    """Which axis of the grid goes where in a study figure.
+
+    Attributes
+    ----------
+    x, y : str or None
+        Axes of each heat map (y None: one row of cells).
+    col, row : str or None
+        Axes of the panel columns and rows.
+    fixed : dict
+        Other swept axes, each held at a value {axis: value}.
+    held : dict
+        Axes of a single value {axis: value}.
+    """
+
+    x: str | None
+    y: str | None = None
+    col: str | None = None
+    row: str | None = None
+    fixed: dict = field(default_factory=dict)
+    held: dict = field(default_factory=dict)
+
+    @property
+    def axes(self) -> list[str]:
+        return [a for a in (self.x, self.y, self.col, self.row) if a]
+
+
+def grid_axes(summary_ds: xr.Dataset) -> list[str]:
+    """The summary's grid axes (swept parameters), in its order."""
+    from .summary import _ORDER
+
+    return [d for d in summary_ds["failed"].dims if d not in _ORDER] if "failed" in summary_ds \
+        else [d for d in summary_ds.dims if d not in _ORDER]
+
+
+def _axis_value(summary_ds, axis, value) -> float:
+    values = np.asarray(summary_ds[axis].values, dtype=float)
+    hit = np.flatnonzero(np.isclose(values, float(value), rtol=1e-9, atol=0.0))
+    if not hit.size:
+        allowed = ", ".join(f"{v:g}" for v in values)
+        raise ValueError(f"study.figure_fixed.{axis}: {value!r} is not allowed; allowed: one of "
+                         f"the grid's values {allowed}")
+    return float(values[hit[0]])
+
+
+def figure_layout(summary_ds: xr.Dataset, figure_axes=None, figure_fixed=None,
+                  reference=None) -> FigureLayout:
+    """The layout of the study figures (``study.figure_axes``, ``study.figure_fixed``).
+
+    Parameters
+    ----------
+    summary_ds : xarray.Dataset
+        The study summary.
+    figure_axes : sequence of str, optional
+        x, y, panel columns, panel rows (2 to 4 swept axes). Default: the first four swept
+        axes of the summary, in its order.
+    figure_fixed : dict, optional
+        {axis: value} for swept axes not in ``figure_axes``: held at that grid value.
+    reference : dict, optional
+        {axis: value}: a swept axis neither drawn nor in ``figure_fixed`` is held at its grid
+        value nearest this one (the study's reference point); without it, at its middle value.
+
+    Returns
+    -------
+    FigureLayout
+
+    Raises
+    ------
+    ValueError
+        One line naming the setting: an axis that is not a grid axis, named twice, or held at a
+        value the grid does not have.
+    """
+    grid = grid_axes(summary_ds)
+    swept = [a for a in grid if summary_ds.sizes[a] > 1]
+    held = {a: float(summary_ds[a].values[0]) for a in grid if a not in swept}
+    fixed_in = dict(figure_fixed or {})
+    for name in list(figure_axes or []) + list(fixed_in):
+        if name not in grid:
+            raise ValueError(f"study.figure_axes: {name!r} is not allowed; allowed: the swept "
+                             f"axes {', '.join(grid)}")
+    if figure_axes:
+        axes = list(figure_axes)
+        if len(set(axes)) != len(axes) or not 1 <= len(axes) <= 4 or set(axes) & set(fixed_in):
+            raise ValueError(f"study.figure_axes: {axes!r} is not allowed; allowed: 1 to 4 "
+                             "different swept axes, none of them in study.figure_fixed")
+        axes = [a for a in axes if a in swept]
+    else:
+        axes = [a for a in swept if a not in fixed_in][:4]
+    fixed = {}
+    for a in swept:
+        if a in axes:
+            continue
+        if a in fixed_in:
+            fixed[a] = _axis_value(summary_ds, a, fixed_in[a])
+        else:
+            values = np.asarray(summary_ds[a].values, dtype=float)
+            if reference and a in reference:
+                fixed[a] = float(values[np.argmin(np.abs(values - float(reference[a])))])
+            else:
+                fixed[a] = float(values[(values.size - 1) // 2])
+    axes += [None] * (4 - len(axes))
+    return FigureLayout(x=axes[0], y=axes[1], col=axes[2], row=axes[3], fixed=fixed,
+                        held=held)
+
+
+def _axis_label(ds, dim):
+    """(label, unit shown, factor from SI) of a grid axis: known ones in the units a designer
+    reads, others from the summary's attributes."""
+    if dim in _PARAM:
+        return _PARAM[dim]
+    attrs = ds[dim].attrs if dim in ds.coords else {}
+    unit = attrs.get("units", "")
+    return attrs.get("long_name", dim), ("–" if unit in ("", "1") else unit), 1.0
+
+
+def _category(ds, dim, value):
+    """The name of a category axis's code (its ``flag_meanings``), else None."""
+    meanings = ds[dim].attrs.get("flag_meanings") if dim in ds.coords else None
+    if not meanings:
+        return None
+    names = str(meanings).split()
+    code = int(round(float(value)))
+    return names[code] if 0 <= code < len(names) else None
+
+
+def _fmt_axis(ds, dim, value):
+    if dim in _PARAM:
+        return _fmt_param(dim, value)
+    name = _category(ds, dim, value)
+    if name is not None:
+        return f"{dim} = {name}"
+    label, unit, fac = _axis_label(ds, dim)
+    unit_txt = "" if unit in ("", "–") else f" {unit}"
+    return f"{dim} = {value * fac:.4g}{unit_txt}"
+
+
 def _study_quantities(summary_ds):
-    """(file stem, DataArray over the swept dims, colour-bar label, reduction over others)."""
+    """The quantities of the study figures (:class:`StudyQuantity`), for each model where the
+    summary has a ``model`` dimension."""
     out = []
-    races = ("inner", "outer")
-    if "peak_force" in summary_ds:
-        pf = summary_ds["peak_force"]
+    s = summary_ds
+    models = [int(m) for m in s["model"].values] if "model" in s.dims else [None]
+
+    def per_model(da, m):
+        return da if m is None else da.sel(model=m, drop=True)
+
+    def suffix(m):
+        return "" if m is None else f"_{_MODEL_NAMES[m]}"
+
+    def who(m):
+        return "" if m is None else f", {_MODEL_NAMES[m]}"
+
+    for name, what in (("peak_force", "steady peak force"),
+                       ("peak_force_rev_median", "median over revolutions of the peak force")):
+        if name in s:
+            for r in (1, 0):
+                for m in models:
+                    out.append(StudyQuantity(f"{name}_{RACE_NAMES[r]}{suffix(m)}",
+                                             per_model(s[name], m).isel(race=r) / 1e3,
+                                             f"{what}, {RACE_NAMES[r]} race{who(m)} [kN]", "max"))
+    if "method_ratio" in s and bool(s["method_ratio"].notnull().any()):
         for r in (1, 0):
-            out.append((f"peak_force_{races[r]}", pf.isel(race=r) / 1e3,
-                        f"peak force F_max, {races[r]} race [kN]", "max"))
-    if "p_max" in summary_ds and bool(summary_ds["p_max"].notnull().any()):
+            out.append(StudyQuantity(f"method_ratio_{RACE_NAMES[r]}",
+                                     s["method_ratio"].isel(race=r),
+                                     f"nonsmooth / compliant peak force, {RACE_NAMES[r]} race",
+                                     "median", "ratio"))
+    if "static_deflection_ratio" in s and bool(s["static_deflection_ratio"].notnull().any()):
+        out.append(StudyQuantity("static_deflection_ratio", s["static_deflection_ratio"],
+                                 "static deflection of a ball / clearance", "max"))
+    if "p_max" in s and bool(s["p_max"].notnull().any()):
         for r in (1, 0):
-            out.append((f"p_max_{races[r]}", summary_ds["p_max"].isel(race=r) / 1e6,
-                        f"peak contact pressure p_max, {races[r]} race [MPa]", "max"))
-    if "startup_peak_force" in summary_ds:
-        out.append(("startup_peak_force", summary_ds["startup_peak_force"] / 1e3,
-                    "start-up peak force (both races) [kN]", "max"))
-    if "above_per_rev" in summary_ds:
-        for i, level in enumerate(summary_ds["level"].values):
-            da = summary_ds["above_per_rev"].isel(level=i).sum("race", min_count=1)
-            out.append((f"above_{level:g}N_per_rev", da,
-                        f"impacts per revolution with F_max ≥ {_fmt_force(level)} "
-                        "(both races)", "mean"))
-    if "impacts_per_rev" in summary_ds:
-        da = summary_ds["impacts_per_rev"].sum(["race", "kind"], min_count=1)
-        out.append(("impacts_per_rev", da,
-                    "impacts per revolution (relative zero threshold, all kinds)", "mean"))
+            for m in models:
+                da = per_model(s["p_max"], m).isel(race=r) / 1e6
+                if bool(da.notnull().any()):
+                    out.append(StudyQuantity(f"p_max_{RACE_NAMES[r]}{suffix(m)}", da,
+                                             f"peak contact pressure p_max, {RACE_NAMES[r]} "
+                                             f"race{who(m)} [MPa]", "max"))
+    if "startup_peak_force" in s:
+        for m in models:
+            out.append(StudyQuantity(f"startup_peak_force{suffix(m)}",
+                                     per_model(s["startup_peak_force"], m) / 1e3,
+                                     f"start-up peak force (both races){who(m)} [kN]", "max"))
+    if "above_per_rev" in s:
+        for i, level in enumerate(s["level"].values):
+            for m in models:
+                da = per_model(s["above_per_rev"], m).isel(level=i).sum("race", min_count=1)
+                what = "contact episodes" if m == 1 else "impacts"
+                out.append(StudyQuantity(f"above_{level:g}N_per_rev{suffix(m)}", da,
+                                         f"{what} per revolution with force ≥ "
+                                         f"{_fmt_force(level)} (both races){who(m)}", "mean"))
+    for name, what in (("L10h", "ISO 281 rating life L10"),
+                       ("L10rh", "reference rating life L10r (ball loads)")):
+        if name in s and bool(s[name].notnull().any()):
+            out.append(StudyQuantity(name, s[name], f"{what}, compliant model [h]", "min"))
+    if "impacts_per_rev" in s:
+        da = s["impacts_per_rev"].sum(["race", "kind"], min_count=1)
+        if "model" in da.dims:
+            da = da.sel(model=0, drop=True)
+        out.append(StudyQuantity("impacts_per_rev", da, "impacts per revolution (relative zero "
+                                 "threshold, all kinds, nonsmooth)", "mean"))
     return out
 
 
@@ -625,9 +824,10 @@ def _positions(dim, values):
     return values if dim == "clearance" else np.arange(values.size, dtype=float)
 
 
-def _ticks(ax, axis, dim, values):
-    label, unit, fac = _PARAM.get(dim, (dim, "", 1.0))
-    text = [f"{v * fac:.3g}" for v in np.asarray(values, dtype=float)]
+def _ticks(ax, axis, ds, dim):
+    label, unit, fac = _axis_label(ds, dim)
+    values = np.asarray(ds[dim].values, dtype=float)
+    text = [_category(ds, dim, v) or f"{v * fac:.3g}" for v in values]
     (ax.set_xticks if axis == "x" else ax.set_yticks)(_positions(dim, values), text)
     target = ax.xaxis if axis == "x" else ax.yaxis
     target.set_minor_locator(matplotlib.ticker.NullLocator())
@@ -647,11 +847,17 @@ def _edges(dim, values):
     return 10**edges if log else edges
 
 
-def _norm(values):
-    """Colour scale of a heat map: logarithmic for positive values spanning more than a factor
-    of 10 (peak forces), square root for counts with zeros and a long tail, else linear."""
+def _norm(values, kind="plain"):
+    """Colour scale of a heat map: for a ratio, logarithmic and symmetric about 1; otherwise
+    logarithmic for positive values spanning more than a factor of 10 (peak forces), square
+    root for counts with zeros and a long tail, else linear."""
     values = np.asarray(values, dtype=float)
     values = values[np.isfinite(values)]
+    if kind == "ratio":
+        positive = values[values > 0]
+        span = float(np.max(np.abs(np.log(positive)))) if positive.size else 0.0
+        span = max(span, np.log(1.25))
+        return matplotlib.colors.LogNorm(vmin=np.exp(-span), vmax=np.exp(span))
     if not values.size:
         return matplotlib.colors.Normalize(vmin=0.0, vmax=1.0)
     lo, hi = float(values.min()), float(values.max())
@@ -664,8 +870,22 @@ def _norm(values):
     return matplotlib.colors.Normalize(vmin=lo, vmax=hi)
 
 
+def _cmap(kind):
+    return plt.get_cmap("RdBu_r" if kind == "ratio" else "viridis").with_extremes(bad="0.85")
+
+
+#: Width of a character of a figure title (11 pt) and of a colour-bar label (10 pt) [in].
+_TITLE_CHAR = 0.085
+_LABEL_CHAR = 0.075
+
+
+def _title_width(title: str) -> float:
+    """Width a figure title needs [in]."""
+    return _TITLE_CHAR * max(len(line) for line in title.splitlines()) + 0.4
+
+
 def _panel_grid(nrow, ncol, panel_w, panel_h, wgap, hgap, *, left=0.85, right=1.3,
-                bottom=0.65, top=0.95, **subplot_kw):
+                bottom=0.65, top=0.95, min_width=0.0, **subplot_kw):
     """Figure of ``nrow`` x ``ncol`` panels of ``panel_w`` x ``panel_h`` inches, ``wgap`` and
     ``hgap`` inches apart, with margins fixed in inches (``left`` for the tick labels and the
     axis label, ``bottom`` likewise, ``top`` for the titles, ``right`` for the colour bar), and
@@ -676,6 +896,9 @@ def _panel_grid(nrow, ncol, panel_w, panel_h, wgap, hgap, *, left=0.85, right=1.
     the last job of the study; its panels and labels have known sizes, so fixed margins do.
     """
     width = left + ncol * panel_w + (ncol - 1) * wgap + right
+    if width < min_width:  # room for the title: the panels stay centred
+        left, right = left + 0.5 * (min_width - width), right + 0.5 * (min_width - width)
+        width = min_width
     height = bottom + nrow * panel_h + (nrow - 1) * hgap + top
     fig, axes = plt.subplots(nrow, ncol, figsize=(width, height), squeeze=False,
                              gridspec_kw={"left": left / width, "right": 1 - right / width,
@@ -688,9 +911,24 @@ def _panel_grid(nrow, ncol, panel_w, panel_h, wgap, hgap, *, left=0.85, right=1.
     return fig, axes, cax
 
 
-def _colorbar(fig, mesh, cax, label):
-    """Colour bar in ``cax`` with plain-number ticks (1, 2, 5 per decade on a log scale)."""
-    bar = fig.colorbar(mesh, cax=cax, label=label)
+#: Tick values of a ratio's colour bar (those inside its range are shown).
+_RATIO_TICKS = (0.2, 0.25, 1 / 3, 0.5, 2 / 3, 0.8, 1.0, 1.25, 1.5, 2.0, 3.0, 4.0, 5.0)
+
+
+def _colorbar(fig, mesh, cax, label, kind="plain"):
+    """Colour bar in ``cax`` with plain-number ticks (1, 2, 5 per decade on a log scale; a
+    ratio's about 1), its label wrapped to the bar's length."""
+    import textwrap
+
+    span = cax.get_position().height * fig.get_figheight()
+    width = max(20, int(span / _LABEL_CHAR))
+    bar = fig.colorbar(mesh, cax=cax, label="\n".join(textwrap.wrap(label, width)))
+    if kind == "ratio":
+        lo, hi = mesh.norm.vmin, mesh.norm.vmax
+        bar.set_ticks([t for t in _RATIO_TICKS if lo <= t <= hi])
+        bar.ax.yaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+        bar.ax.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:.2g}"))
+        return bar
     if isinstance(mesh.norm, matplotlib.colors.LogNorm):
         bar.ax.yaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
         bar.ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
@@ -725,26 +963,37 @@ def _heat_panel(ax, da, x, y, norm, cmap, failed):
     return mesh
 
 
-def _facet_figure(da, swept, path, label, failed, title):
-    """All grid points: x, y = first two swept dims, columns and rows = the next two."""
-    x = swept[0]
-    y = swept[1] if len(swept) > 1 else None
-    col = swept[2] if len(swept) > 2 else None
-    row = swept[3] if len(swept) > 3 else None
+def _too_large(path, title, message):
+    """A page that says why the figure is not drawn."""
+    fig = plt.figure(figsize=(8, 2.5))
+    fig.text(0.03, 0.6, title, fontsize=10, va="center")
+    fig.text(0.03, 0.3, message, fontsize=10, va="center", color="tab:red", wrap=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def _facet_figure(q: StudyQuantity, layout: FigureLayout, ds, path, failed, title):
+    """Every grid point of the layout's axes: heat maps of x and y, panels by col and row."""
+    da = q.data
+    x, y, col, row = layout.x, layout.y, layout.col, layout.row
     ncol = da.sizes[col] if col else 1
     nrow = da.sizes[row] if row else 1
-    norm = _norm(da.values)
-    cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
-    fig, axes, cax = _panel_grid(nrow, ncol, 3.1, 2.4, 0.15, 0.35, sharex=True, sharey=True)
+    cells = max(da.sizes[x], da.sizes[y] if y else 1)
+    if ncol * nrow > MAX_PANELS or cells > MAX_CELLS:
+        return _too_large(path, title, (
+            f"not drawn: {nrow} x {ncol} panels of {da.sizes[x]} x "
+            f"{da.sizes[y] if y else 1} cells exceed {MAX_PANELS} panels or {MAX_CELLS} cells "
+            "a side; choose study.figure_axes or fix axes with study.figure_fixed"))
+    norm = _norm(da.values, q.kind)
+    cmap = _cmap(q.kind)
+    fig, axes, cax = _panel_grid(nrow, ncol, 3.1, 2.4, 0.15, 0.35, sharex=True, sharey=True,
+                                 min_width=_title_width(title))
     mesh = None
     for i in range(nrow):
         for j in range(ncol):
             ax = axes[i, j]
-            sel = {}
-            if row:
-                sel[row] = i
-            if col:
-                sel[col] = j
+            sel = {d: k for d, k in ((row, i), (col, j)) if d}
             sub = da.isel(sel)
             fsub = failed.isel(sel) if failed is not None else None
             if y is None:
@@ -754,62 +1003,74 @@ def _facet_figure(da, swept, path, label, failed, title):
                 ax.set_yticks([])
             else:
                 mesh = _heat_panel(ax, sub, x, y, norm, cmap, fsub)
-            heads = [_fmt_param(d, float(da[d].values[k])) for d, k in ((row, i), (col, j)) if d]
+            heads = [_fmt_axis(ds, d, float(da[d].values[k])) for d, k in ((row, i), (col, j))
+                     if d]
             ax.set_title(", ".join(heads), fontsize=9)
             if i == nrow - 1:
-                _ticks(ax, "x", x, da[x].values)
+                _ticks(ax, "x", da, x)
             if j == 0 and y is not None:
-                _ticks(ax, "y", y, da[y].values)
-    _colorbar(fig, mesh, cax, label)
+                _ticks(ax, "y", da, y)
+    _colorbar(fig, mesh, cax, q.label, q.kind)
     fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
 
 
-def _pairs_figure(da, swept, path, label, how, failed, title):
-    """One heat map per pair of swept dims, the others reduced (max or mean over them)."""
+def _reduce(da, dims, how):
+    if not dims:
+        return da
+    return getattr(da, how)(dims, skipna=True)
+
+
+def _pairs_figure(q: StudyQuantity, swept, ds, path, failed, title):
+    """One heat map per pair of swept dims, the others reduced (max, mean or median)."""
     pairs = [(a, b) for i, a in enumerate(swept) for b in swept[i + 1:]]
+    widest = max(q.data.sizes[a] for a in swept)
+    if len(pairs) > MAX_PANELS or widest > MAX_CELLS:
+        return _too_large(path, title, (
+            f"not drawn: {len(pairs)} pairs of axes of up to {widest} values exceed "
+            f"{MAX_PANELS} panels or {MAX_CELLS} cells a side; fix axes with "
+            "study.figure_fixed"))
     ncol = min(3, len(pairs))
     nrow = int(math.ceil(len(pairs) / ncol))
-    masked = da.where(~failed) if failed is not None else da
-    reduced = {}
-    for a, b in pairs:
-        rest = [d for d in swept if d not in (a, b)]
-        red = (masked.max(rest, skipna=True) if how == "max" else masked.mean(rest, skipna=True)) \
-            if rest else masked
-        reduced[(a, b)] = red
-    norm = _norm(np.concatenate([np.ravel(r.values) for r in reduced.values()]))
-    cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
-    fig, axes, cax = _panel_grid(nrow, ncol, 3.4, 2.7, 0.95, 0.8)
+    masked = q.data.where(~failed) if failed is not None else q.data
+    reduced = {(a, b): _reduce(masked, [d for d in swept if d not in (a, b)], q.how)
+               for a, b in pairs}
+    norm = _norm(np.concatenate([np.ravel(r.values) for r in reduced.values()]), q.kind)
+    cmap = _cmap(q.kind)
+    fig, axes, cax = _panel_grid(nrow, ncol, 3.4, 2.7, 0.95, 0.8, min_width=_title_width(title))
     mesh = None
     for ax, (a, b) in zip(axes.ravel(), pairs, strict=False):
         xdim, ydim = (b, a) if a != "clearance" and b == "clearance" else (a, b)
         mesh = _heat_panel(ax, reduced[(a, b)], xdim, ydim, norm, cmap, None)
-        _ticks(ax, "x", xdim, reduced[(a, b)][xdim].values)
-        _ticks(ax, "y", ydim, reduced[(a, b)][ydim].values)
-        rest = [_PARAM.get(d, (d,))[0].split()[-1] for d in swept if d not in (a, b)]
-        ax.set_title(f"{how} over {', '.join(rest)}" if rest else "", fontsize=9)
+        _ticks(ax, "x", ds, xdim)
+        _ticks(ax, "y", ds, ydim)
+        rest = [d for d in swept if d not in (a, b)]
+        ax.set_title(f"{q.how} over {', '.join(rest)}" if rest else "", fontsize=9)
     for ax in axes.ravel()[len(pairs):]:
         ax.set_axis_off()
-    _colorbar(fig, mesh, cax, label)
+    _colorbar(fig, mesh, cax, q.label, q.kind)
     fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
 
 
-def _line_figure(da, dim, path, label, failed, title):
+def _line_figure(q: StudyQuantity, dim, ds, path, failed, title):
     fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+    da = q.data
     x = _positions(dim, da[dim].values)
     ax.plot(x, da.values.astype(float), "o-")
     if failed is not None and bool(failed.any()):
         for xx in x[failed.values.astype(bool)]:
             ax.axvline(xx, color="r", ls=":", lw=1)
+    if q.kind == "ratio":
+        ax.axhline(1.0, color="0.5", lw=1)
     if dim == "clearance":
         ax.set_xscale("log")
-    _ticks(ax, "x", dim, da[dim].values)
-    ax.set_ylabel(label)
+    _ticks(ax, "x", ds, dim)
+    ax.set_ylabel(q.label)
     ax.grid(alpha=0.3)
     ax.set_title(title, fontsize=10)
     fig.savefig(path, dpi=100)
@@ -817,77 +1078,214 @@ def _line_figure(da, dim, path, label, failed, title):
     return path
 
 
-def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1)) -> list[Path]:
-    """Every grid point of the study: heat maps of peak forces, p_max and counts.
+def _single_figure(summary_ds, quantities, held, path):
+    fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
+    sel = {d: 0 for d in held}
+    lines = [", ".join(_fmt_axis(summary_ds, d, v) for d, v in held.items())]
+    lines += [f"{q.label}: {float(q.data.isel(sel).values):.4g}" for q in quantities]
+    ax.text(0.02, 0.5, "\n".join(lines), va="center", transform=ax.transAxes, fontsize=9)
+    ax.set_axis_off()
+    ax.set_title("Study: a single parameter set (nothing swept)")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _failed_mask(summary_ds, model):
+    if "failed" not in summary_ds:
+        return None
+    failed = summary_ds["failed"] > 0
+    if "model" in failed.dims:
+        failed = failed.sel(model=model, drop=True) if model is not None else failed.any("model")
+    return failed
+
+
+def _quantity_model(q: StudyQuantity):
+    if q.stem in ("L10h", "L10rh"):
+        return 1
+    for m, name in enumerate(_MODEL_NAMES):
+        if q.stem.endswith(f"_{name}"):
+            return m
+    return None
+
+
+def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
+               figure_axes=None, figure_fixed=None, reference=None, model=None) -> list[Path]:
+    """Every grid point of the study: heat maps of peak forces of both models, their ratio,
+    p_max and counts.
 
     Parameters
     ----------
     summary_ds : xarray.Dataset
-        The study summary (:func:`analysis.summary.summarize`): dims ``clearance``, ``mu``,
-        ``omega0``, ``e_N`` (any of length 1) and ``race``, ``kind``, ``level``, ...
+        The study summary (:func:`analysis.summary.summarize`): the grid's axes (any swept
+        parameters), ``model``, ``race``, ``level``, ...
     outdir : str or Path
         Output folder (created).
     part : (int, int)
         ``(i, n)``: draw only the quantities i, i + n, i + 2n, ... (so that n processes can
         share the work); the default draws all.
+    figure_axes, figure_fixed, reference :
+        The layout (:func:`figure_layout`; ``study.figure_axes``, ``study.figure_fixed``, the
+        study's reference point).
+    model : {None, "nonsmooth", "compliant"}
+        Draw only that model's quantities; None (default): both models, their ratio and the
+        static deflection ratio.
 
     Returns
     -------
     list of Path
-        For each quantity (peak force and p_max per race, start-up peak, impacts per revolution
-        above each force level, impacts per revolution): ``study_<quantity>.png`` with every grid
-        point (x and y: the first two swept parameters, clearance on a log axis; columns and rows
-        of panels: the next two; the value written in each cell; "failed" where the run
-        failed), and with three or more swept parameters ``pairs_<quantity>.png``: one heat map
-        per pair of swept parameters, the largest (peaks) or mean (counts) over the others.
-        With one swept parameter a line plot, with none ``study_single.png``.
+        For each quantity (peak force, its median over revolutions and p_max per race and
+        model, the method ratio per race, the static deflection ratio, start-up peak, counts
+        per revolution above each force level, impacts per revolution): ``study_<quantity>.png``
+        with every grid point of the layout (x, y: heat-map axes, clearance on a log axis;
+        panel columns and rows; the other axes held at one value, said in the title; the value
+        written in each cell; "failed" where the run failed), or a page saying that the grid is
+        too large to draw (:data:`MAX_PANELS`, :data:`MAX_CELLS`); with three or more swept
+        axes also ``pairs_<quantity>.png``: one heat map per pair of swept axes, the largest
+        (peaks), mean (counts) or median (ratios) over the others. With one swept axis a line
+        plot, with none ``study_single.png``.
     """
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
-    swept = [d for d in STUDY_PARAMETERS if d in summary_ds.dims and summary_ds.sizes[d] > 1]
-    failed = summary_ds["failed"] > 0 if "failed" in summary_ds else None
-    single = [d for d in STUDY_PARAMETERS if d in summary_ds.dims and d not in swept]
-    held = ", ".join(_fmt_param(d, float(summary_ds[d].values[0])) for d in single)
-    settle = summary_ds.attrs.get("settle_revolutions", summary_ds.attrs.get("analysis_settle"))
-    held = f"; {held}" if held else ""
     index, parts = (int(x) for x in part)
     if not (parts >= 1 and 0 <= index < parts):
         raise ValueError(f"part: {part!r} is not allowed; allowed: (i, n) with 0 <= i < n")
-    quantities = _study_quantities(summary_ds)[index::parts]
+    layout = figure_layout(summary_ds, figure_axes, figure_fixed, reference)
+    quantities = _study_quantities(summary_ds)
+    if model is not None:
+        if model not in _MODEL_NAMES:
+            raise ValueError(f"model: {model!r} is not allowed; allowed: None, "
+                             f"{', '.join(_MODEL_NAMES)}")
+        quantities = [q for q in quantities if _quantity_model(q) == _MODEL_NAMES.index(model)]
+    if not layout.x:
+        return [] if index > 0 else [_single_figure(summary_ds, quantities, layout.held,
+                                                    outdir / "study_single.png")]
+    swept = [a for a in grid_axes(summary_ds) if summary_ds.sizes[a] > 1]
     paths = []
-    if not swept:
-        if index > 0:
-            return paths
-        path = outdir / "study_single.png"
-        fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
-        sub = summary_ds.isel({d: 0 for d in single})
-        lines = [run_label(sub)] + [f"{lab}: {float(da.isel({d: 0 for d in single}).values):.4g}"
-                                    for _, da, lab, _ in quantities]
-        ax.text(0.02, 0.5, "\n".join(lines), va="center", transform=ax.transAxes, fontsize=9)
-        ax.set_axis_off()
-        ax.set_title("Study: a single parameter set (nothing swept)")
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        return [path]
-    fsq = failed.isel({d: 0 for d in single}) if failed is not None else None
-    for stem, da, label, how in quantities:
-        da = da.isel({d: 0 for d in single})
-        if settle is None:
-            note = held[2:]
-        elif stem.startswith("startup"):
-            note = f"start-up: the first {settle:g} crank revolution(s) of each run{held}"
-        else:
-            note = f"steady window: after the first {settle:g} crank revolution(s){held}"
-        title = f"{label}: every grid point" + (f"\n({note})" if note else "")
-        if len(swept) == 1:
-            paths.append(_line_figure(da, swept[0], outdir / f"study_{stem}.png", label, fsq,
-                                      title))
-            continue
-        paths.append(_facet_figure(da.transpose(*swept), swept, outdir / f"study_{stem}.png",
-                                   label, fsq, title))
-        if len(swept) >= 3:
-            paths.append(_pairs_figure(
-                da.transpose(*swept), swept, outdir / f"pairs_{stem}.png", label, how, fsq,
-                f"{label}: each pair of swept parameters, {how} over the others"
-                + (f"\n({note})" if note else "")))
+    if index == 0 and model in (None, "compliant") and "L10h" in summary_ds \
+            and "clearance" in swept and bool(summary_ds["L10h"].notnull().any()):
+        paths.append(plot_life(summary_ds, outdir / "life_clearance_speed.png", layout))
+    for q in quantities[index::parts]:
+        paths += _quantity_figures(summary_ds, q, layout, swept, outdir)
     return paths
+
+
+def _quantity_figures(summary_ds, q: StudyQuantity, layout: FigureLayout, swept, outdir):
+    """``study_<stem>.png`` of one quantity over the layout, and ``pairs_<stem>.png`` with three
+    or more swept axes."""
+    settle = summary_ds.attrs.get("settle_revolutions", summary_ds.attrs.get("analysis_settle"))
+    held = ", ".join(_fmt_axis(summary_ds, d, v) for d, v in {**layout.held,
+                                                              **layout.fixed}.items())
+    held = f"; {held}" if held else ""
+    at = {d: 0 for d in layout.held}
+    full = q.data.isel(at)
+    failed_full = _failed_mask(summary_ds, _quantity_model(q))
+    failed_full = failed_full.isel(at) if failed_full is not None else None
+    q_fixed = StudyQuantity(q.stem, full.sel(layout.fixed), q.label, q.how, q.kind)
+    failed = failed_full.sel(layout.fixed) if failed_full is not None else None
+    if settle is None:
+        note = held[2:]
+    elif q.stem.startswith("startup"):
+        note = f"start-up: the first {settle:g} crank revolution(s) of each run{held}"
+    else:
+        note = f"steady window: after the first {settle:g} crank revolution(s){held}"
+    title = f"{q.label}: every grid point" + (f"\n({note})" if note else "")
+    path = outdir / f"study_{q.stem}.png"
+    if not layout.y and not layout.col:
+        paths = [_line_figure(q_fixed, layout.x, summary_ds, path, failed, title)]
+    else:
+        q_fixed.data = q_fixed.data.transpose(*layout.axes)
+        paths = [_facet_figure(q_fixed, layout, summary_ds, path,
+                               failed.transpose(*layout.axes) if failed is not None else None,
+                               title)]
+    if len(swept) >= 3:
+        note = f"\n(steady window: after the first {settle:g} crank revolution(s))" \
+            if settle is not None and not q.stem.startswith("startup") else ""
+        paths.append(_pairs_figure(
+            StudyQuantity(q.stem, full.transpose(*swept), q.label, q.how, q.kind), swept,
+            summary_ds, outdir / f"pairs_{q.stem}.png",
+            failed_full.transpose(*swept) if failed_full is not None else None,
+            f"{q.label}: each pair of swept parameters, {q.how} over the others{note}"))
+    return paths
+
+
+#: Bore of the bearing whose ISO 5753-1 clearance classes the life figure marks, where the
+#: summary does not name one: the paper's 6012 [mm].
+DEFAULT_BORE = 60.0
+
+
+def _class_bands(ax, bore):
+    """Mark the model clearance g of each ISO 5753-1 class of a bore (half the class's radial
+    internal clearance, docs/life.md): a bar per class along the top of the axes (the classes
+    overlap), a dotted line at its middle."""
+    from simcore.model.bearing import CLEARANCE_CLASSES, clearance_range
+
+    top = ax.get_xaxis_transform()  # x in data, y in axes fraction
+    for i, name in enumerate(CLEARANCE_CLASSES):
+        try:
+            lo, hi, mid = clearance_range(bore, name)
+        except ValueError:  # a class the table does not give for this bore
+            continue
+        y = 0.96 - 0.06 * i
+        ax.plot([lo / 2 * 1e6, hi / 2 * 1e6], [y, y], color="0.45", lw=3, transform=top,
+                solid_capstyle="butt")
+        ax.text(hi / 2 * 1e6 * 1.08, y, name, transform=top, va="center", fontsize=8,
+                color="0.3")
+        ax.axvline(mid / 2 * 1e6, color="0.6", lw=0.8, ls=":", zorder=0)
+
+
+def plot_life(summary_ds: xr.Dataset, path, layout: FigureLayout | None = None,
+              bore: float | None = None) -> Path:
+    """Rating lives against clearance, one line per crank speed (the compliant twins' L10h and
+    L10rh), with the ISO 5753-1 clearance classes of the bearing's bore marked.
+
+    Parameters
+    ----------
+    summary_ds : xarray.Dataset
+        A study summary with ``L10h``, ``L10rh`` and a ``clearance`` axis.
+    path : str or Path
+        Output file.
+    layout : FigureLayout, optional
+        Values at which the other swept axes are held (:func:`figure_layout`; default: its
+        defaults).
+    bore : float, optional
+        Bore of the bearing [mm] for the class bands (default: the summary's attribute
+        ``bearing_bore_mm``, else :data:`DEFAULT_BORE`).
+
+    Returns
+    -------
+    Path
+    """
+    layout = layout or figure_layout(summary_ds)
+    bore = float(bore or summary_ds.attrs.get("bearing_bore_mm", DEFAULT_BORE))
+    keep = {"clearance", "omega0"}
+    at = {}  # every other axis held: where the layout holds it, else at its middle value
+    for d in grid_axes(summary_ds):
+        if d not in keep:
+            values = np.asarray(summary_ds[d].values, dtype=float)
+            at[d] = {**layout.held, **layout.fixed}.get(d, float(values[(values.size - 1) // 2]))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True, layout="constrained")
+    for ax, name, what in ((axes[0], "L10h", "ISO 281 L10 (transmitted load)"),
+                           (axes[1], "L10rh", "reference L10r (ball loads)")):
+        da = summary_ds[name].sel(at)
+        speeds = da["omega0"].values if "omega0" in da.dims else [None]
+        for speed in speeds:
+            line = da.sel(omega0=speed) if speed is not None else da
+            label = f"ω0 = {float(speed):g} rad/s" if speed is not None else None
+            ax.plot(line["clearance"].values * 1e6, line.values, "o-", label=label)
+        _class_bands(ax, bore)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("clearance g [µm]")
+        ax.set_title(what, fontsize=10)
+        ax.grid(alpha=0.3, which="both")
+    axes[0].set_ylabel("rating life [h]")
+    if len(speeds) > 1:
+        axes[1].legend(fontsize=8)
+    held = ", ".join(_fmt_axis(summary_ds, d, v) for d, v in at.items())
+    classes = f"bars: the ISO 5753-1 classes of a {bore:g} mm bore as the model's clearance"
+    fig.suptitle("Rating life of the bearing from the compliant model's loads, steady window"
+                 + (f"\n({held}; {classes})" if held else f"\n({classes})"), fontsize=10)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return Path(path)

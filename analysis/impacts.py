@@ -23,6 +23,8 @@ file without it falls back to ``vn_pre`` (start of the step) and says so in the 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import xarray as xr
 
@@ -31,7 +33,7 @@ from .filtering import impact_masks, split_impulses, zero_threshold
 from .forces import _positive, effective_radius, hertz_stiffness, peak_forces
 
 __all__ = ["extract_impacts", "top_forces", "run_geometry", "series_stiffness", "STUDY_PARAMETERS",
-           "race_name", "kind_name", "stiffness",
+           "race_name", "kind_name", "stiffness", "count_flags",
            "KIND", "RACE", "FLAG"]
 
 STUDY_PARAMETERS = ("clearance", "mu", "omega0", "e_N")
@@ -50,6 +52,7 @@ FLAG = {
     "contact_long": 4,         # Hertz contact time > contact_long_ratio * dt
     "not_converged_dt": 8,     # moved by more than the tolerance at dt/2 (dt-check)
     "solver_unconverged": 16,  # the solver step of the impact did not converge
+    "method_disagrees": 32,    # a compliant zoom's force differs by more than method_tol
 }
 
 _BALL_FACTOR = 2.0  # a pinch impulse exceeds twice what the ball alone can carry
@@ -212,6 +215,233 @@ def _set_attrs(name, units_long):
     return attrs
 
 
+# --- extract_impacts in named stages ---------------------------------------------------------
+
+@dataclass
+class _Series:
+    """The arrays of a run that the impact extraction reads (contact-major)."""
+
+    lam: np.ndarray        # Lambda_N (contact, time) [N s]
+    vn: np.ndarray         # normal velocity before the jump (contact, time) [m/s]
+    times: np.ndarray      # (time,) [s]
+    step_ok: np.ndarray    # (time,) bool: every sub-problem of the step converged
+    contacts: np.ndarray   # contact labels
+    balls: np.ndarray      # ball of each contact
+    races: np.ndarray      # race code of each contact (RACE)
+    partner: np.ndarray    # the same ball's contact on the other race (-1 if none)
+
+
+@dataclass
+class _Filtered:
+    """The impulse filter's split of every contact and the threshold it used."""
+
+    fi: np.ndarray         # simple impacts Lambda_FI (contact, time) [N s]
+    s: np.ndarray          # smooth part Lambda_S [N s]
+    fisuv: np.ndarray      # impacts on persistent contact Lambda_FIsuv [N s]
+    threshold: float       # zero threshold [N s]
+    scale: float           # the run's largest Lambda_N [N s]
+    loaded: np.ndarray     # Lambda_N above the threshold (contact, time)
+
+
+@dataclass
+class _Rows:
+    """One entry per impact row: contact and step index, filter class, kind."""
+
+    ci: np.ndarray         # contact index
+    ti: np.ndarray         # time index
+    is_simple: np.ndarray  # a Lambda_FI row (else Lambda_FIsuv)
+    kind: np.ndarray       # KIND code
+    is_pinch: np.ndarray
+    is_multi: np.ndarray
+
+
+def _velocity_source(run_ds: xr.Dataset) -> tuple[str, str]:
+    """Name of the normal-velocity variable the impacts read, and the sentence that says so."""
+    if "vn_free" in run_ds:
+        return "vn_free", "vn_free: normal velocity before the jump of the impact step"
+    if "vn_pre" in run_ds:
+        return "vn_pre", ("vn_pre: the run file has no vn_free; start-of-step velocity used "
+                          "instead (converges more slowly with dt)")
+    raise ValueError("run dataset has neither 'vn_free' nor 'vn_pre'")
+
+
+def _read_series(run_ds: xr.Dataset, vname: str) -> _Series:
+    lam = np.asarray(run_ds["Lambda_N"].transpose("contact", "time").values, dtype=float)
+    vn = np.asarray(run_ds[vname].transpose("contact", "time").values, dtype=float)
+    nc, nt = lam.shape
+    balls = (np.asarray(run_ds["ball"].values).astype(np.int64) if "ball" in run_ds.coords
+             else np.arange(nc, dtype=np.int64))
+    races = _race_codes(run_ds, nc)
+    step_ok = (np.asarray(run_ds["converged"].values).astype(bool) if "converged" in run_ds
+               else np.ones(nt, bool))
+    return _Series(lam=lam, vn=vn, times=np.asarray(run_ds["time"].values, dtype=float),
+                   step_ok=step_ok, contacts=np.asarray(run_ds["contact"].values), balls=balls,
+                   races=races, partner=_partners(balls, races))
+
+
+def _filter(lam: np.ndarray, zero_tol: float, zero_floor: float) -> _Filtered:
+    scale = max(float(np.max(lam)), 0.0) if lam.size else 0.0
+    thr = zero_threshold(scale=scale, zero_tol=zero_tol, floor=zero_floor)
+    fi, s, fisuv = split_impulses(lam, zero_tol, zero_floor, scale=scale)
+    return _Filtered(fi=fi, s=s, fisuv=fisuv, threshold=thr, scale=scale, loaded=lam > thr)
+
+
+def _classify(series: _Series, filt: _Filtered, e_N: float, m_ball: float) -> _Rows:
+    """The impact rows (sorted by time, then contact) and their kinds from the data."""
+    simple, persistent = impact_masks(filt.fi, filt.fisuv, filt.threshold)
+    ci_s, ti_s = np.nonzero(simple)
+    ci_p, ti_p = np.nonzero(persistent)
+    ci = np.concatenate([ci_s, ci_p]).astype(np.int64)
+    ti = np.concatenate([ti_s, ti_p]).astype(np.int64)
+    is_simple = np.concatenate([np.ones(ci_s.size, bool), np.zeros(ci_p.size, bool)])
+    order = np.lexsort((ci, ti))
+    ci, ti, is_simple = ci[order], ti[order], is_simple[order]
+    lam, vn, loaded = series.lam, series.vn, filt.loaded
+    nt = lam.shape[1]
+    ball_ids, ball_of_contact = np.unique(series.balls, return_inverse=True)
+    ball_loaded = np.zeros((ball_ids.size, nt), dtype=bool)  # a contact of the ball is loaded
+    np.logical_or.at(ball_loaded, ball_of_contact.ravel(), loaded)
+    balls_loaded = ball_loaded.sum(axis=0)
+    kind = np.where(is_simple, KIND["simple"], KIND["persistent"]).astype(np.int8)
+    pc = series.partner[ci]
+    # a pinch: the other contact of the ball is loaded within one step, and the impulse is more
+    # than the ball alone could carry, (1 + e_N) m_ball |vn| at the contact's own speed, twice
+    # over (so that a light ball rattling between two closing races, which alternates small
+    # impulses between its contacts step after step, stays a single-ball impact)
+    ball_bound = _BALL_FACTOR * (1.0 + e_N) * m_ball * np.abs(vn[ci, ti])
+    pcs = np.maximum(pc, 0)  # (rows without a partner are masked out below)
+    before, after = ti - 1, ti + 1
+    partner_near = (loaded[pcs, ti]
+                    | ((before >= 0) & loaded[pcs, np.maximum(before, 0)])
+                    | ((after < nt) & loaded[pcs, np.minimum(after, nt - 1)]))
+    is_pinch = (pc >= 0) & (lam[ci, ti] > ball_bound) & partner_near
+    is_multi = ~is_pinch & (balls_loaded[ti] >= 2)
+    kind[is_multi] = KIND["multi"]
+    kind[is_pinch] = KIND["pinch"]
+    return _Rows(ci=ci, ti=ti, is_simple=is_simple, kind=kind, is_pinch=is_pinch,
+                 is_multi=is_multi)
+
+
+def _impact_loads(series: _Series, filt: _Filtered, rows: _Rows, h: float):
+    """Impulse, static force [N] and approach speed [m/s] of every row (pinches: the races
+    through the ball)."""
+    ci, ti, is_simple = rows.ci, rows.ti, rows.is_simple
+    lam, vn, loaded = series.lam, series.vn, filt.loaded
+    nt = lam.shape[1]
+    impulse = np.where(is_simple, filt.fi[ci, ti], filt.fisuv[ci, ti])
+    F_static = np.where(is_simple, 0.0, filt.s[ci, ti] / h)
+    v_pre = -vn[ci, ti]
+    pj = np.flatnonzero(rows.is_pinch)
+    if not pj.size:
+        return impulse, F_static, v_pre
+    # a pinched ball transmits a static force only where both of its contacts carry it: the
+    # static force is the part common to the two contacts in the neighbouring steps (a rattle
+    # loads them in turn, never together), and the pinch impulse is what exceeds it
+    c, p, k = ci[pj], series.partner[ci][pj], ti[pj]
+    total = np.zeros(pj.size)
+    count = np.zeros(pj.size)
+    for i, valid in ((k - 1, k - 1 >= 0), (k + 1, k + 1 < nt)):
+        i = np.clip(i, 0, nt - 1)
+        total += np.where(valid, np.minimum(lam[c, i], lam[p, i]), 0.0)
+        count += valid
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fs_h = np.where(count > 0, np.maximum(total / np.maximum(count, 1), 0.0), 0.0)
+    F_static[pj] = fs_h / h
+    impulse[pj] = lam[c, k] - fs_h
+    # a pinch approaches at the races' relative speed along the ball, taken in the step of the
+    # row if the other contact is loaded in it too, else in the earlier step of the pair (the
+    # later one already sees the races separating)
+    earlier = (k > 0) & loaded[p, np.maximum(k - 1, 0)]
+    k0 = np.where(loaded[p, k] | ~earlier, k, k - 1)
+    v_pre[pj] = -(vn[c, k0] + vn[p, k0])
+    return impulse, F_static, v_pre
+
+
+def _flores(impulse, v_pre, F_static, K, e_N: float, h: float, v_min: float,
+            contact_long_ratio: float, step_ok) -> dict:
+    """Flores peak forces of the rows that have one, and the flags of every row."""
+    n = impulse.size
+    approach = np.isfinite(v_pre) & (v_pre > v_min)
+    has_impulse = impulse > 0.0  # (a pinch row whose whole impulse is static force: no impact)
+    flores = e_N > 0.0
+    flags = np.zeros(n, dtype=np.int32)
+    flags[~approach] |= FLAG["no_approach"]
+    if not flores:
+        flags |= FLAG["e_N_zero"]
+    flags[~step_ok] |= FLAG["solver_unconverged"]
+    out = {name: np.full(n, np.nan) for name in ("m_eff", "F_max", "contact_time", "v_rebound")}
+    rows = np.flatnonzero(approach & flores & has_impulse)
+    if rows.size:  # every impact's Flores force in one compiled loop (analysis.forces)
+        res = peak_forces(impulse[rows], v_pre[rows], e_N, K[rows],
+                          F_static=np.maximum(F_static[rows], 0.0), h=h)
+        for name in out:
+            out[name][rows] = res[name]
+    steps = out["contact_time"] / h
+    # an impact that never ends (on a heavily preloaded contact, see analysis.forces) is long too
+    long_ = np.isfinite(out["F_max"]) & ~(steps <= contact_long_ratio)
+    flags[long_] |= FLAG["contact_long"]
+    out.update(approach=approach, flags=flags, contact_time_steps=steps,
+               trusted=(flags == 0) & np.isfinite(out["F_max"]))
+    return out
+
+
+def _stresses(geo: dict, race: np.ndarray, F_max: np.ndarray) -> dict:
+    """Hertz contact of every row at its peak force (NaN where there is none)."""
+    out = {name: np.full(F_max.size, np.nan)
+           for name in ("contact_radius", "contact_semi_minor", "delta_max", "p_max")}
+    for code in (RACE["inner"], RACE["outer"]):
+        sel = race == code
+        if sel.any():
+            a, b, d, p = geo["stress"](F_max[sel], code)
+            for name, value in zip(out, (a, b, d, p), strict=True):
+                out[name][sel] = value
+    return out
+
+
+def _impact_dataset(data: dict, contact_long_ratio: float, vname: str) -> xr.Dataset:
+    """The columns as a CF table (dimension ``impact``) with their categories' flag
+    attributes."""
+    n = data["time"].size
+    ds = xr.Dataset(coords={"impact": ("impact", np.arange(n, dtype=np.int64),
+                                       {"units": "1", "long_name": "impact number"})})
+    for name, values in data.items():
+        ds[name] = ("impact", values, _set_attrs(name, _VARS[name]))
+    ds["race"].attrs.update(flag_values=np.array(list(RACE.values()), dtype=np.int8),
+                            flag_meanings=" ".join(RACE))
+    ds["kind"].attrs.update(flag_values=np.array(list(KIND.values()), dtype=np.int8),
+                            flag_meanings=" ".join(KIND),
+                            comment="pinch: both contacts of the ball loaded within one step; "
+                                    "multi: several balls loaded in the step; persistent: on "
+                                    "top of persistent contact; simple: isolated")
+    ds["flags"].attrs.update(flag_masks=np.array(list(FLAG.values()), dtype=np.int32),
+                             flag_meanings=" ".join(FLAG),
+                             comment=f"contact_long: contact_time > {contact_long_ratio:g} dt; "
+                                     "method_disagrees: a compliant zoom's F_max_zoom differs "
+                                     "from F_max by more than analysis.method_tol")
+    ds["trusted"].attrs.update(flag_values=np.array([0, 1], dtype=np.int8),
+                               flag_meanings="untrusted trusted")
+    ds["approach"].attrs.pop("units", None)
+    ds["approach"].attrs.update(flag_values=np.array([0, 1], dtype=np.int8),
+                                flag_meanings="no_approach approach")
+    ds["K"].attrs["comment"] = ("stored as K**2 because UDUNITS has no fractional powers; "
+                                "K = sqrt(K) [N m-1.5]")
+    ds["v_pre"].attrs["comment"] = f"from {vname}"
+    return ds
+
+
+def _with_parameters(ds: xr.Dataset, run_ds: xr.Dataset) -> xr.Dataset:
+    """The run's study parameters as scalar coordinates with units."""
+    for name in STUDY_PARAMETERS:
+        units, long_name = _PARAM_ATTRS[name]
+        try:
+            value = _model_value(run_ds, name)
+        except ValueError:
+            continue
+        ds = ds.assign_coords({name: ((), value, {"units": units, "long_name": long_name})})
+    return ds
+
+
+# (95 lines, 55 of them the docstring: the body is the named stages above, called in order)
 def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="concave",
                     v_min=1e-3, groove_conformity=None, contact_long_ratio=10.0) -> xr.Dataset:
     """Table of the impacts of one run with their kind, peak force, stresses and flags.
@@ -251,18 +481,18 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
         threshold [N s], the stiffnesses [N m-1.5], ``v_pre_source`` and counts ``n_simple``,
         ``n_persistent`` (filter classes), ``n_pinch``, ``n_multi``, ``n_no_approach``,
         ``n_flagged``, ``n_trusted``.
+
+    Notes
+    -----
+    The stages: read the run's series (:func:`_read_series`), split every contact's impulses
+    (:func:`_filter`), find the rows and their kinds (:func:`_classify`), their impulse, static
+    force and approach speed (:func:`_impact_loads`), the Flores forces and flags
+    (:func:`_flores`), the Hertz stresses at the peak (:func:`_stresses`), and the table
+    (:func:`_impact_dataset`).
     """
     if "Lambda_N" not in run_ds:
         raise ValueError("run dataset has no variable 'Lambda_N'")
-    if "vn_free" in run_ds:
-        vname = "vn_free"
-        source = "vn_free: normal velocity before the jump of the impact step"
-    elif "vn_pre" in run_ds:
-        vname = "vn_pre"
-        source = ("vn_pre: the run file has no vn_free; start-of-step velocity used instead "
-                  "(converges more slowly with dt)")
-    else:
-        raise ValueError("run dataset has neither 'vn_free' nor 'vn_pre'")
+    vname, source = _velocity_source(run_ds)
     v_min = _positive("v_min", v_min)
     contact_long_ratio = _positive("contact_long_ratio", contact_long_ratio)
     if groove_conformity is not None:
@@ -270,220 +500,89 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
             if groove_conformity != 0 else None  # 0: off, as in the config
     geo = run_geometry(run_ds, r_eff, groove_conformity)
     e_N = _model_value(run_ds, "e_N")
-    m_ball = _model_value(run_ds, "ball_mass")
     h = _time_step(run_ds)
 
-    lam = np.asarray(run_ds["Lambda_N"].transpose("contact", "time").values, dtype=float)
-    vn = np.asarray(run_ds[vname].transpose("contact", "time").values, dtype=float)
-    nc, nt = lam.shape
-    scale = max(float(np.max(lam)), 0.0) if lam.size else 0.0
-    thr = zero_threshold(scale=scale, zero_tol=zero_tol, floor=zero_floor)
-    fi, s, fisuv = split_impulses(lam, zero_tol, zero_floor, scale=scale)
-    simple, persistent = impact_masks(fi, fisuv, thr)
-    loaded = lam > thr
-
-    contacts = np.asarray(run_ds["contact"].values)
-    balls = (np.asarray(run_ds["ball"].values).astype(np.int64) if "ball" in run_ds.coords
-             else np.arange(nc, dtype=np.int64))
-    races = _race_codes(run_ds, nc)
-    partner = _partners(balls, races)
-    times = np.asarray(run_ds["time"].values, dtype=float)
-    step_ok = (np.asarray(run_ds["converged"].values).astype(bool) if "converged" in run_ds
-               else np.ones(nt, bool))
-
-    ci_s, ti_s = np.nonzero(simple)
-    ci_p, ti_p = np.nonzero(persistent)
-    ci = np.concatenate([ci_s, ci_p]).astype(np.int64)
-    ti = np.concatenate([ti_s, ti_p]).astype(np.int64)
-    is_simple = np.concatenate([np.ones(ci_s.size, bool), np.zeros(ci_p.size, bool)])
-    order = np.lexsort((ci, ti))
-    ci, ti, is_simple = ci[order], ti[order], is_simple[order]
-    n = ci.size
-
-    # kinds from the data
-    ball_ids, ball_of_contact = np.unique(balls, return_inverse=True)
-    ball_loaded = np.zeros((ball_ids.size, nt), dtype=bool)  # a contact of the ball is loaded
-    np.logical_or.at(ball_loaded, ball_of_contact.ravel(), loaded)
-    balls_loaded = ball_loaded.sum(axis=0)
-    kind = np.where(is_simple, KIND["simple"], KIND["persistent"]).astype(np.int8)
-    pc = partner[ci]
-    # a pinch: the other contact of the ball is loaded within one step, and the impulse is more
-    # than the ball alone could carry, (1 + e_N) m_ball |vn| at the contact's own speed, twice
-    # over (so that a light ball rattling between two closing races, which alternates small
-    # impulses between its contacts step after step, stays a single-ball impact)
-    ball_bound = _BALL_FACTOR * (1.0 + e_N) * m_ball * np.abs(vn[ci, ti])
-    pcs = np.maximum(pc, 0)  # (rows without a partner are masked out below)
-    before, after = ti - 1, ti + 1
-    partner_near = (loaded[pcs, ti]
-                    | ((before >= 0) & loaded[pcs, np.maximum(before, 0)])
-                    | ((after < nt) & loaded[pcs, np.minimum(after, nt - 1)]))
-    is_pinch = (pc >= 0) & (lam[ci, ti] > ball_bound) & partner_near
-    is_multi = ~is_pinch & (balls_loaded[ti] >= 2)
-    kind[is_multi] = KIND["multi"]
-    kind[is_pinch] = KIND["pinch"]
-
-    impulse = np.where(is_simple, fi[ci, ti], fisuv[ci, ti])
-    F_static = np.where(is_simple, 0.0, s[ci, ti] / h)
-    # a pinched ball transmits a static force only where both of its contacts carry it: the
-    # static force is the part common to the two contacts in the neighbouring steps (a rattle
-    # loads them in turn, never together), and the pinch impulse is what exceeds it
-    pj = np.flatnonzero(is_pinch)
-    if pj.size:
-        c, p, k = ci[pj], pc[pj], ti[pj]
-        total = np.zeros(pj.size)
-        count = np.zeros(pj.size)
-        for i, valid in ((k - 1, k - 1 >= 0), (k + 1, k + 1 < nt)):
-            i = np.clip(i, 0, nt - 1)
-            total += np.where(valid, np.minimum(lam[c, i], lam[p, i]), 0.0)
-            count += valid
-        with np.errstate(invalid="ignore", divide="ignore"):
-            fs_h = np.where(count > 0, np.maximum(total / np.maximum(count, 1), 0.0), 0.0)
-        F_static[pj] = fs_h / h
-        impulse[pj] = lam[c, k] - fs_h
-    v_pre = -vn[ci, ti]
-    # a pinch approaches at the races' relative speed along the ball, taken in the step of the
-    # row if the other contact is loaded in it too, else in the earlier step of the pair (the
-    # later one already sees the races separating)
-    if pj.size:
-        earlier = (k > 0) & loaded[p, np.maximum(k - 1, 0)]
-        k0 = np.where(loaded[p, k] | ~earlier, k, k - 1)
-        v_pre[pj] = -(vn[c, k0] + vn[p, k0])
-    race = races[ci]
+    series = _read_series(run_ds, vname)
+    filt = _filter(series.lam, zero_tol, zero_floor)
+    rows = _classify(series, filt, e_N, _model_value(run_ds, "ball_mass"))
+    impulse, F_static, v_pre = _impact_loads(series, filt, rows, h)
+    race = series.races[rows.ci]
     K = np.where(race == RACE["outer"], geo["K_outer"], geo["K_inner"]).astype(float)
-    K[is_pinch] = geo["K_pinch"]
-
-    approach = np.isfinite(v_pre) & (v_pre > v_min)
-    has_impulse = impulse > 0.0  # (a pinch row whose whole impulse is static force: no impact)
-    flores = e_N > 0.0
-    flags = np.zeros(n, dtype=np.int32)
-    flags[~approach] |= FLAG["no_approach"]
-    if not flores:
-        flags |= FLAG["e_N_zero"]
-    flags[~step_ok[ti]] |= FLAG["solver_unconverged"]
-
-    m_eff = np.full(n, np.nan)
-    F_max = np.full(n, np.nan)
-    contact_time = np.full(n, np.nan)
-    v_rebound = np.full(n, np.nan)
-    rows = np.flatnonzero(approach & flores & has_impulse)
-    if rows.size:  # every impact's Flores force in one compiled loop (analysis.forces)
-        res = peak_forces(impulse[rows], v_pre[rows], e_N, K[rows],
-                          F_static=np.maximum(F_static[rows], 0.0), h=h)
-        m_eff[rows] = res["m_eff"]
-        F_max[rows] = res["F_max"]
-        contact_time[rows] = res["contact_time"]
-        v_rebound[rows] = res["v_rebound"]
-    steps = contact_time / h
-    # an impact that never ends (on a heavily preloaded contact, see analysis.forces) is long too
-    long_ = np.isfinite(F_max) & ~(steps <= contact_long_ratio)
-    flags[long_] |= FLAG["contact_long"]
-    trusted = (flags == 0) & np.isfinite(F_max)
-
-    a = np.full(n, np.nan)
-    b = np.full(n, np.nan)
-    delta = np.full(n, np.nan)
-    p_max = np.full(n, np.nan)
-    for code in (0, 1):
-        sel = race == code
-        if sel.any():
-            a[sel], b[sel], delta[sel], p_max[sel] = geo["stress"](F_max[sel], code)
-
+    K[rows.is_pinch] = geo["K_pinch"]
+    forces = _flores(impulse, v_pre, F_static, K, e_N, h, v_min, contact_long_ratio,
+                     series.step_ok[rows.ti])
     data = {
-        "contact": contacts[ci].astype(np.int64),
-        "ball": balls[ci].astype(np.int64),
+        "contact": series.contacts[rows.ci].astype(np.int64),
+        "ball": series.balls[rows.ci].astype(np.int64),
         "race": race.astype(np.int8),
-        "time": times[ti],
-        "kind": kind,
+        "time": series.times[rows.ti],
+        "kind": rows.kind,
         "impulse": impulse,
         "v_pre": v_pre,
-        "approach": approach.astype(np.int8),
-        "m_eff": m_eff,
+        "approach": forces["approach"].astype(np.int8),
+        "m_eff": forces["m_eff"],
         "F_static": F_static,
         "K": K**2,
-        "F_max": F_max,
-        "delta_max": delta,
-        "contact_radius": a,
-        "contact_semi_minor": b,
-        "p_max": p_max,
-        "contact_time": contact_time,
-        "contact_time_steps": steps,
-        "v_rebound": v_rebound,
-        "flags": flags,
-        "trusted": trusted.astype(np.int8),
+        "F_max": forces["F_max"],
+        **_stresses(geo, race, forces["F_max"]),
+        "contact_time": forces["contact_time"],
+        "contact_time_steps": forces["contact_time_steps"],
+        "v_rebound": forces["v_rebound"],
+        "flags": forces["flags"],
+        "trusted": forces["trusted"].astype(np.int8),
     }
-    ds = xr.Dataset(coords={"impact": ("impact", np.arange(n, dtype=np.int64),
-                                       {"units": "1", "long_name": "impact number"})})
-    for name, values in data.items():
-        ds[name] = ("impact", values, _set_attrs(name, _VARS[name]))
-    ds["race"].attrs.update(flag_values=np.array(list(RACE.values()), dtype=np.int8),
-                            flag_meanings=" ".join(RACE))
-    ds["kind"].attrs.update(flag_values=np.array(list(KIND.values()), dtype=np.int8),
-                            flag_meanings=" ".join(KIND),
-                            comment="pinch: both contacts of the ball loaded within one step; "
-                                    "multi: several balls loaded in the step; persistent: on "
-                                    "top of persistent contact; simple: isolated")
-    ds["flags"].attrs.update(flag_masks=np.array(list(FLAG.values()), dtype=np.int32),
-                             flag_meanings=" ".join(FLAG),
-                             comment=f"contact_long: contact_time > {contact_long_ratio:g} dt")
-    ds["trusted"].attrs.update(flag_values=np.array([0, 1], dtype=np.int8),
-                               flag_meanings="untrusted trusted")
-    ds["approach"].attrs.pop("units", None)
-    ds["approach"].attrs.update(flag_values=np.array([0, 1], dtype=np.int8),
-                                flag_meanings="no_approach approach")
-    ds["K"].attrs["comment"] = ("stored as K**2 because UDUNITS has no fractional powers; "
-                                "K = sqrt(K) [N m-1.5]")
-    ds["v_pre"].attrs["comment"] = f"from {vname}"
-    for name in STUDY_PARAMETERS:
-        units, long_name = _PARAM_ATTRS[name]
-        try:
-            value = _model_value(run_ds, name)
-        except ValueError:
-            continue
-        ds = ds.assign_coords({name: ((), value, {"units": units, "long_name": long_name})})
+    ds = _with_parameters(_impact_dataset(data, contact_long_ratio, vname), run_ds)
+    settings = {"zero_tol": float(zero_tol), "zero_floor": float(zero_floor), "r_eff": r_eff,
+                "groove_conformity": groove_conformity,
+                "contact_long_ratio": float(contact_long_ratio), "v_min": v_min}
+    ds.attrs.update(_table_attrs(run_ds, settings, filt, rows, forces, geo, source, e_N, h))
+    return count_flags(ds)
+
+
+def _table_attrs(run_ds, settings, filt, rows, forces, geo, source, e_N, h) -> dict:
+    """The impact table's global attributes: provenance, settings, threshold, stiffnesses and
+    counts."""
     from simcore import __version__
 
-    ds.attrs.update({
+    groove = settings["groove_conformity"]
+    history = ", ".join(f"{key}={value:g}" if isinstance(value, float) else f"{key}={value}"
+                        for key, value in dict(settings, groove_conformity="none"
+                                               if groove is None else float(groove)).items())
+    attrs = {
         "Conventions": "CF-1.10",
         "title": "impacts of one run: kind, Flores peak force, Hertz stresses, trust flags",
         "source": f"bearingsim {__version__} (analysis.extract_impacts)",
-        "history": (f"analysis.extract_impacts(zero_tol={zero_tol:g}, zero_floor={zero_floor:g}, "
-                    f"r_eff={r_eff}, v_min={v_min:g}, groove_conformity="
-                    f"{'none' if groove_conformity is None else f'{groove_conformity:g}'}, "
-                    f"contact_long_ratio={contact_long_ratio:g}) on run "
-                    f"'{run_ds.attrs.get('title', 'untitled')}'"),
-        "zero_tol": float(zero_tol),
-        "zero_floor": float(zero_floor),
-        "zero_threshold": float(thr),
+        "history": f"analysis.extract_impacts({history}) on run "
+                   f"'{run_ds.attrs.get('title', 'untitled')}'",
+        **settings,
+        "groove_conformity": "none" if groove is None else float(groove),
+        "zero_threshold": float(filt.threshold),
         "zero_threshold_units": "N s",
-        "lambda_scale": scale,
-        "r_eff": r_eff,
-        "groove_conformity": "none" if groove_conformity is None else float(groove_conformity),
-        "contact_long_ratio": float(contact_long_ratio),
-        "v_min": v_min,
+        "lambda_scale": filt.scale,
         "v_pre_source": source,
         "e_N": e_N,
         "h": h,
-        "E": geo["E"],
-        "nu": geo["nu"],
-        "ball_radius": geo["ball_radius"],
-        "inner_radius": geo["inner_radius"],
-        "outer_radius": geo["outer_radius"],
-        "K_inner": geo["K_inner"],
-        "K_outer": geo["K_outer"],
-        "K_pinch": geo["K_pinch"],
+        **{key: geo[key] for key in ("E", "nu", "ball_radius", "inner_radius", "outer_radius",
+                                     "K_inner", "K_outer", "K_pinch")},
         "stiffness_units": "N m-1.5",
-        "n_simple": int(is_simple.sum()),
-        "n_persistent": int((~is_simple).sum()),
-        "n_pinch": int(is_pinch.sum()),
-        "n_multi": int(is_multi.sum()),
-        "n_no_approach": int((~approach).sum()),
-        "n_flagged": int((flags != 0).sum()),
-        "n_trusted": int(trusted.sum()),
+        "n_simple": int(rows.is_simple.sum()),
+        "n_persistent": int((~rows.is_simple).sum()),
+        "n_pinch": int(rows.is_pinch.sum()),
+        "n_multi": int(rows.is_multi.sum()),
+        "n_no_approach": int((~forces["approach"]).sum()),
         "dt_check": 0,
-    })
+    }
     if "title" in run_ds.attrs:
-        ds.attrs["run_title"] = str(run_ds.attrs["title"])
-    return ds
+        attrs["run_title"] = str(run_ds.attrs["title"])
+    return attrs
+
+
+def count_flags(impacts_ds: xr.Dataset) -> xr.Dataset:
+    """Set the table's attributes ``n_flagged`` and ``n_trusted`` from its columns ``flags``
+    and ``trusted`` (in place; returns the table)."""
+    impacts_ds.attrs["n_flagged"] = int(np.count_nonzero(impacts_ds["flags"].values))
+    impacts_ds.attrs["n_trusted"] = int(np.count_nonzero(impacts_ds["trusted"].values))
+    return impacts_ds
 
 
 def race_name(code) -> str:

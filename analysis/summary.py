@@ -1,57 +1,85 @@
-"""Summary of a parameter study: one dataset over the swept parameters.
+"""Summary of a parameter study: one dataset over the swept parameters and the contact model.
 
-Every run file (``results/runs/<params>.nc``) and impact table (``results/impacts/<params>.nc``)
-carries the swept parameters as scalar coordinates. :func:`summarize` opens them lazily with
-dask (``xarray.open_mfdataset``), reduces each file to a few numbers in ``preprocess`` (while
-the data are still lazy), turns the scalar coordinates into length-1 dimensions and lets
-``combine="by_coords"`` assemble the grid. Only those reductions are ever computed, on the local
-threads or on a dask distributed cluster.
+Each grid point is run with the nonsmooth model (the paper's method: impulses, filter, Flores
+forces) and, where the study asks for it, with the compliant model (Hertz contact forces, the
+reference). One function, :func:`point_numbers`, reduces one run (with its impact table) to
+its summary numbers; :func:`summarize` collects those numbers for every run and assembles the
+grid. The numbers of a study run are computed once, by the simulate job from the run in memory,
+and stored in its impact table (attributes ``summary_*``); :func:`summarize` reads them there,
+and computes them from the files by the same function where a table lacks them (or carries them
+for other settings).
 
-A study's impact tables also carry their point's numbers as attributes (``summary_*``,
-:func:`point_numbers`, computed by the simulate job from the run in memory); when every table
-has them for the requested settings, :func:`summarize` assembles the grid from those attributes
-and opens no run file (seconds instead of a quarter of a minute for the 81-run study).
+Grid
+----
+The summary's dimensions are the swept parameters the runs carry as scalar coordinates (their
+``units`` and ``long_name`` carried over), in the order of the first file, then ``model``
+(0 nonsmooth, 1 compliant), ``race`` (0 inner, 1 outer), ``kind``, ``level``, ``rank``,
+``stage``. Categories are small integer coordinates with ``flag_values``/``flag_meanings``.
 
 Steady operation
 ----------------
-The first ``settle`` crank revolutions of a run are its start-up: their impacts give
-``startup_peak_force`` and nothing else. Everything else about impacts (peak forces, p_max,
-counts) is taken over the rest of the run, the *steady window*, and counts are also given per
-crank revolution of that window. Revolutions are counted from the run's ``crank_angle``
-(:func:`steady_window`), not from ``omega0``, so that they are right for the free drive too.
+The first ``settle`` crank revolutions of a run are its start-up: their forces give
+``startup_peak_force`` and nothing else. Everything else (peak forces, p_max, counts) is taken
+over the rest of the run, the *steady window*, and also per crank revolution of that window:
+``peak_force`` is the largest force of the window per race, ``peak_force_rev_median`` the median
+over its revolutions of each revolution's largest force (a statistic that a chaotic trajectory
+moves less than a single maximum). Revolutions are counted from the run's ``crank_angle``
+(:class:`SteadyWindow`), so that they are right for the free drive too; a last piece shorter
+than half a revolution joins the revolution before it.
+
+Forces of the two models
+------------------------
+* nonsmooth: the impacts of the impact table (``F_max``, Flores; ``p_max``); counts of impacts.
+* compliant: the contact force ``F_N`` itself (the largest of each output interval), ``p_max``
+  from Hertz at that force; counts and ``top3_force`` over contact episodes
+  (:mod:`analysis.episodes`).
+
+``method_ratio`` (race) is the nonsmooth ``peak_force`` over the compliant one. The paper's
+``peak_force`` is flagged (``peak_force_flagged`` = 1) where the impact that gives it carries a
+flag (e.g. ``method_disagrees`` from its compliant zoom) or where the compliant twin differs by
+more than ``analysis.method_tol``: |method_ratio - 1| > method_tol. ``static_deflection_ratio``
+is the Hertz deflection of one ball (inner and outer contact in series) under the largest steady
+load (the compliant twin's, else the nonsmooth one's), over the clearance: well below 1, a load
+meets one ball (isolated impacts, the paper's method's case); near or above 1, several balls
+share it.
 
 Counts come in two kinds:
 
-* ``n_impacts``/``impacts_per_rev`` (by race and impact kind) count what the impulse filter
-  calls an impact. Its zero threshold is relative (``zero_tol`` times the run's largest
+* ``n_impacts``/``impacts_per_rev`` (nonsmooth, by race and impact kind) count what the impulse
+  filter calls an impact. Its zero threshold is relative (``zero_tol`` times the run's largest
   impulse), so it differs between runs; it is stored with the counts (``zero_threshold``).
-* ``n_above``/``above_per_rev`` (by race and absolute force ``level``) count the impacts whose
-  Flores peak force reaches ``level``; they compare across runs.
+* ``n_above``/``above_per_rev`` (by model, race and absolute force ``level``) count the impacts
+  (nonsmooth) or contact episodes (compliant) whose force reaches ``level``; they compare across
+  runs of one model.
 
 A failed run (a marker file with attribute ``failed = 1``, written by the workflow when the
-solver did not converge) gives ``failed = 1`` and NaN in every other variable of its point:
-missing, never zero.
+solver did not converge) gives ``failed = 1`` for its model and NaN in every other value of that
+model at its point: missing, never zero.
 
-The file is CF-1.10: categories (race, impact kind, solver stage) are small integer
-coordinates with ``flag_values``/``flag_meanings``, every variable has UDUNITS ``units`` and a
-``long_name``, and coordinates carry no fill value.
+The file is CF-1.10: every variable has UDUNITS ``units`` and a ``long_name``, and coordinates
+carry no fill value.
 """
 
 from __future__ import annotations
 
 import datetime
+import json
+import threading
 from contextlib import nullcontext
-from functools import partial
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
 import xarray as xr
 
-__all__ = ["summarize", "summary_table", "steady_window", "category_codes", "impact_numbers",
-           "point_numbers", "SWEPT", "STAGES", "RACES", "KINDS", "N_TOP"]
+__all__ = ["summarize", "summary_table", "steady_window", "SteadyWindow", "category_codes",
+           "impact_numbers", "compliant_numbers", "point_numbers", "run_model", "MODELS",
+           "STAGES", "RACES", "KINDS", "N_TOP", "STORED"]
 
-#: Swept parameters, in the order of the summary's dimensions.
-SWEPT = ("clearance", "mu", "omega0", "e_N")
+#: Contact models of a grid point (code = position): 0 the paper's nonsmooth method, 1 the
+#: compliant (Hertz) reference.
+MODELS = ("nonsmooth", "compliant")
+NONSMOOTH, COMPLIANT = 0, 1
 #: Sub-problems of a time step (code = position in the tuple).
 STAGES = ("smooth", "position", "velocity")
 #: Races of the bearing (code = position: 0 inner, 1 outer).
@@ -60,53 +88,116 @@ RACES = ("inner", "outer")
 KINDS = ("simple", "persistent", "pinch", "multi")
 #: Number of largest peak forces kept per run.
 N_TOP = 3
+#: Prefix of the attributes in which a study impact table carries its run's summary numbers.
+STORED = "summary_"
+#: A last piece of the steady window shorter than this [revolutions] joins the one before it.
+SHORT_TAIL = 0.5
 
 _TWO_PI = 2.0 * np.pi
+#: Coordinates of run files and impact tables that are not swept parameters.
+_STRUCTURAL = {"time", "contact", "ball", "race", "body", "axis", "dof", "stage", "impact",
+               "kind", "level", "rank", "model"}
+#: The settings the numbers of a run depend on (stored with them, compared before reuse).
+_NUMBER_SETTINGS = ("settle", "force_levels", "r_eff", "groove_conformity", "life_conformity",
+                    "life_load_rating")
 
-_ATTRS = {
-    "peak_force": ("N", "largest Flores peak force in the steady window, per race"),
-    "p_max": ("Pa", "largest Hertz contact pressure in the steady window, per race"),
-    "peak_force_flagged": ("1", "1 where the impact giving peak_force carries a flag"),
-    "top3_force": ("N", "largest peak forces in the steady window (both races), decreasing"),
-    "startup_peak_force": ("N", "largest Flores peak force of the start-up (the first "
-                                "analysis.settle crank revolutions), both races"),
-    "n_impacts": ("1", "impacts in the steady window (relative zero threshold), by race and "
-                       "kind"),
-    "impacts_per_rev": ("1", "impacts per crank revolution in the steady window (relative zero "
-                             "threshold), by race and kind"),
-    "n_above": ("1", "impacts in the steady window whose peak force reaches the level"),
-    "above_per_rev": ("1", "impacts per crank revolution in the steady window whose peak force "
-                           "reaches the level"),
-    "n_flagged": ("1", "impacts in the steady window whose force carries a flag (missing where "
-                       "the impact table has no flags)"),
-    "zero_threshold": ("N s", "zero threshold of the impulse filter (zero_tol times the run's "
-                              "largest impulse)"),
-    "settle_time": ("s", "end of the start-up: first time the crank has turned analysis.settle "
-                         "revolutions"),
-    "revolutions": ("1", "crank revolutions in the steady window, from the crank angle"),
-    "max_Lambda_N": ("N s", "largest normal impulse of the run"),
-    "iter_max": ("1", "largest number of Newton iterations per step"),
-    "iter_mean": ("1", "mean number of Newton iterations per step"),
-    "converged_fraction": ("1", "fraction of the steps in which every sub-problem converged"),
-    "wall_time_s": ("s", "wall time of the simulation"),
-    "failed": ("1", "1 where the run failed (its other values are missing)"),
+# name: (dims besides the grid's, scope, units, long_name); scope: "model" (the variable has
+# the model dimension), or the one model it comes from ("nonsmooth", "compliant")
+_VARIABLES = {
+    "peak_force": (
+        ("race",), "model", "N",
+        "largest contact force in the steady window, per race (nonsmooth: Flores peak force of "
+        "an impact; compliant: F_N)"),
+    "peak_force_rev_median": (
+        ("race",), "model", "N",
+        "median over the steady crank revolutions of each revolution's largest force, per race"),
+    "p_max": (
+        ("race",), "model", "Pa", "largest Hertz contact pressure in the steady window, per race"),
+    "top3_force": (
+        ("rank",), "model", "N",
+        "largest forces of the steady window (both races; impacts, or compliant contact "
+        "episodes), decreasing"),
+    "startup_peak_force": (
+        (), "model", "N",
+        "largest force of the start-up (the first analysis.settle crank revolutions), both races"),
+    "n_above": (
+        ("race", "level"), "model", "1",
+        "impacts (nonsmooth) or contact episodes (compliant) in the steady window whose force "
+        "reaches the level"),
+    "above_per_rev": (
+        ("race", "level"), "model", "1", "n_above per crank revolution of the steady window"),
+    "ball_deflection_ratio": (
+        (), "model", "1",
+        "Hertz deflection of one ball (inner and outer contact in series) under the model's "
+        "largest steady force, over the clearance"),
+    "peak_force_flagged": (
+        ("race",), "nonsmooth", "1",
+        "1 where the paper's method's peak_force is not to be trusted: its impact carries a flag "
+        "or the compliant twin differs by more than analysis.method_tol"),
+    "n_impacts": (
+        ("race", "kind"), "nonsmooth", "1",
+        "impacts in the steady window (nonsmooth, relative zero threshold), by race and kind"),
+    "impacts_per_rev": (
+        ("race", "kind"), "nonsmooth", "1", "n_impacts per crank revolution of the steady window"),
+    "n_flagged": (
+        (), "nonsmooth", "1",
+        "impacts in the steady window whose force carries a flag (missing where the impact table "
+        "has no flags)"),
+    "zero_threshold": (
+        (), "nonsmooth", "N s",
+        "zero threshold of the impulse filter (zero_tol times the run's largest impulse)"),
+    "settle_time": (
+        (), "model", "s",
+        "end of the start-up: first time the crank has turned analysis.settle revolutions"),
+    "revolutions": (
+        (), "model", "1", "crank revolutions in the steady window, from the crank angle"),
+    "max_Lambda_N": (
+        (), "model", "N s",
+        "largest normal impulse of the run (compliant: of an output interval)"),
+    "iter_max": (("stage",), "model", "1", "largest number of Newton iterations per step"),
+    "iter_mean": (("stage",), "model", "1", "mean number of Newton iterations per step"),
+    "converged_fraction": (
+        (), "model", "1", "fraction of the steps in which every sub-problem converged"),
+    "wall_time_s": ((), "model", "s", "wall time of the simulation"),
+    "failed": ((), "model", "1", "1 where the run failed (its other values are missing)"),
+    "L10": (
+        (), "compliant", "1e6",
+        "ISO 281 basic rating life (C / P)^3 from the compliant twin's transmitted load over the "
+        "steady window, in 10^6 revolutions"),
+    "L10r": (
+        (), "compliant", "1e6",
+        "reference rating life from the compliant twin's ball loads (Lundberg-Palmgren raceway "
+        "capacities, over-rollings counted per raceway element), in 10^6 revolutions"),
+    "L10h": ((), "compliant", "h", "L10 in hours at the mean crank speed of the steady window"),
+    "L10rh": ((), "compliant", "h", "L10r in hours at the mean crank speed of the steady window"),
+    "equivalent_load": (
+        (), "compliant", "N",
+        "dynamic equivalent load P of L10: cubic mean of the transmitted radial load, weighted "
+        "by revolutions"),
+    "load_rating": ((), "compliant", "N", "basic dynamic load rating C of L10"),
 }
-
+# computed over the grid from both models (not stored per run)
+_GRID_VARIABLES = {
+    "method_ratio": (("race",), "1", "the paper's method's steady peak force over the compliant "
+                                     "model's (peak_force of model 0 over model 1)"),
+    "static_deflection_ratio": ((), "1", "Hertz deflection of one ball (inner and outer contact "
+                                         "in series) under the largest steady load, over the "
+                                         "clearance (the compliant twin's load, else the "
+                                         "nonsmooth one's)"),
+}
 _COORDS = {
-    "clearance": ("m", "radial clearance"),
-    "mu": ("1", "friction coefficient"),
-    "omega0": ("rad s-1", "crank speed (constant drive) or initial crank speed (free drive)"),
-    "e_N": ("1", "normal restitution coefficient"),
-    "rank": ("1", "rank of the peak force (1 = largest)"),
+    "model": ("1", "contact model"),
+    "rank": ("1", "rank of the force (1 = largest)"),
     "level": ("N", "absolute force level of the counts"),
     "race": ("1", "race of the contact"),
     "kind": ("1", "impact kind"),
     "stage": ("1", "sub-problem of the nonsmooth generalized-alpha step"),
 }
-_FLAGS = {"race": RACES, "kind": KINDS, "stage": STAGES}
+_FLAGS = {"model": MODELS, "race": RACES, "kind": KINDS, "stage": STAGES}
+_ORDER = ("model", "race", "kind", "level", "rank", "stage")
 
 
-# --- numbers of one run -------------------------------------------------------------------
+# --- the steady window ----------------------------------------------------------------------
 
 def steady_window(time, crank_angle, settle: float) -> tuple[float, float]:
     """End of the start-up and the crank revolutions after it.
@@ -143,6 +234,78 @@ def steady_window(time, crank_angle, settle: float) -> tuple[float, float]:
     return float(t[i]), float(abs(theta[-1] - theta[i]) / _TWO_PI)
 
 
+@dataclass(frozen=True)
+class SteadyWindow:
+    """The steady window of a run and its crank revolutions.
+
+    Attributes
+    ----------
+    settle_time : float
+        End of the start-up [s] (-inf: the whole run is steady).
+    revolutions : float
+        Crank revolutions of the steady window [-] (NaN: unknown).
+    time, turned : numpy.ndarray or None
+        Sample times [s] and the revolutions turned since the end of the start-up at those
+        times [-] (None without a crank angle: the revolutions are unknown).
+    """
+
+    settle_time: float
+    revolutions: float
+    time: np.ndarray | None = None
+    turned: np.ndarray | None = None
+
+    @classmethod
+    def of_run(cls, run_ds: xr.Dataset, settle: float) -> SteadyWindow:
+        """The window of a run (from its ``crank_angle``; without one the whole run is steady
+        and its revolutions unknown)."""
+        time = np.asarray(run_ds["time"].values, dtype=float)
+        if "crank_angle" not in run_ds:
+            return cls(float(time[0]) if time.size else -np.inf, np.nan)
+        theta = np.asarray(run_ds["crank_angle"].values, dtype=float)
+        settle_time, revolutions = steady_window(time, theta, settle)
+        turned = np.abs(theta - theta[0]) / _TWO_PI - float(settle) if time.size else None
+        return cls(settle_time, revolutions, time, turned)
+
+    @property
+    def n_revolutions(self) -> int:
+        """Revolutions the per-revolution statistics run over (0: unknown or none)."""
+        if self.turned is None or not self.turned.size or not self.turned[-1] > 0:
+            return 0
+        total = float(self.turned[-1])
+        whole = int(np.floor(total + 1e-9))
+        tail = total - whole
+        return whole + (1 if (tail >= SHORT_TAIL or whole == 0) and tail > 1e-9 else 0)
+
+    def revolution(self, t) -> np.ndarray:
+        """Revolution index (0 .. n_revolutions - 1) of times ``t`` of the steady window."""
+        n = self.n_revolutions
+        position = np.interp(np.asarray(t, dtype=float), self.time, self.turned)
+        return np.clip(np.floor(position + 1e-9), 0, max(n - 1, 0)).astype(np.int64)
+
+
+def _revolution_peaks(window: SteadyWindow, time, race, force) -> tuple[np.ndarray, np.ndarray]:
+    """Per race: the largest force of the steady window and the median over its revolutions of
+    each revolution's largest force (0 for a revolution without a force). NaN where the window
+    has no force on the race; the median also where the revolutions are unknown."""
+    steady = (np.asarray(time) > window.settle_time) & np.isfinite(force) & (force > 0)
+    peak = np.full(len(RACES), np.nan)
+    median = np.full(len(RACES), np.nan)
+    n_rev = window.n_revolutions
+    per_rev = np.zeros((max(n_rev, 1), len(RACES)))
+    sel = steady & (race >= 0) & (race < len(RACES))
+    if n_rev and sel.any():
+        np.maximum.at(per_rev, (window.revolution(np.asarray(time)[sel]), race[sel]), force[sel])
+    for r in range(len(RACES)):
+        mine = sel & (race == r)
+        if mine.any():
+            peak[r] = float(np.max(force[mine]))
+            if n_rev:
+                median[r] = float(np.median(per_rev[:, r]))
+    return peak, median
+
+
+# --- numbers of one run -----------------------------------------------------------------------
+
 def category_codes(values, meanings=None, names=RACES) -> np.ndarray:
     """Categories of an impact-table column as codes into ``names`` (-1: unknown or missing).
 
@@ -178,15 +341,36 @@ def category_codes(values, meanings=None, names=RACES) -> np.ndarray:
     return codes
 
 
-def impact_numbers(time, race, kind, f_max, p_max, flags, settle_time: float,
-                   revolutions: float, levels: Sequence[float]) -> dict:
-    """Peak forces and counts of one impact table (plain arrays in, plain arrays out).
+def _largest(values, mask) -> float:
+    sel = values[mask & np.isfinite(values)]
+    return float(sel.max()) if sel.size else np.nan
+
+
+def _counts_above(force, race, steady, levels, revolutions) -> dict:
+    """n_above (race, level) and above_per_rev of the steady rows."""
+    reached = force[:, None] >= levels[None, :]  # NaN compares False
+    n_above = np.array([np.sum(reached[steady & (race == r)], axis=0)
+                        for r in range(len(RACES))], dtype=float).reshape(len(RACES), levels.size)
+    per_rev = 1.0 / revolutions if np.isfinite(revolutions) and revolutions > 0 else np.nan
+    return {"n_above": n_above, "above_per_rev": n_above * per_rev}
+
+
+def _top(force, steady) -> np.ndarray:
+    top = np.sort(force[steady & np.isfinite(force)])[::-1][:N_TOP]
+    out = np.full(N_TOP, np.nan)
+    out[: top.size] = top
+    return out
+
+
+def impact_numbers(time, race, kind, f_max, p_max, flags, window: SteadyWindow,
+                   levels: Sequence[float]) -> dict:
+    """Forces and counts of one nonsmooth impact table (plain arrays in, plain arrays out).
 
     Parameters
     ----------
     time : array_like
-        Impact times [s]; an impact belongs to the steady window if ``time > settle_time``,
-        to the start-up otherwise.
+        Impact times [s]; an impact belongs to the steady window if
+        ``time > window.settle_time``, to the start-up otherwise.
     race, kind : array_like of int
         Codes into :data:`RACES` and :data:`KINDS` (-1: unknown; such rows count in no race
         or kind, but in ``top3_force``, ``startup_peak_force`` and ``n_flagged``).
@@ -196,39 +380,30 @@ def impact_numbers(time, race, kind, f_max, p_max, flags, settle_time: float,
         Peak contact pressures [Pa], None if the table has none.
     flags : array_like or None
         Flag bitmask of each force (0: clean), None if the table has none.
-    settle_time : float
-        End of the start-up [s] (:func:`steady_window`).
-    revolutions : float
-        Crank revolutions of the steady window [-]; per-revolution counts are NaN if it is
-        not positive.
+    window : SteadyWindow
+        The run's steady window.
     levels : sequence of float
         Absolute force levels [N].
 
     Returns
     -------
     dict of numpy.ndarray
-        ``peak_force`` (race), ``p_max`` (race), ``peak_force_flagged`` (race), ``top3_force``
-        (rank), ``startup_peak_force`` (), ``n_impacts`` and ``impacts_per_rev`` (race, kind),
-        ``n_above`` and ``above_per_rev`` (race, level), ``n_flagged`` ().
+        ``peak_force``, ``peak_force_rev_median``, ``p_max``, ``peak_force_flagged`` (race),
+        ``top3_force`` (rank), ``startup_peak_force`` (), ``n_impacts`` and ``impacts_per_rev``
+        (race, kind), ``n_above`` and ``above_per_rev`` (race, level), ``n_flagged`` ().
     """
     t = np.asarray(time, dtype=float).ravel()
     race = np.asarray(race, dtype=np.int64).ravel()
     kind = np.asarray(kind, dtype=np.int64).ravel()
     f = np.asarray(f_max, dtype=float).ravel()
     levels = np.asarray(levels, dtype=float)
-    steady = t > settle_time
-    n_race, n_kind = len(RACES), len(KINDS)
-
-    def largest(values, mask):
-        sel = values[mask & np.isfinite(values)]
-        return float(sel.max()) if sel.size else np.nan
-
-    peak = np.array([largest(f, steady & (race == r)) for r in range(n_race)])
-    if p_max is None:
-        pressure = np.full(n_race, np.nan)
-    else:
+    steady = t > window.settle_time
+    n_race = len(RACES)
+    peak, median = _revolution_peaks(window, t, race, f)
+    pressure = np.full(n_race, np.nan)
+    if p_max is not None:
         p = np.asarray(p_max, dtype=float).ravel()
-        pressure = np.array([largest(p, steady & (race == r)) for r in range(n_race)])
+        pressure = np.array([_largest(p, steady & (race == r)) for r in range(n_race)])
     flagged = None if flags is None else np.asarray(flags, dtype=float).ravel()
     peak_flagged = np.full(n_race, np.nan)
     if flagged is not None:
@@ -236,330 +411,338 @@ def impact_numbers(time, race, kind, f_max, p_max, flags, settle_time: float,
             idx = np.flatnonzero(steady & (race == r) & np.isfinite(f))
             if idx.size:
                 peak_flagged[r] = float(flagged[idx[np.argmax(f[idx])]] != 0)
-    top = np.sort(f[steady & np.isfinite(f)])[::-1][:N_TOP]
-    top3 = np.full(N_TOP, np.nan)
-    top3[: top.size] = top
-    n_impacts = np.array([[np.sum(steady & (race == r) & (kind == k)) for k in range(n_kind)]
-                          for r in range(n_race)], dtype=float)
-    reached = f[:, None] >= levels[None, :]  # NaN compares False
-    n_above = np.array([np.sum(reached[steady & (race == r)], axis=0) for r in range(n_race)],
-                       dtype=float).reshape(n_race, levels.size)
-    per_rev = 1.0 / revolutions if np.isfinite(revolutions) and revolutions > 0 else np.nan
+    n_impacts = np.array([[np.sum(steady & (race == r) & (kind == k)) for k in
+                           range(len(KINDS))] for r in range(n_race)], dtype=float)
+    revs = window.revolutions
+    per_rev = 1.0 / revs if np.isfinite(revs) and revs > 0 else np.nan
     return {
         "peak_force": peak,
+        "peak_force_rev_median": median,
         "p_max": pressure,
         "peak_force_flagged": peak_flagged,
-        "top3_force": top3,
-        "startup_peak_force": np.array(largest(f, ~steady)),
+        "top3_force": _top(f, steady),
+        "startup_peak_force": np.array(_largest(f, ~steady)),
         "n_impacts": n_impacts,
         "impacts_per_rev": n_impacts * per_rev,
-        "n_above": n_above,
-        "above_per_rev": n_above * per_rev,
+        **_counts_above(f, race, steady, levels, revs),
         "n_flagged": np.array(np.nan if flagged is None
                               else float(np.sum(steady & (flagged != 0)))),
     }
 
 
-# --- lazy per-file reductions (preprocess of open_mfdataset) --------------------------------
+def compliant_numbers(run_ds: xr.Dataset, window: SteadyWindow, levels: Sequence[float],
+                      stress) -> dict:
+    """Forces and counts of one compliant run, from its contact forces ``F_N``.
 
-def _failed(ds: xr.Dataset) -> bool:
-    return bool(int(ds.attrs.get("failed", 0)))
+    Parameters
+    ----------
+    run_ds : xarray.Dataset
+        A compliant run (``F_N`` (time, contact), ``race`` on ``contact``).
+    window : SteadyWindow
+        The run's steady window.
+    levels : sequence of float
+        Absolute force levels [N].
+    stress : callable or None
+        (F [N], race code) -> (a, b, delta, p_max) (``run_geometry(...)["stress"]``); None:
+        ``p_max`` missing.
 
+    Returns
+    -------
+    dict of numpy.ndarray
+        ``peak_force``, ``peak_force_rev_median``, ``p_max`` (race), ``top3_force`` (rank),
+        ``startup_peak_force`` (), ``n_above``, ``above_per_rev`` (race, level): per sample the
+        largest force of each race for the peaks, contact episodes
+        (:func:`analysis.episodes.episode_peaks`) for ``top3_force`` and the counts.
+    """
+    from .episodes import compliant_forces, episode_peaks
+    from .impacts import _race_codes
 
-def _point(ds: xr.Dataset, path: str) -> dict:
-    try:
-        return {key: float(ds[key].values.item()) for key in SWEPT}  # 0-d or length 1
-    except KeyError as exc:
-        raise ValueError(f"{path}: scalar coordinate {exc.args[0]} is missing") from None
-
-
-def _as_grid(out: xr.Dataset, point: dict) -> xr.Dataset:
-    """Give ``out`` the point's coordinates as length-1 dimensions, in the order of SWEPT."""
-    out = out.drop_vars([k for k in SWEPT if k in out.coords])
-    return out.expand_dims({key: [point[key]] for key in SWEPT})
-
-
-def _lazy(fn, args, spec: dict) -> dict:
-    """Run ``fn(*args)`` (returning a dict of arrays) as one dask task; ``spec`` maps each
-    returned name to its dims and shape. Returns xarray variables backed by dask."""
-    import dask
-    import dask.array as da
-
-    result = dask.delayed(fn, pure=True)(*args)
-    return {name: (dims, da.from_delayed(result[name], shape, dtype=float))
-            for name, (dims, shape) in spec.items()}
-
-
-def _settle_numbers(time, crank_angle, settle):
-    t_settle, revolutions = steady_window(time, crank_angle, settle)
-    return {"settle_time": np.array(t_settle), "revolutions": np.array(revolutions)}
-
-
-def _reduce_run(ds: xr.Dataset, settle: float) -> xr.Dataset:
-    """One run file -> its summary numbers (lazy where the inputs are lazy)."""
-    path = ds.encoding.get("source", "?")
-    point = _point(ds, path)
-    stage = np.arange(len(STAGES), dtype=np.int8)
-    if _failed(ds):
-        nan = np.float64(np.nan)
-        out = xr.Dataset(
-            {
-                "settle_time": nan,
-                "revolutions": nan,
-                "max_Lambda_N": nan,
-                "iter_max": ("stage", np.full(len(STAGES), np.nan)),
-                "iter_mean": ("stage", np.full(len(STAGES), np.nan)),
-                "converged_fraction": nan,
-                "wall_time_s": nan,
-                "failed": np.float64(1.0),
-            },
-            coords={"stage": stage},
-        )
-        return _as_grid(out, point)
-    steps = slice(1, None)  # t = 0 is the initial state, not a step
-    iterations = ds["iterations"].isel(time=steps).astype("f8")
-    if "stage" in iterations.coords:
-        iterations = iterations.drop_vars("stage")
-    if "crank_angle" in ds:
-        window = _lazy(_settle_numbers, (ds["time"].values, ds["crank_angle"].data, settle),
-                       {"settle_time": ((), ()), "revolutions": ((), ())})
-    else:  # no crank angle: the whole run is the steady window, its revolutions unknown
-        window = {"settle_time": np.float64(ds["time"].values[0]), "revolutions": np.nan}
-    out = xr.Dataset(
-        {
-            **window,
-            "max_Lambda_N": ds["Lambda_N"].max().astype("f8"),
-            "iter_max": iterations.max("time"),
-            "iter_mean": iterations.mean("time"),
-            "converged_fraction": ds["converged"].isel(time=steps).astype("f8").mean("time"),
-            "wall_time_s": np.float64(ds.attrs.get("wall_time_s", np.nan)),
-            "failed": np.float64(0.0),
-        }
-    )
-    out = out.reset_coords(drop=True).assign_coords(stage=stage)
-    return _as_grid(out, point)
-
-
-def _impact_spec(n_levels: int) -> dict:
-    n_race, n_kind = len(RACES), len(KINDS)
+    force = compliant_forces(run_ds)  # (contact, time)
+    time = np.asarray(run_ds["time"].values, dtype=float)
+    races = _race_codes(run_ds, force.shape[0]).astype(np.int64)
+    per_race = np.stack([force[races == r].max(axis=0) if np.any(races == r)
+                         else np.zeros(time.size) for r in range(len(RACES))])  # (race, time)
+    sample_race = np.broadcast_to(np.arange(len(RACES))[:, None], per_race.shape)
+    sample_time = np.broadcast_to(time[None, :], per_race.shape)
+    peak, median = _revolution_peaks(window, sample_time.ravel(), sample_race.ravel(),
+                                     per_race.ravel())
+    startup = time <= window.settle_time
+    startup_peak = float(per_race[:, startup].max()) if startup.any() else np.nan
+    contact, _, _, peak_index, episode_force = episode_peaks(force)
+    steady = time[peak_index] > window.settle_time
+    levels = np.asarray(levels, dtype=float)
+    pressure = np.full(len(RACES), np.nan)
+    if stress is not None:
+        for r in range(len(RACES)):
+            if np.isfinite(peak[r]):
+                pressure[r] = float(np.asarray(stress(np.array([peak[r]]), r)[3]).ravel()[0])
     return {
-        "peak_force": (("race",), (n_race,)),
-        "p_max": (("race",), (n_race,)),
-        "peak_force_flagged": (("race",), (n_race,)),
-        "top3_force": (("rank",), (N_TOP,)),
-        "startup_peak_force": ((), ()),
-        "n_impacts": (("race", "kind"), (n_race, n_kind)),
-        "impacts_per_rev": (("race", "kind"), (n_race, n_kind)),
-        "n_above": (("race", "level"), (n_race, n_levels)),
-        "above_per_rev": (("race", "level"), (n_race, n_levels)),
-        "n_flagged": ((), ()),
+        "peak_force": peak,
+        "peak_force_rev_median": median,
+        "p_max": pressure,
+        "top3_force": _top(episode_force, steady),
+        "startup_peak_force": np.array(startup_peak if startup_peak > 0 else np.nan),
+        **_counts_above(episode_force, races[contact], steady, levels, window.revolutions),
     }
 
 
-def _impact_table_numbers(time, race, race_meanings, kind, kind_meanings, f_max, p_max, flags,
-                          settle_time, revolutions, levels):
-    n = np.asarray(f_max).size
-    t = np.full(n, np.inf) if time is None else time  # no times: all steady
-    r = np.full(n, -1) if race is None else category_codes(race, race_meanings, RACES)
-    k = np.full(n, -1) if kind is None else category_codes(kind, kind_meanings, KINDS)
-    return impact_numbers(t, r, k, f_max, p_max, flags, settle_time, revolutions, levels)
+def run_model(run_ds: xr.Dataset) -> int:
+    """Contact model code of a run or failed-run marker (:data:`MODELS`)."""
+    name = run_ds.attrs.get("model.contact_model", run_ds.attrs.get("contact_model",
+                                                                    "nonsmooth"))
+    if name not in MODELS:
+        raise ValueError(f"run has contact_model {name!r}; allowed: {', '.join(MODELS)}")
+    return MODELS.index(name)
 
 
-def _reduce_impacts(ds: xr.Dataset, windows: xr.Dataset, levels: np.ndarray) -> xr.Dataset:
-    """One impact table -> peak forces and counts (lazy where the inputs are lazy)."""
-    path = ds.encoding.get("source", "?")
-    point = _point(ds, path)
-    spec = _impact_spec(levels.size)
-    coords = {"rank": np.arange(1, N_TOP + 1), "level": levels,
-              "race": np.arange(len(RACES), dtype=np.int8),
-              "kind": np.arange(len(KINDS), dtype=np.int8)}
-    zero = np.float64(ds.attrs.get("zero_threshold", np.nan))
-    if _failed(ds):
-        data = {name: (dims, np.full(shape, np.nan)) for name, (dims, shape) in spec.items()}
-        data["zero_threshold"] = np.float64(np.nan)
-        return _as_grid(xr.Dataset(data, coords=coords), point)
-    window = windows.sel(point)
-    settle_time = float(window["settle_time"])
-    revolutions = float(window["revolutions"])
-    if np.isnan(settle_time):
-        settle_time = -np.inf
-
-    def column(name):
-        return ds[name].data if name in ds.variables and ds[name].dims == ("impact",) else None
-
-    def meanings(name):
-        return ds[name].attrs.get("flag_meanings") if name in ds.variables else None
-
-    f_max = column("F_max")
-    if f_max is None:  # a table without forces: every impact counts, none has a force
-        f_max = np.full(ds.sizes.get("impact", 0), np.nan)
-    args = (column("time"), column("race"), meanings("race"), column("kind"), meanings("kind"),
-            f_max, column("p_max"), column("flags"), settle_time, revolutions, levels)
-    data = _lazy(_impact_table_numbers, args, spec)
-    data["zero_threshold"] = zero
-    return _as_grid(xr.Dataset(data, coords=coords), point)
-
-
-# --- numbers stored in a study's impact tables (no run file read) ----------------------------
-
-#: Prefix of the attributes in which a study impact table carries its point's summary numbers.
-STORED = "summary_"
-_RUN_SPEC = {"settle_time": (), "revolutions": (), "max_Lambda_N": (),
-             "iter_max": (("stage",), (len(STAGES),)), "iter_mean": (("stage",), (len(STAGES),)),
-             "converged_fraction": (), "wall_time_s": (), "failed": ()}
-
-
-def _run_numbers(run_ds: xr.Dataset, settle: float) -> dict:
-    """The numbers of :func:`_reduce_run` from a run in memory (plain arrays)."""
-    steps = slice(1, None)  # t = 0 is the initial state, not a step
-    iterations = np.asarray(run_ds["iterations"].values[steps], dtype="f8")
-    if "crank_angle" in run_ds:
-        settle_time, revolutions = steady_window(run_ds["time"].values,
-                                                 run_ds["crank_angle"].values, settle)
-    else:
-        settle_time, revolutions = float(run_ds["time"].values[0]), np.nan
+def _run_numbers(run_ds: xr.Dataset, window: SteadyWindow) -> dict:
+    """Solver statistics of a run (whole run; t = 0 is the initial state, not a step)."""
+    steps = slice(1, None)
+    n_stages = len(STAGES)
+    iterations = (np.asarray(run_ds["iterations"].values[steps], dtype="f8")
+                  if "iterations" in run_ds else np.zeros((0, n_stages)))
+    converged = (np.asarray(run_ds["converged"].values[steps], dtype="f8")
+                 if "converged" in run_ds else np.zeros(0))
+    impulse = np.asarray(run_ds["Lambda_N"].values) if "Lambda_N" in run_ds else np.zeros(0)
     return {
-        "settle_time": np.float64(settle_time),
-        "revolutions": np.float64(revolutions),
-        "max_Lambda_N": np.float64(np.max(run_ds["Lambda_N"].values)),
-        "iter_max": np.max(iterations, axis=0),
-        "iter_mean": np.mean(iterations, axis=0),
-        "converged_fraction": np.mean(np.asarray(run_ds["converged"].values[steps], "f8")),
+        "settle_time": np.float64(window.settle_time),
+        "revolutions": np.float64(window.revolutions),
+        "max_Lambda_N": np.float64(np.max(impulse) if impulse.size else np.nan),
+        "iter_max": np.max(iterations, axis=0) if iterations.size else np.full(n_stages, np.nan),
+        "iter_mean": (np.mean(iterations, axis=0) if iterations.size
+                      else np.full(n_stages, np.nan)),
+        "converged_fraction": np.float64(np.mean(converged) if converged.size else np.nan),
         "wall_time_s": np.float64(run_ds.attrs.get("wall_time_s", np.nan)),
         "failed": np.float64(0.0),
     }
 
 
-def point_numbers(run_ds: xr.Dataset, impacts_ds: xr.Dataset, settle: float,
-                  force_levels: Sequence[float]) -> dict:
-    """The summary numbers of one grid point, as attributes for its impact table.
+def _geometry(run_ds: xr.Dataset, settings: dict):
+    """``run_geometry`` of the run for these settings, None where the run lacks the model's
+    radii or material (hand-made files)."""
+    from .impacts import run_geometry
 
-    A study's simulate job calls this with the run and its impact table still in memory and
-    stores the result in the table's attributes; :func:`summarize` then takes the numbers from
-    there and opens no run file. The numbers are those :func:`summarize` computes from the
-    files (the run's variables it reads are written at full precision).
+    groove = settings.get("groove_conformity") or None
+    try:
+        return run_geometry(run_ds, settings.get("r_eff", "concave"), groove)
+    except ValueError:
+        return None
+
+
+def _deflection_ratio(geo, peak_force, clearance) -> float:
+    """Deflection of a ball's two contacts in series under the larger race peak, over the
+    clearance (NaN without geometry, force or clearance)."""
+    force = np.nanmax(peak_force) if np.isfinite(peak_force).any() else np.nan
+    if geo is None or not np.isfinite(force) or not clearance > 0:
+        return np.nan
+    return float((force / geo["K_pinch"]) ** (2.0 / 3.0) / clearance)
+
+
+def _table_columns(impacts_ds: xr.Dataset | None) -> dict:
+    """The columns the nonsmooth numbers read (None where the table lacks one)."""
+    def column(name):
+        if impacts_ds is not None and name in impacts_ds.variables \
+                and impacts_ds[name].dims == ("impact",):
+            return np.asarray(impacts_ds[name].values)
+        return None
+
+    def meanings(name):
+        return impacts_ds[name].attrs.get("flag_meanings") \
+            if impacts_ds is not None and name in impacts_ds.variables else None
+
+    n = impacts_ds.sizes.get("impact", 0) if impacts_ds is not None else 0
+    f_max = column("F_max")
+    time, race, kind = column("time"), column("race"), column("kind")
+    return {
+        "time": np.full(n, np.inf) if time is None else time,  # no times: all steady
+        "race": np.full(n, -1) if race is None else category_codes(race, meanings("race"), RACES),
+        "kind": np.full(n, -1) if kind is None else category_codes(kind, meanings("kind"), KINDS),
+        "f_max": np.full(n, np.nan) if f_max is None else f_max,
+        "p_max": column("p_max"),
+        "flags": column("flags"),
+    }
+
+
+def point_numbers(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, settings: dict) -> dict:
+    """The summary numbers of one run (either model): the one reduction of the summary.
+
+    A study's simulate job calls it with the run and its impact table still in memory and
+    stores the result in the table's attributes (:func:`stored_attributes`); :func:`summarize`
+    takes the numbers from there, or calls this function on the files where a table has none.
 
     Parameters
     ----------
     run_ds : xarray.Dataset
         The run (or the marker dataset of a failed run, attribute ``failed = 1``).
-    impacts_ds : xarray.Dataset
-        Its impact table (:func:`analysis.study_tables.impact_table`).
-    settle : float
-        Start-up [crank revolutions] (``analysis.settle``).
-    force_levels : sequence of float
-        Absolute force levels [N] (``analysis.force_levels``).
+    impacts_ds : xarray.Dataset or None
+        Its impact table (nonsmooth; :func:`analysis.study_tables.impact_table`); not read for
+        a compliant run.
+    settings : dict
+        The ``analysis`` settings: ``settle`` [revolutions], ``force_levels`` [N], and where
+        present ``r_eff`` and ``groove_conformity`` (for the compliant ``p_max`` and the ball
+        deflection).
 
     Returns
     -------
     dict
-        ``summary_settle`` [revolutions] and ``summary_force_levels`` [N] (the settings they
-        were made with), ``summary_failed``, and for a run that did not fail
-        ``summary_<name>`` for every variable of the summary but ``zero_threshold`` (float64,
-        arrays flattened in C order over the dimensions of :func:`summarize`).
+        ``model`` (code) and the run's numbers (float64 arrays): the variables of the summary
+        that have the ``model`` dimension, and for a nonsmooth run also ``peak_force_flagged``,
+        ``n_impacts``, ``impacts_per_rev``, ``n_flagged``, ``zero_threshold``. A failed run
+        gives ``failed`` = 1 only.
     """
-    levels = np.asarray(sorted(float(v) for v in force_levels), dtype=float)
-    out = {f"{STORED}settle": float(settle), f"{STORED}force_levels": levels}
-    if _failed(run_ds):
-        out[f"{STORED}failed"] = 1.0
-        return out
-    numbers = _run_numbers(run_ds, float(settle))
-    settle_time, revolutions = float(numbers["settle_time"]), float(numbers["revolutions"])
-    if np.isnan(settle_time):
-        settle_time = -np.inf
+    model = run_model(run_ds)
+    if int(run_ds.attrs.get("failed", 0)):
+        return {"model": model, "failed": np.float64(1.0)}
+    levels = _levels(settings.get("force_levels", (100.0, 1000.0)))
+    window = SteadyWindow.of_run(run_ds, float(settings.get("settle", 0.0)))
+    geo = _geometry(run_ds, settings)
+    numbers = {"model": model, **_run_numbers(run_ds, window)}
+    if model == COMPLIANT:
+        numbers.update(compliant_numbers(run_ds, window, levels,
+                                         None if geo is None else geo["stress"]))
+        numbers.update(_life_numbers(run_ds, window, settings))
+    else:
+        numbers.update(impact_numbers(**_table_columns(impacts_ds), window=window,
+                                      levels=levels))
+        numbers["zero_threshold"] = np.float64(
+            np.nan if impacts_ds is None else impacts_ds.attrs.get("zero_threshold", np.nan))
+    clearance = _clearance(run_ds)
+    numbers["ball_deflection_ratio"] = np.float64(
+        _deflection_ratio(geo, numbers["peak_force"], clearance))
+    return {key: (value if key == "model" else np.asarray(value, dtype="f8"))
+            for key, value in numbers.items()}
 
-    def column(name):
-        if name in impacts_ds.variables and impacts_ds[name].dims == ("impact",):
-            return impacts_ds[name].values
-        return None
 
-    def meanings(name):
-        return impacts_ds[name].attrs.get("flag_meanings") if name in impacts_ds.variables \
-            else None
+#: Run variables the rating lives read (compliant runs).
+_LIFE_READS = ("Lambda_N", "crank_angle", "journal_x", "journal_y", "position", "angle")
 
-    f_max = column("F_max")
-    if f_max is None:
-        f_max = np.full(impacts_ds.sizes.get("impact", 0), np.nan)
-    numbers.update(_impact_table_numbers(
-        column("time"), column("race"), meanings("race"), column("kind"), meanings("kind"),
-        f_max, column("p_max"), column("flags"), settle_time, revolutions, levels))
+
+def _life_numbers(run_ds: xr.Dataset, window: SteadyWindow, settings: dict) -> dict:
+    """The rating lives of a compliant run (:func:`analysis.run_life.compliant_life`); missing
+    where the run file lacks what they read or the model's geometry."""
+    from .run_life import LIFE_NAMES, compliant_life
+
+    if any(name not in run_ds for name in _LIFE_READS) or "body" not in run_ds.coords:
+        return dict.fromkeys(LIFE_NAMES, np.nan)
+    try:
+        return compliant_life(run_ds, window.settle_time, settings)
+    except (TypeError, ValueError):  # no model attributes (a hand-made file)
+        return dict.fromkeys(LIFE_NAMES, np.nan)
+
+
+def _clearance(run_ds: xr.Dataset) -> float:
+    if "clearance" in run_ds.coords and run_ds["clearance"].size == 1:
+        return float(run_ds["clearance"].values.item())
+    return float(run_ds.attrs.get("model.clearance", np.nan))
+
+
+# --- the numbers stored in a study's impact tables -----------------------------------------------
+
+def _levels(force_levels) -> np.ndarray:
+    return np.asarray(sorted(float(v) for v in force_levels), dtype=float)
+
+
+def _settings_key(settings: dict) -> str:
+    """The settings the numbers depend on, as a canonical string."""
+    canon = {}
+    for key in _NUMBER_SETTINGS:
+        value = settings.get(key)
+        if key == "force_levels":
+            value = [float(v) for v in _levels(value if value is not None else (100.0, 1000.0))]
+        elif key == "settle":
+            value = float(value or 0.0)
+        elif key == "groove_conformity":
+            value = float(value or 0.0)
+        elif key == "r_eff":
+            value = value or "concave"
+        elif key == "life_conformity":
+            value = [float(v) for v in (value or (0.52, 0.53))]
+        elif key == "life_load_rating":
+            value = None if value is None else float(value)
+        canon[key] = value
+    return json.dumps(canon, sort_keys=True)
+
+
+def stored_attributes(numbers: dict, settings: dict) -> dict:
+    """The numbers of :func:`point_numbers` as attributes of an impact table: ``summary_model``,
+    ``summary_settings`` (the settings they were made with) and ``summary_<name>`` (float64,
+    arrays flattened in C order)."""
+    out = {f"{STORED}settings": _settings_key(settings)}
     for name, value in numbers.items():
-        value = np.asarray(value, dtype="f8")
-        out[f"{STORED}{name}"] = value.ravel() if value.ndim else float(value)
+        value = np.asarray(value, dtype="f8") if name != "model" else int(value)
+        out[f"{STORED}{name}"] = value.ravel() if np.ndim(value) else (
+            value if name == "model" else float(value))
     return out
 
 
-def _read_stored(path, settle: float, levels: np.ndarray):
-    """(point, attributes) of an impact table that carries its summary numbers for these
-    settings, else None."""
-    import netCDF4
-
-    with netCDF4.Dataset(str(path)) as nc:
-        attrs = {key: nc.getncattr(key) for key in nc.ncattrs()}
-        if f"{STORED}failed" not in attrs:
-            return None
-        stored_levels = np.atleast_1d(np.asarray(attrs.get(f"{STORED}force_levels", []), float))
-        if (float(attrs.get(f"{STORED}settle", np.nan)) != settle
-                or stored_levels.shape != levels.shape or not np.all(stored_levels == levels)):
-            return None
-        try:
-            point = {key: float(np.asarray(nc.variables[key][...]).item()) for key in SWEPT}
-        except KeyError as exc:
-            raise ValueError(f"{path}: scalar coordinate {exc.args[0]} is missing") from None
-    return point, attrs
+def _from_stored(attrs: dict, settings: dict) -> dict | None:
+    """The numbers stored in a table's attributes for these settings, else None."""
+    if attrs.get(f"{STORED}settings") != _settings_key(settings):
+        return None
+    numbers = {}
+    for key, value in attrs.items():
+        if key.startswith(STORED) and key != f"{STORED}settings":
+            name = key[len(STORED):]
+            numbers[name] = int(value) if name == "model" else np.asarray(value, dtype="f8")
+    return numbers if "model" in numbers and "failed" in numbers else None
 
 
-def _grid_from_stored(stored: list, levels: np.ndarray) -> tuple[xr.Dataset, xr.Dataset]:
-    """The run and impact parts of the summary (as :func:`summarize` assembles them from the
-    files) from the numbers stored in the impact tables."""
-    axes = {key: np.array(sorted({p[key] for p, _ in stored}), dtype=float) for key in SWEPT}
-    shape = tuple(axes[key].size for key in SWEPT)
-    impact_spec = dict(_impact_spec(levels.size), zero_threshold=((), ()))
-    specs = {name: (spec if spec else ((), ())) for name, spec in _RUN_SPEC.items()}
-    arrays = {name: np.full(shape + tuple(dims_shape[1]), np.nan)
-              for name, dims_shape in {**specs, **impact_spec}.items()}
-    for point, attrs in stored:
-        at = tuple(int(np.searchsorted(axes[key], point[key])) for key in SWEPT)
-        failed = bool(float(attrs[f"{STORED}failed"]))
-        arrays["failed"][at] = 1.0 if failed else 0.0
-        if failed:
+# --- collecting every run ---------------------------------------------------------------------
+
+#: netCDF4 is not safe for files opened from several threads at once (segmentation faults seen
+#: with netCDF4 1.7.5); files are read one at a time, the numbers computed in parallel.
+_READ_LOCK = threading.Lock()
+#: Run variables the numbers read.
+_RUN_READS = ("crank_angle", "Lambda_N", "iterations", "converged", "F_N")
+
+
+#: Attributes of a swept parameter's coordinate carried into the summary.
+_AXIS_ATTRS = ("units", "long_name", "flag_values", "flag_meanings", "sweep_key")
+
+
+def _parameters(ds: xr.Dataset, axes=None) -> dict:
+    """{name: (value, attrs)} of the swept parameters a file carries as scalar (or length-1)
+    coordinates: ``axes`` where given, else every such numeric coordinate (a category is its
+    int8 code)."""
+    out = {}
+    for name, var in ds.coords.items():
+        if (axes is not None and name not in axes) or name in _STRUCTURAL \
+                or np.asarray(var.values).dtype.kind not in "fiub":
             continue
-        for name in arrays:
-            if name == "failed":
-                continue
-            if name == "zero_threshold":
-                arrays[name][at] = float(attrs.get("zero_threshold", np.nan))
-                continue
-            value = np.asarray(attrs[f"{STORED}{name}"], dtype="f8")
-            arrays[name][at] = value.reshape(arrays[name].shape[len(SWEPT):])
-    swept = list(SWEPT)
-    runs = xr.Dataset(
-        {name: (swept + list(specs[name][0]), arrays[name]) for name in _RUN_SPEC},
-        coords={"stage": np.arange(len(STAGES), dtype=np.int8), **axes})
-    impacts = xr.Dataset(
-        {name: (swept + list(impact_spec[name][0]), arrays[name]) for name in impact_spec},
-        coords={"rank": np.arange(1, N_TOP + 1), "level": levels,
-                "race": np.arange(len(RACES), dtype=np.int8),
-                "kind": np.arange(len(KINDS), dtype=np.int8), **axes})
-    return runs, impacts
+        if var.ndim == 0 or (var.ndim == 1 and var.dims == (name,) and var.size == 1):
+            attrs = {k: var.attrs[k] for k in _AXIS_ATTRS if k in var.attrs}
+            out[name] = (float(np.asarray(var.values).item()), attrs)
+    return out
 
 
-def _open(files: Sequence[str], reducer) -> xr.Dataset:
-    # parallel=False: opening netCDF files from several threads at once crashed netCDF4 1.7.5
-    # here (segmentation fault, "NetCDF: HDF error"). The files are opened one after the other
-    # (metadata only); the reductions still run in parallel on the dask scheduler.
-    return xr.open_mfdataset(
-        [str(f) for f in files],
-        preprocess=reducer,
-        combine="by_coords",
-        parallel=False,
-        chunks={},
-        data_vars="all",
-        coords="different",
-        compat="no_conflicts",
-        join="outer",
-        engine="netcdf4",
-    )
+def _entry(run_path, impact_path, settings: dict, axes=None) -> tuple[dict, dict]:
+    """(parameters, numbers) of one run: stored in its table, else computed from the files."""
+    with _READ_LOCK:
+        table = None
+        if impact_path is not None:
+            with xr.open_dataset(impact_path) as ds:
+                numbers = _from_stored(ds.attrs, settings)
+                if numbers is not None:
+                    return _checked(_parameters(ds, axes), axes, impact_path), numbers
+                table = ds.load()
+        with xr.open_dataset(run_path) as ds:
+            reads = _RUN_READS + (_LIFE_READS if run_model(ds) == COMPLIANT else ())
+            run = ds.drop_vars([name for name in ds.data_vars if name not in reads]).load()
+    parameters = _checked(_parameters(run, axes), axes, run_path)
+    if table is not None and table.sizes.get("impact", 0) and run_model(run) == NONSMOOTH:
+        missing = sorted(set(parameters) - set(_parameters(table, axes)))
+        if missing:
+            raise ValueError(f"{impact_path}: scalar coordinate {missing[0]} is missing")
+    return parameters, point_numbers(run, table, settings)
+
+
+def _checked(parameters: dict, axes, path) -> dict:
+    wanted = list(axes) if axes is not None else []
+    missing = [name for name in wanted if name not in parameters]
+    if missing or not parameters:
+        what = missing[0] if missing else "(none: no swept parameter)"
+        raise ValueError(f"{path}: scalar coordinate {what} is missing")
+    return parameters
 
 
 def _scheduler(scheduler, num_workers):
@@ -577,127 +760,248 @@ def _scheduler(scheduler, num_workers):
     return Client(scheduler), {}
 
 
+def _collect(pairs, settings, axes, scheduler, num_workers) -> list:
+    """:func:`_entry` of every (run, table) pair, on the chosen dask scheduler."""
+    import dask
+
+    context, compute_kw = _scheduler(scheduler, num_workers)
+    tasks = [dask.delayed(_entry, pure=True)(str(run), None if table is None else str(table),
+                                             settings, axes) for run, table in pairs]
+    with context:
+        return list(dask.compute(*tasks, **compute_kw))
+
+
+# --- the grid ---------------------------------------------------------------------------------
+
+def _shape(dims, n_levels) -> tuple:
+    sizes = {"race": len(RACES), "kind": len(KINDS), "level": n_levels, "rank": N_TOP,
+             "stage": len(STAGES)}
+    return tuple(sizes[d] for d in dims)
+
+
+def _known_attrs(name: str) -> dict:
+    """Units and long name of a swept parameter whose files do not carry them, from the
+    registry of swept parameters."""
+    try:
+        from simcore.config.parameters import parameter
+
+        return {k: v for k, v in parameter(name).attrs().items() if k in _AXIS_ATTRS}
+    except (ImportError, KeyError, ValueError):
+        pass
+    try:
+        from simcore.io import PARAMETERS
+    except ImportError:
+        PARAMETERS = {}
+    units, long_name = PARAMETERS.get(name, ("1", name))
+    return {"units": units, "long_name": long_name}
+
+
+def _assemble(entries: list, levels: np.ndarray, models: list[int], axes=None) -> xr.Dataset:
+    """The grid of every run's numbers (missing points and models NaN)."""
+    names = list(axes) if axes is not None else list(
+        dict.fromkeys(name for parameters, _ in entries for name in parameters))
+    attrs = {}
+    for parameters, _ in entries:
+        for name, (_, a) in parameters.items():
+            attrs.setdefault(name, a)
+    axis_values = {name: np.array(sorted({p[name][0] for p, _ in entries if name in p}),
+                                  dtype=float) for name in names}
+    grid = tuple(axis_values[name].size for name in names)
+    arrays = {name: np.full(grid + ((len(models),) if scope == "model" else ())
+                            + _shape(dims, levels.size), np.nan)
+              for name, (dims, scope, _, _) in _VARIABLES.items()}
+    for parameters, numbers in entries:
+        missing = [name for name in names if name not in parameters]
+        if missing:
+            raise ValueError(f"a run lacks the swept parameter {missing[0]} that others carry")
+        at = tuple(int(np.searchsorted(axis_values[name], parameters[name][0]))
+                   for name in names)
+        m = models.index(int(numbers["model"]))
+        for name, (dims, scope, _, _) in _VARIABLES.items():
+            if name not in numbers or scope not in ("model", MODELS[int(numbers["model"])]):
+                continue
+            index = at + ((m,) if scope == "model" else ())
+            arrays[name][index] = np.asarray(numbers[name]).reshape(_shape(dims, levels.size))
+    coords = {}
+    for name in names:
+        values = axis_values[name]
+        if "flag_values" in attrs.get(name, {}):  # a category: its int8 code
+            values = values.astype(np.int8)
+        coords[name] = (name, values, attrs.get(name) or _known_attrs(name))
+    coords.update(model=np.array(models, dtype=np.int8),
+                  race=np.arange(len(RACES), dtype=np.int8),
+                  kind=np.arange(len(KINDS), dtype=np.int8), level=levels,
+                  rank=np.arange(1, N_TOP + 1), stage=np.arange(len(STAGES), dtype=np.int8))
+    data = {name: (names + (["model"] if scope == "model" else []) + list(dims), arrays[name])
+            for name, (dims, scope, _, _) in _VARIABLES.items()}
+    return xr.Dataset(data, coords=coords)
+
+
+def _across_models(summary: xr.Dataset, method_tol: float) -> xr.Dataset:
+    """method_ratio, static_deflection_ratio and the method check of peak_force_flagged."""
+    model = list(summary["model"].values)
+
+    def of(name, code):
+        if code in model:
+            return summary[name].sel(model=code, drop=True)
+        return xr.full_like(summary[name].isel(model=0, drop=True), np.nan)
+
+    paper, reference = of("peak_force", NONSMOOTH), of("peak_force", COMPLIANT)
+    ratio = paper / reference.where(reference > 0)
+    deflection = of("ball_deflection_ratio", COMPLIANT).fillna(
+        of("ball_deflection_ratio", NONSMOOTH))
+    disagree = np.abs(ratio - 1.0) > method_tol  # (NaN compares False)
+    flagged = summary["peak_force_flagged"]
+    summary["peak_force_flagged"] = xr.where(disagree, 1.0, flagged).where(paper.notnull())
+    summary["method_ratio"] = ratio
+    summary["static_deflection_ratio"] = deflection
+    return summary
+
+
 def _describe(summary: xr.Dataset) -> xr.Dataset:
     """units, long_name, flag attributes; no fill value on coordinates."""
-    for name, (units, long_name) in _ATTRS.items():
-        if name in summary:
-            summary[name].attrs.update(units=units, long_name=long_name)
+    for name, (_, _, units, long_name) in _VARIABLES.items():
+        summary[name].attrs.update(units=units, long_name=long_name)
+    for name, (_, units, long_name) in _GRID_VARIABLES.items():
+        summary[name].attrs.update(units=units, long_name=long_name)
     for name, (units, long_name) in _COORDS.items():
-        if name in summary.coords:
-            summary[name].attrs.update(units=units, long_name=long_name)
-            if name in _FLAGS:
-                summary[name].attrs.update(
-                    flag_values=np.arange(len(_FLAGS[name]), dtype=np.int8),
-                    flag_meanings=" ".join(_FLAGS[name]))
+        summary[name].attrs.update(units=units, long_name=long_name)
+        if name in _FLAGS:
+            summary[name].attrs.update(
+                flag_values=np.arange(len(_FLAGS[name]), dtype=np.int8),
+                flag_meanings=" ".join(_FLAGS[name]))
+    summary["model"].attrs["comment"] = ("nonsmooth: the paper's method (impulses, filter, "
+                                         "Flores forces); compliant: Hertz contact forces")
     for name in summary.coords:
         summary[name].encoding["_FillValue"] = None
     return summary
 
 
-def _from_files(run_files, impact_files, scheduler, num_workers, settle, levels):
-    """The run and impact parts of the summary, reduced from the files on dask."""
-    context, compute_kw = _scheduler(scheduler, num_workers)
-    with context:
-        with _open(run_files, partial(_reduce_run, settle=settle)) as lazy_runs:
-            runs = lazy_runs.compute(**compute_kw)
-        windows = runs[["settle_time", "revolutions"]]
-        with _open(impact_files, partial(_reduce_impacts, windows=windows,
-                                         levels=levels)) as lazy_impacts:
-            impacts = lazy_impacts.compute(**compute_kw)
-    return runs, impacts
+def _per_model(files, what: str) -> dict:
+    """{model name: [paths]} of a plain sequence (the nonsmooth runs) or of a mapping."""
+    if isinstance(files, dict):
+        bad = sorted(set(files) - set(MODELS))
+        if bad:
+            raise ValueError(f"summarize: {what} has the model {bad[0]!r}; allowed: "
+                             f"{', '.join(MODELS)}")
+        return {name: list(paths) for name, paths in files.items()}
+    return {"nonsmooth": list(files)}
 
 
-def summarize(run_files: Sequence[str], impact_files: Sequence[str], scheduler=None,
-              num_workers: int | None = None, settle: float = 0.0,
-              force_levels: Sequence[float] = (100.0, 1000.0),
-              settings: dict | None = None) -> xr.Dataset:
-    """Summarise a study over its swept parameters.
+def _checked_settings(settings, settle, force_levels, method_tol) -> dict:
+    """The analysis settings the numbers use, checked (one line naming the bad one)."""
+    settings = dict(settings or {})
+    settle = float(settings.get("settle", 0.0) if settle is None else settle)
+    if not np.isfinite(settle) or settle < 0:
+        raise ValueError(f"summarize: settle must be a number >= 0 [revolutions], got {settle}")
+    force_levels = settings.get("force_levels", (100.0, 1000.0)) if force_levels is None \
+        else force_levels
+    levels = _levels(force_levels)
+    if levels.size == 0 or not np.all(np.isfinite(levels) & (levels > 0)):
+        raise ValueError(f"summarize: force_levels must be numbers > 0 [N], got {force_levels}")
+    method_tol = float(settings.get("method_tol", 0.2) if method_tol is None else method_tol)
+    if not (np.isfinite(method_tol) and method_tol > 0):
+        raise ValueError(f"summarize: method_tol must be a number > 0, got {method_tol}")
+    return dict(settings, settle=settle, force_levels=list(levels), method_tol=method_tol)
+
+
+def summarize(run_files, impact_files, scheduler=None, num_workers: int | None = None,
+              settle: float | None = None, force_levels: Sequence[float] | None = None,
+              settings: dict | None = None, method_tol: float | None = None,
+              models: Sequence[str] | None = None, axes: Sequence[str] | None = None
+              ) -> xr.Dataset:
+    """Summarise a study over its swept parameters and its contact models.
 
     Parameters
     ----------
-    run_files : sequence of path
-        Run files, or failed-run markers (attribute ``failed = 1``).
-    impact_files : sequence of path
-        Impact tables of the same runs (dimension ``impact``; columns ``time``, ``race``,
-        ``kind``, ``F_max``, and where present ``p_max`` and ``flags``; attribute
-        ``zero_threshold``). Older tables with string ``race``/``kind`` are read too; a column
-        a table lacks counts as missing.
+    run_files, impact_files : sequence of path, or {model name: sequence of path}
+        The runs (or failed-run markers, attribute ``failed = 1``) and their tables, pairwise:
+        a plain sequence holds nonsmooth runs; a mapping gives the files of each model
+        (``{"nonsmooth": [...], "compliant": [...]}``). Nonsmooth tables have the dimension
+        ``impact`` and columns ``time``, ``race``, ``kind``, ``F_max``, and where present
+        ``p_max`` and ``flags`` (older tables with string ``race``/``kind`` are read too; a
+        column a table lacks counts as missing). A model without tables (no key in
+        ``impact_files``, e.g. compliant runs) has its numbers computed from its run files.
     scheduler : str, optional
-        None or ``"threads"``: dask's local threads; ``"synchronous"``: no parallelism;
-        ``"local"``: start a ``distributed.LocalCluster``; anything else: the address of a
-        running dask distributed scheduler (``tcp://host:8786``), which needs the package
-        ``distributed`` and the files visible from its workers.
+        Where the numbers of runs whose tables do not carry them are computed: None or
+        ``"threads"``: dask's local threads; ``"synchronous"``: no parallelism; ``"local"``: a
+        new ``distributed.LocalCluster``; anything else: the address of a running dask
+        distributed scheduler (``tcp://host:8786``), which needs the package ``distributed``
+        and the files visible from its workers.
     num_workers : int, optional
         Local threads or local-cluster workers.
-    settle : float
-        Start-up left out of the statistics [crank revolutions] (:func:`steady_window`).
-    force_levels : sequence of float
-        Absolute force levels of ``n_above``/``above_per_rev`` [N].
+    settle, force_levels, method_tol : optional
+        Start-up [crank revolutions], absolute force levels [N] and the tolerance of the
+        method check [-]; default: those of ``settings`` (else 0, 100 N and 1 kN, 0.2).
     settings : dict, optional
-        The analysis settings, recorded as attributes ``analysis_<key>`` (no dots: CF names).
+        The ``analysis`` settings (``settle``, ``force_levels``, ``r_eff``,
+        ``groove_conformity``, ``method_tol``), recorded as attributes ``analysis_<key>``.
+    models : sequence of str, optional
+        The models of the summary's ``model`` dimension, e.g. ``["nonsmooth", "compliant"]``
+        (``study.models``); default: those with files.
+    axes : sequence of str, optional
+        The grid's axes (coordinate names, in order; ``study_axes``); default: every numeric
+        scalar coordinate of the files, in the order of the first file.
 
     Returns
     -------
     xarray.Dataset
-        Dimensions ``clearance``, ``mu``, ``omega0``, ``e_N`` plus ``race``, ``kind``,
-        ``level``, ``rank`` and ``stage``, in memory, every variable with ``units`` and
-        ``long_name`` (see the module docstring).
-
-    Notes
-    -----
-    When every impact table carries its point's numbers for these ``settle`` and
-    ``force_levels`` (attributes ``summary_*`` of :func:`point_numbers`, which the study's
-    simulate jobs store), the summary is assembled from those attributes: no run file and no
-    table column is read, and ``scheduler`` is not used; a table marked failed there makes its
-    point missing. Otherwise every file is reduced as described in the module docstring.
+        Dimensions: the grid's axes, ``model``, ``race``, ``kind``, ``level``, ``rank``,
+        ``stage``; in memory, every variable with ``units`` and ``long_name`` (see the module
+        docstring).
     """
-    if not run_files or not impact_files:
+    runs, tables = _per_model(run_files, "run_files"), _per_model(impact_files, "impact_files")
+    if not any(runs.values()):
         raise ValueError("summarize: no run or impact files given")
-    settle = float(settle)
-    if not np.isfinite(settle) or settle < 0:
-        raise ValueError(f"summarize: settle must be a number >= 0 [revolutions], got {settle}")
-    levels = np.asarray(sorted(float(v) for v in force_levels), dtype=float)
-    if levels.size == 0 or not np.all(np.isfinite(levels) & (levels > 0)):
-        raise ValueError(f"summarize: force_levels must be numbers > 0 [N], got {force_levels}")
-    stored = []
-    for path in impact_files:  # the numbers the study's jobs stored in the impact tables
-        found = _read_stored(path, settle, levels)
-        if found is None:
-            stored = None
-            break
-        stored.append(found)
-    if stored:
-        runs, impacts = _grid_from_stored(stored, levels)
-    else:
-        runs, impacts = _from_files(run_files, impact_files, scheduler, num_workers, settle,
-                                    levels)
-    summary = xr.merge([runs, impacts], join="outer", compat="no_conflicts",
-                       combine_attrs="drop")
-    # A point whose run file says "failed" is missing everywhere, whatever the impact file says.
+    settings_in = settings
+    settings = _checked_settings(settings, settle, force_levels, method_tol)
+    pairs = []
+    for name, paths in runs.items():
+        paired = tables.get(name)
+        if paired is not None and len(paired) != len(paths):
+            raise ValueError(f"summarize: {name} runs and tables differ in number")
+        pairs += list(zip(paths, paired if paired is not None else [None] * len(paths),
+                          strict=True))
+    wanted = sorted(MODELS.index(m) for m in (models if models else
+                                              [m for m, p in runs.items() if p]))
+    entries = _collect(pairs, settings, None if axes is None else list(axes), scheduler,
+                       num_workers)
+    entries = [entry for entry in entries if int(entry[1]["model"]) in wanted]
+    summary = _assemble(entries, np.asarray(settings["force_levels"]), wanted, axes)
+    # a failed run is missing everywhere for its model, whatever its impact table says
     failed = summary["failed"] > 0
-    for name in summary.data_vars:
-        if name != "failed":
-            summary[name] = summary[name].where(~failed)
-    order = list(SWEPT) + [d for d in ("race", "kind", "level", "rank", "stage")
-                           if d in summary.dims]
-    summary = _describe(summary.transpose(*order))
+    for name, (_, scope, _, _) in _VARIABLES.items():
+        if name == "failed" or (scope != "model" and MODELS.index(scope) not in wanted):
+            continue
+        summary[name] = summary[name].where(
+            ~(failed if scope == "model" else failed.sel(model=MODELS.index(scope), drop=True)))
+    summary = _across_models(summary, settings["method_tol"])
+    grid = [d for d in summary.dims if d not in _ORDER]
+    summary = _describe(summary.transpose(*grid, *[d for d in _ORDER if d in summary.dims]))
+    _provenance(summary, settings["settle"], settings["method_tol"], settings_in or {})
+    return summary
+
+
+def _provenance(summary: xr.Dataset, settle: float, method_tol: float, settings: dict) -> None:
     from simcore import __version__
 
+    runs = summary["failed"].notnull()
+    n_runs = int(runs.sum())
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
     summary.attrs.update(
         Conventions="CF-1.10",
-        title="Ball bearing (SKF 6012) in a crank-slider: parameter study summary",
+        title="Ball bearing in a crank-slider: parameter study summary",
         source=f"bearingsim {__version__} (analysis.summary)",
-        history=f"{now}: summary of {int(summary['failed'].size)} runs by bearingsim "
-                f"{__version__} (analysis.summary.summarize)",
-        n_runs=int(summary["failed"].size),
-        n_failed=int(failed.sum()),
+        history=f"{now}: summary of {n_runs} runs by bearingsim {__version__} "
+                "(analysis.summary.summarize)",
+        n_runs=n_runs,
+        n_failed=int((summary["failed"] > 0).sum()),
         settle_revolutions=settle,
+        method_tol=method_tol,
     )
-    for key, value in (settings or {}).items():
+    for key, value in settings.items():
         if value is not None:
             summary.attrs[f"analysis_{key}"] = value
-    return summary
 
 
 # --- the study in one table -----------------------------------------------------------------
@@ -711,13 +1015,61 @@ def _where(da: xr.DataArray) -> str:
     return ", ".join(f"{d}={float(da[d].values[i]):g}" for d, i in zip(da.dims, idx, strict=True))
 
 
-def summary_table(summary: xr.Dataset):
-    """The study in numbers: each quantity's smallest, median and largest value over the grid.
+def _table_rows(summary: xr.Dataset, models: list[int]) -> list:
+    """(quantity, unit, DataArray, scale) of the summary table, the models side by side
+    (quantities the summary lacks are left out)."""
+    rows = []
+    both = len(models) > 1
+
+    def of(name, m):
+        return summary[name].sel(model=m) if "model" in summary[name].dims else summary[name]
+
+    for name, what, unit, scale in (("peak_force", "steady peak force", "kN", 1e-3),
+                                    ("peak_force_rev_median", "median over revolutions of the "
+                                     "peak force", "kN", 1e-3),
+                                    ("p_max", "peak contact pressure p_max", "MPa", 1e-6)):
+        for r in (1, 0):
+            for m in models if name in summary else ():
+                rows.append((f"{what}, {RACES[r]} race, {MODELS[m]}", unit,
+                             of(name, m).isel(race=r), scale))
+    for r in (1, 0):
+        if "method_ratio" in summary and both:
+            rows.append((f"method ratio (nonsmooth / compliant peak), {RACES[r]} race", "1",
+                         summary["method_ratio"].isel(race=r), 1.0))
+    if "static_deflection_ratio" in summary and both:
+        rows.append(("static deflection of a ball / clearance", "1",
+                     summary["static_deflection_ratio"], 1.0))
+    for m in models if "startup_peak_force" in summary else ():
+        rows.append((f"start-up peak force, {MODELS[m]}", "kN", of("startup_peak_force", m),
+                     1e-3))
+    for i, level in enumerate(summary["level"].values if "above_per_rev" in summary else ()):
+        for m in models:
+            rows.append((f"{'impacts' if m == NONSMOOTH else 'contact episodes'} per "
+                         f"revolution with force >= {level:g} N, {MODELS[m]}", "1",
+                         of("above_per_rev", m).isel(level=i).sum("race", min_count=1), 1.0))
+    if "impacts_per_rev" in summary and NONSMOOTH in models:
+        rows.append(("impacts per revolution (nonsmooth, relative zero threshold)", "1",
+                     summary["impacts_per_rev"].sum(["race", "kind"], min_count=1), 1.0))
+    if "revolutions" in summary:
+        rows.append(("steady revolutions per run", "1", of("revolutions", models[0]), 1.0))
+    if "iter_max" in summary and NONSMOOTH in models:
+        rows.append(("Newton iterations per step, largest (any stage), nonsmooth", "1",
+                     of("iter_max", NONSMOOTH).max("stage"), 1.0))
+    for m in models if "wall_time_s" in summary else ():
+        rows.append((f"wall time per run, {MODELS[m]}", "s", of("wall_time_s", m), 1.0))
+    return rows
+
+
+def summary_table(summary: xr.Dataset, model: str | None = None):
+    """The study in numbers: each quantity's smallest, median and largest value over the grid,
+    for both models and their ratio.
 
     Parameters
     ----------
     summary : xarray.Dataset
         Output of :func:`summarize`.
+    model : {None, "nonsmooth", "compliant"}
+        Only that model's rows; None (default): every model of the summary and their ratio.
 
     Returns
     -------
@@ -727,47 +1079,31 @@ def summary_table(summary: xr.Dataset):
     """
     import pandas as pd
 
-    rows = []
-
-    def add(name, unit, da, scale=1.0):
+    models = [int(m) for m in summary["model"].values] if "model" in summary.dims else [
+        NONSMOOTH]
+    if model is not None:
+        if model not in MODELS or MODELS.index(model) not in models:
+            raise ValueError(f"model: {model!r} is not allowed; allowed: None or one of "
+                             + ", ".join(MODELS[m] for m in models))
+        models = [MODELS.index(model)]
+    failed = summary["failed"] > 0
+    n_failed = int(failed.sum())
+    grid = " x ".join(f"{summary.sizes[d]} {d}" for d in summary["failed"].dims if d != "model")
+    rows = [{"quantity": f"runs, of which {n_failed} failed", "unit": "1", "min": "",
+             "median": "", "max": str(int(summary["failed"].notnull().sum())),
+             "largest at": f"grid: {grid}"}]
+    if "peak_force_flagged" in summary:
+        flagged = summary["peak_force_flagged"]
+        rows.append({"quantity": "nonsmooth peak forces flagged (flag or method check)",
+                     "unit": "1", "min": "", "median": "",
+                     "max": f"{int((flagged > 0).sum())} of {int(flagged.notnull().sum())}",
+                     "largest at": ""})
+    for quantity, unit, da, scale in _table_rows(summary, models):
         values = np.asarray(da.values, dtype=float) * scale
         finite = values[np.isfinite(values)]
-        if not finite.size:
-            return
-        rows.append({"quantity": name, "unit": unit, "min": f"{finite.min():.4g}",
-                     "median": f"{np.median(finite):.4g}", "max": f"{finite.max():.4g}",
-                     "largest at": _where(da)})
-
-    n_runs = int(summary["failed"].size)
-    n_failed = int((summary["failed"] > 0).sum())
-    grid = " x ".join(f"{summary.sizes[d]} {d}" for d in SWEPT if d in summary.dims)
-    rows.append({"quantity": f"runs, of which {n_failed} failed", "unit": "1", "min": "",
-                 "median": "", "max": str(n_runs), "largest at": f"grid: {grid}"})
-    def have(*names):
-        return all(name in summary for name in names)
-
-    for r in (1, 0):
-        if have("peak_force"):
-            add(f"peak force, {RACES[r]} race", "kN", summary["peak_force"].isel(race=r), 1e-3)
-    for r in (1, 0):
-        if have("p_max"):
-            add(f"peak contact pressure p_max, {RACES[r]} race", "MPa",
-                summary["p_max"].isel(race=r), 1e-6)
-    if have("startup_peak_force"):
-        add("start-up peak force", "kN", summary["startup_peak_force"], 1e-3)
-    if have("above_per_rev"):
-        for i, level in enumerate(summary["level"].values):
-            add(f"impacts per revolution with F_max >= {level:g} N", "1",
-                summary["above_per_rev"].isel(level=i).sum("race", min_count=1))
-    if have("impacts_per_rev"):
-        add("impacts per revolution (relative zero threshold)", "1",
-            summary["impacts_per_rev"].sum(["race", "kind"], min_count=1))
-    if have("revolutions"):
-        add("steady revolutions per run", "1", summary["revolutions"])
-    if have("iter_max"):
-        add("Newton iterations per step, largest (any stage)", "1",
-            summary["iter_max"].max("stage"))
-    if have("wall_time_s"):
-        add("wall time per run", "s", summary["wall_time_s"])
+        if finite.size:
+            rows.append({"quantity": quantity, "unit": unit, "min": f"{finite.min():.4g}",
+                         "median": f"{np.median(finite):.4g}", "max": f"{finite.max():.4g}",
+                         "largest at": _where(da)})
     return pd.DataFrame(rows, columns=["quantity", "unit", "min", "median", "max",
                                        "largest at"])

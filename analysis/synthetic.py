@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-__all__ = ["make_run_dataset", "make_pinch_dataset", "PAPER_MODEL"]
+__all__ = ["make_run_dataset", "make_pinch_dataset", "make_compliant_run", "PAPER_MODEL"]
 
 PAPER_MODEL = {
     "model.clearance": 4.0e-4,
@@ -210,4 +210,67 @@ def make_pinch_dataset(v_inner=0.3, v_outer=0.2, m_crank=2.0, m_rod=3.0, e_N=0.9
                   "title": "synthetic pinch (not a simulation)",
                   "pinch_reduced_mass": mu, "pinch_speed": V, "pinch_impulse": L})
     ds.attrs.update(attrs)
+    return ds
+
+
+def make_compliant_run(force, output_dt=1.0e-4, omega0=50.0, clearance=4.0e-4, mu=0.01,
+                       e_N=0.9, youngs_modulus=2.1e9, failed=False):
+    """A compliant run dataset around a given contact-force history (not a simulation).
+
+    Parameters
+    ----------
+    force : array_like
+        ``F_N`` (time, contact) [N]: the largest contact force of each output interval, with
+        ``contact`` = 2 n_balls (balls 0..n-1 on the inner race, then on the outer race).
+    output_dt : float
+        Output interval [s]; sample k is at k output_dt.
+    omega0 : float
+        Crank speed of the constant drive [rad/s]: ``crank_angle`` = omega0 t.
+    clearance, mu, e_N : float
+        Study parameters (length-1 coordinates, as a run file) [m], [-], [-].
+    youngs_modulus : float
+        [Pa], for the Hertz stresses the analysis computes.
+    failed : bool
+        Return the marker of a failed compliant run instead.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``F_N``, ``Lambda_N`` (F_N times the interval), ``crank_angle``, ``iterations``,
+        ``converged``; attributes of the paper's model with ``model.contact_model`` =
+        ``compliant`` and ``output_interval_s``.
+    """
+    force = np.asarray(force, dtype=float)
+    n_samples, nc = force.shape
+    n_balls = nc // 2
+    t = np.arange(n_samples) * output_dt
+    attrs = dict(PAPER_MODEL)
+    attrs.update({"model.clearance": clearance, "model.mu": mu, "model.omega0": omega0,
+                  "model.e_N": e_N, "model.n_balls": n_balls,
+                  "model.youngs_modulus": youngs_modulus, "model.contact_model": "compliant",
+                  "model.drive": "constant", "contact_model": "compliant",
+                  "solver.dt": output_dt / 50.0, "solver.output_dt": output_dt,
+                  "output_interval_s": output_dt, "wall_time_s": 1.0,
+                  "title": "synthetic compliant run (not a simulation)"})
+    coords = {name: ((name,), [value]) for name, value in
+              (("clearance", clearance), ("mu", mu), ("omega0", omega0), ("e_N", e_N))}
+    if failed:
+        return xr.Dataset(coords=coords, attrs=dict(attrs, failed=1, error="synthetic"))
+    ds = xr.Dataset(
+        {
+            "F_N": (("time", "contact"), force, {"units": "N", "long_name": "contact force"}),
+            "Lambda_N": (("time", "contact"), force * output_dt,
+                         {"units": "N s", "long_name": "impulse of the interval"}),
+            "crank_angle": ("time", omega0 * t, {"units": "rad", "long_name": "crank angle"}),
+            "iterations": (("time", "stage"), np.ones((n_samples, 3), dtype=np.int32),
+                           {"units": "1", "long_name": "Newton iterations"}),
+            "converged": ("time", np.ones(n_samples, dtype=np.int8),
+                          {"units": "1", "long_name": "converged"}),
+        },
+        coords={"time": ("time", t, {"units": "s", "long_name": "time"}),
+                "contact": np.arange(nc),
+                "ball": ("contact", np.tile(np.arange(n_balls), 2)),
+                "race": ("contact", np.array(["inner"] * n_balls + ["outer"] * n_balls)),
+                "stage": ["smooth", "position", "velocity"], **coords},
+        attrs=attrs)
     return ds

@@ -1,25 +1,30 @@
-"""Compliant zooms on the largest impacts of a run: the paper's force beside the force of a
+"""Compliant zooms on the impacts a study reads: the paper's force beside the force of a
 contact that deforms.
 
-For each of the ``zoom_top`` largest impacts (by impulse) the whole mechanism is restarted from
-the run's state just before the impact with compliant (Hertz) contacts and a small step
-(:func:`simcore.zoom`, its step the shortest Hertz contact time it must resolve over
+The zoomed impacts (:func:`zoom_rows`) are the largest Flores forces of the steady window (the
+largest of each race first, ``zoom_top`` in all) and the largest of the start-up: the impacts
+that give the summary's ``peak_force`` and ``startup_peak_force``. For each, the whole mechanism
+is restarted from the run's state just before the impact with compliant (Hertz) contacts and a
+small step (:func:`simcore.zoom`, its step the shortest Hertz contact time it must resolve over
 :data:`STEPS_PER_CONTACT`) for a window of three Flores contact times of the impact (at least
 0.5 ms, at most 20 ms), or until the ball of every impact it serves is free again. The
 impact table gains ``F_max_zoom`` [N], the largest contact force of the impact's ball during
 the impact: over the ball's contact episode that contains the first force of the impact's own
-contact (for a ball pinched between both races that is the larger of its two contacts; NaN when
-that force still rises at the end of the zoom), and
+contact (for a pinch, the first sample where both contacts of the ball carry force, so that the
+pinch's two rows read the same episode; the ball's force is the larger of its two contacts; NaN
+when that force still rises at the end of the zoom), and
 ``contact_time_zoom`` [s], how long the impact's own contact stayed closed in its first contact
 episode (NaN when it was still closed at the end of the zoom: the impact turned into persistent
 contact, as it does for the loaded balls of the bearing).
 
+Where the zoom contradicts the paper's force, |F_max / F_max_zoom - 1| > ``analysis.method_tol``,
+the row gets the flag bit ``method_disagrees`` and is no longer ``trusted``.
+
 A zoom stops once, for each impact it serves, the ball's contacts have carried no force at one
 sample after the impact's contact first closed (``watch_contacts`` of :func:`simcore.zoom`,
 checked every 100 steps). Both numbers read only the samples up to that point, so they are
-exactly those of the zoom over its whole window. (Before, ``F_max_zoom`` took the ball's
-largest force over the whole window, so a later, separate contact of the same ball could set
-it; no zoom could then stop before its window's end while that ball was free.)
+exactly those of the zoom over its whole window; a later, separate contact of the same ball
+does not enter.
 """
 
 from __future__ import annotations
@@ -29,7 +34,11 @@ import warnings
 import numpy as np
 import xarray as xr
 
-__all__ = ["STEPS_PER_CONTACT", "add_zoom_forces", "zoom_step"]
+from .impacts import FLAG, KIND, count_flags
+
+_METHOD_DISAGREES = FLAG["method_disagrees"]
+
+__all__ = ["STEPS_PER_CONTACT", "add_zoom_forces", "zoom_step", "zoom_rows", "method_disagrees"]
 
 
 #: steps of a zoom per Hertz contact time (dt = t_Hertz / N): doubling N changes F_max_zoom by
@@ -83,6 +92,15 @@ def _struck(F_contact: np.ndarray) -> np.ndarray:
     return F
 
 
+def _pinch_onset(F_ball_contacts: np.ndarray) -> np.ndarray:
+    """The onset series of a pinch row: where both of the ball's contacts carry force (the ball
+    squeezed between the races), else, if they never do together, where either does. The same
+    for the pinch's two rows (the ball on either race), so that both read one episode: a light
+    touch of one race before the squeeze is not the pinch."""
+    both = F_ball_contacts.min(axis=1)
+    return both if np.any(both > 0.0) else _struck(F_ball_contacts.max(axis=1))
+
+
 def _episode_peak(F_ball: np.ndarray, F_contact: np.ndarray) -> float:
     """F_max_zoom of an impact [N]: the largest force of the impact's ball (``F_ball``, the
     larger of its contacts per sample) over the ball's contact episode that contains the first
@@ -133,11 +151,144 @@ def zoom_step(zoom_model: dict, run_dt: float, speeds, steps_per_contact: int) -
     return min(t_contact / int(steps_per_contact), float(run_dt))
 
 
+def zoom_rows(impacts_ds: xr.Dataset, zoom_top: int, settle_time: float = -np.inf) -> np.ndarray:
+    """The impact rows a study zooms: where the summary reads its peak forces.
+
+    The largest Flores forces (``F_max``) of the steady window (``time > settle_time``): first
+    the largest of each race (largest first), then the next largest of either race, ``zoom_top``
+    rows in all; and the largest of the start-up (``time <= settle_time``) on top of them, so
+    that the impacts that give ``peak_force`` and ``startup_peak_force`` have an
+    ``F_max_zoom``. Rows without a force (no approach) are not zoomed.
+
+    Parameters
+    ----------
+    impacts_ds : xarray.Dataset
+        An impact table (columns ``time``, ``race``, ``F_max``).
+    zoom_top : int
+        Zooms of the steady window (>= 0; 0: none at all).
+    settle_time : float
+        End of the start-up [s] (:func:`analysis.summary.steady_window`); -inf: the whole run
+        is steady.
+
+    Returns
+    -------
+    numpy.ndarray of int
+        Row indices, steady ones by decreasing force, then the start-up's.
+    """
+    n = impacts_ds.sizes.get("impact", 0)
+    if zoom_top <= 0 or n == 0:
+        return np.zeros(0, dtype=np.int64)
+    force = np.asarray(impacts_ds["F_max"].values, dtype=float)
+    race = np.asarray(impacts_ds["race"].values)
+    steady = np.asarray(impacts_ds["time"].values, dtype=float) > settle_time
+    has_force = np.isfinite(force)
+    by_force = np.argsort(-np.where(has_force, force, -np.inf), kind="stable")
+    candidates = by_force[has_force[by_force] & steady[by_force]]
+    first_of_race = [int(candidates[race[candidates] == r][0]) for r in np.unique(race)
+                     if np.any(race[candidates] == r)]
+    first_of_race.sort(key=lambda row: -force[row])
+    chosen = list(first_of_race[:zoom_top])
+    for row in candidates:
+        if len(chosen) >= zoom_top:
+            break
+        if int(row) not in chosen:
+            chosen.append(int(row))
+    startup = by_force[has_force[by_force] & ~steady[by_force]]
+    if startup.size:
+        chosen.append(int(startup[0]))
+    return np.asarray(chosen, dtype=np.int64)
+
+
+def _zoom_plans(run_ds, table, rows, dt, window, max_window, overrides, steps_per_contact):
+    """One zoom per distinct impact time: {time: (window [s], step [s], rows it serves)}.
+
+    A zoom lasts three Flores contact times of the impacts it serves (a soft contact,
+    E = 2.1e9 Pa, lasts milliseconds), at least ``window``, at most ``max_window``."""
+    from simcore.study.zoom import zoom_config
+
+    n = table.sizes.get("impact", 0)
+    times = np.asarray(table["time"].values, dtype=float)
+    flores_time = (np.asarray(table["contact_time"].values, dtype=float)
+                   if "contact_time" in table else np.full(n, np.nan))
+    v_pre = (np.asarray(table["v_pre"].values, dtype=float)
+             if "v_pre" in table else np.full(n, np.nan))
+    windows: dict[float, float] = {}
+    served: dict[float, list[int]] = {}
+    for row in rows:
+        time = float(times[row])
+        w = window
+        if np.isfinite(flores_time[row]):
+            w = min(max(w, 3.0 * flores_time[row]), max_window)
+        windows[time] = max(windows.get(time, 0.0), w)
+        served.setdefault(time, []).append(int(row))
+    if dt is None:
+        model = zoom_config(run_ds, window=max(windows.values()), dt=1e-6,
+                            overrides=overrides)["model"]
+        run_dt = float(run_ds.attrs.get("solver.dt", np.inf))
+        steps = {time: zoom_step(model, run_dt, v_pre[served[time]], steps_per_contact)
+                 for time in windows}
+    else:
+        steps = dict.fromkeys(windows, float(dt))
+    return {time: (windows[time], steps[time], served[time]) for time in windows}
+
+
+def _zoom_numbers(run_ds, table, time, plan, overrides) -> dict:
+    """Run the zoom of one impact time; {row: (F_max_zoom [N], contact_time_zoom [s],
+    zoom_flagged)}.
+
+    The zoom watches, for every impact it serves, the contacts of the impact's ball (onset: the
+    impact's own contact) and stops once all those episodes have ended."""
+    from simcore.config import output_every
+    from simcore.study.zoom import zoom_trajectory
+
+    window, step, rows = plan
+    ball_of_contact = np.asarray(run_ds["ball"].values)
+    balls = np.asarray(table["ball"].values)
+    contacts = np.asarray(table["contact"].values)
+    groups = np.zeros((len(rows), ball_of_contact.size), dtype=bool)
+    onset = np.zeros_like(groups)
+    for g, row in enumerate(rows):
+        groups[g] = ball_of_contact == int(balls[row])
+        onset[g, int(contacts[row])] = True
+    # (the zoom's arrays: its dataset would be built for three of them) a zoom's flagged step
+    # (not converged, energy created, an integrity check such as an indentation beyond Hertz's
+    # range) flags its impacts (zoom_flagged) instead of stopping the study
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        traj, _, _, zcfg = zoom_trajectory(
+            run_ds, time, window=window, dt=step,
+            overrides=[*overrides, "solver.on_nonconvergence=warn"], watch_contacts=groups,
+            watch_onset=onset)
+    F_N = traj.F_N
+    flagged = int(not np.all(traj.converged))
+    output_dt = float(zcfg["solver"]["dt"]) * output_every(zcfg)
+    kinds = np.asarray(table["kind"].values) if "kind" in table else np.full(len(balls), -1)
+    out = {}
+    for g, row in enumerate(rows):
+        F_contact = _struck(F_N[:, int(contacts[row])])
+        F_ball = F_N[:, groups[g]].max(axis=1)
+        onset = _pinch_onset(F_N[:, groups[g]]) if kinds[row] == KIND["pinch"] else F_contact
+        out[row] = (_episode_peak(F_ball, onset), _first_episode(F_contact, output_dt),
+                    flagged)
+    return out
+
+
+def method_disagrees(F_max, F_max_zoom, method_tol: float) -> np.ndarray:
+    """Where the paper's force and its compliant reference differ by more than ``method_tol``:
+    |F_max / F_max_zoom - 1| > method_tol (False where either is missing)."""
+    F_max = np.asarray(F_max, dtype=float)
+    F_ref = np.asarray(F_max_zoom, dtype=float)
+    both = np.isfinite(F_max) & np.isfinite(F_ref) & (F_ref > 0.0)
+    ratio = np.divide(F_max, F_ref, out=np.full(F_max.shape, np.nan), where=both)
+    return both & (np.abs(ratio - 1.0) > float(method_tol))
+
+
 def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 5,
                     dt: float | None = None, window: float = 5e-4, overrides=(),
-                    max_window: float = 2e-2,
-                    steps_per_contact: int = STEPS_PER_CONTACT) -> xr.Dataset:
-    """Impact table with ``F_max_zoom`` and ``contact_time_zoom`` for the largest impacts.
+                    max_window: float = 2e-2, steps_per_contact: int = STEPS_PER_CONTACT,
+                    settle_time: float = -np.inf, method_tol: float = 0.2) -> xr.Dataset:
+    """Impact table with ``F_max_zoom`` and ``contact_time_zoom`` for the impacts the summary
+    reads (:func:`zoom_rows`), and the flag ``method_disagrees`` where they contradict F_max.
 
     Parameters
     ----------
@@ -146,8 +297,8 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
     impacts_ds : xarray.Dataset
         Its impact table (:func:`analysis.extract_impacts`).
     zoom_top : int
-        How many of the largest impacts (by ``impulse``) to zoom; 0: none (the columns are
-        all NaN).
+        Zooms of the largest forces of the steady window (the start-up's largest gets one more);
+        0: none (the columns are all NaN).
     dt : float, optional
         Step of every zoom [s]. Default (None): from the physics, per zoom, the shortest Hertz
         contact time it must resolve over ``steps_per_contact`` (:func:`zoom_step`).
@@ -157,90 +308,65 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
         stops earlier once the ball of every impact it serves is free again.
     overrides : sequence of str
         ``section.key=value`` settings of the zooms (e.g. another ``model.youngs_modulus``).
+    max_window : float
+        Longest window of a zoom [s].
     steps_per_contact : int
         Steps per Hertz contact time when ``dt`` is None [-].
+    settle_time : float
+        End of the start-up [s]; -inf (default): the whole run is steady.
+    method_tol : float
+        A zoomed row whose |F_max / F_max_zoom - 1| exceeds it gets the flag bit
+        ``method_disagrees`` and ``trusted`` = 0 [-] (``analysis.method_tol``).
 
     Returns
     -------
     xarray.Dataset
         A copy of ``impacts_ds`` with ``F_max_zoom`` [N], ``contact_time_zoom`` [s] and
-        ``dt_zoom`` [s] (NaN where not zoomed) and attributes ``zoom_top``,
-        ``zoom_steps_per_contact`` (0 for a fixed ``dt``), ``zoom_window``.
+        ``dt_zoom`` [s] (NaN where not zoomed), the flags and counts updated, and attributes
+        ``zoom_top``, ``zoom_steps_per_contact`` (0 for a fixed ``dt``), ``zoom_window``,
+        ``zoom_max_window``, ``method_tol``, ``n_zoomed``, ``n_method_disagrees``.
     """
-    from simcore.config import output_every
-    from simcore.study.zoom import zoom_config, zoom_trajectory
-
     zoom_top = int(zoom_top)
     if zoom_top < 0:
         raise ValueError(f"analysis.zoom_top: {zoom_top} is not allowed; allowed: >= 0")
     if dt is None and int(steps_per_contact) < 1:
         raise ValueError(f"steps_per_contact: {steps_per_contact!r} is not allowed; "
                          "allowed: >= 1")
+    if not (np.isfinite(method_tol) and method_tol > 0):
+        raise ValueError(f"analysis.method_tol: {method_tol!r} is not allowed; allowed: > 0")
     out = impacts_ds.copy()
     n = out.sizes.get("impact", 0)
-    F_zoom = np.full(n, np.nan)
-    t_zoom = np.full(n, np.nan)
-    flagged = np.zeros(n, dtype=np.int8)
-    dt_zoom = np.full(n, np.nan)
-    if zoom_top > 0 and n > 0:
-        impulse = np.asarray(out["impulse"].values, dtype=float)
-        order = np.argsort(-impulse, kind="stable")[:zoom_top]
-        flores_time = (np.asarray(out["contact_time"].values, dtype=float)
-                       if "contact_time" in out else np.full(n, np.nan))
-        v_pre = (np.asarray(out["v_pre"].values, dtype=float)
-                 if "v_pre" in out else np.full(n, np.nan))
-        # one zoom per distinct time, long enough for three Flores contact times of the
-        # impacts it serves (a soft contact, E = 2.1e9 Pa, lasts milliseconds)
-        windows: dict[float, float] = {}
-        speeds: dict[float, list[float]] = {}
-        for row in order:
-            time = float(out["time"].values[row])
-            w = window
-            if np.isfinite(flores_time[row]):
-                w = min(max(w, 3.0 * flores_time[row]), max_window)
-            windows[time] = max(windows.get(time, 0.0), w)
-            speeds.setdefault(time, []).append(float(v_pre[row]))
-        steps: dict[float, float] = {}
-        if dt is None:
-            model = zoom_config(run_ds, window=max(windows.values()), dt=1e-6,
-                                overrides=overrides)["model"]
-            run_dt = float(run_ds.attrs.get("solver.dt", np.inf))
-            steps = {time: zoom_step(model, run_dt, speeds[time], steps_per_contact)
-                     for time in windows}
-        else:
-            steps = dict.fromkeys(windows, float(dt))
-        # each zoom watches, for every impact it serves, the contacts of the impact's ball
-        # (onset: the impact's own contact) and stops once all those episodes have ended
-        ball_of_contact = np.asarray(run_ds["ball"].values)
-        served: dict[float, list[int]] = {}
-        for row in order:
-            served.setdefault(float(out["time"].values[row]), []).append(int(row))
-        for time, rows in served.items():
-            groups = np.zeros((len(rows), ball_of_contact.size), dtype=bool)
-            onset = np.zeros_like(groups)
-            for g, row in enumerate(rows):
-                groups[g] = ball_of_contact == int(out["ball"].values[row])
-                onset[g, int(out["contact"].values[row])] = True
-            # (the zoom's arrays: its dataset would be built for three of them)
-            # a zoom's flagged step (not converged, energy created, an integrity check such as
-            # an indentation beyond Hertz's range) flags its impacts instead of stopping the
-            # study: zoom_flagged
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)
-                traj, _, _, zcfg = zoom_trajectory(
-                    run_ds, time, window=windows[time], dt=steps[time],
-                    overrides=[*overrides, "solver.on_nonconvergence=warn"],
-                    watch_contacts=groups, watch_onset=onset)
-            F_N = traj.F_N
-            output_dt = float(zcfg["solver"]["dt"]) * output_every(zcfg)
-            for row in rows:
-                contact = int(out["contact"].values[row])
-                same_ball = np.flatnonzero(ball_of_contact == int(out["ball"].values[row]))
-                F_contact = _struck(F_N[:, contact])
-                F_zoom[row] = _episode_peak(F_N[:, same_ball].max(axis=1), F_contact)
-                t_zoom[row] = _first_episode(F_contact, output_dt)
-                dt_zoom[row] = steps[time]
-                flagged[row] = int(not np.all(traj.converged))
+    F_zoom, t_zoom, dt_zoom = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+    zoom_flagged = np.zeros(n, dtype=np.int8)
+    rows = zoom_rows(out, zoom_top, settle_time)
+    if rows.size:
+        plans = _zoom_plans(run_ds, out, rows, dt, window, max_window, overrides,
+                            steps_per_contact)
+        for time, plan in plans.items():
+            for row, (force, duration, flag) in _zoom_numbers(run_ds, out, time, plan,
+                                                              overrides).items():
+                F_zoom[row], t_zoom[row], dt_zoom[row] = force, duration, plan[1]
+                zoom_flagged[row] = flag
+    _zoom_columns(out, F_zoom, t_zoom, dt_zoom, zoom_flagged)
+    disagree = method_disagrees(out["F_max"].values, F_zoom, method_tol)
+    if "flags" in out:
+        flags = np.asarray(out["flags"].values).copy()
+        flags[disagree] |= _METHOD_DISAGREES
+        out["flags"] = out["flags"].copy(data=flags)
+        trusted = (flags == 0) & np.isfinite(np.asarray(out["F_max"].values, dtype=float))
+        out["trusted"] = out["trusted"].copy(data=trusted.astype(np.int8))
+        count_flags(out)
+    out.attrs.update({"zoom_top": zoom_top,
+                      "zoom_steps_per_contact": int(steps_per_contact) if dt is None else 0,
+                      "zoom_window": float(window), "zoom_max_window": float(max_window),
+                      "zoom_settle_time": float(settle_time), "method_tol": float(method_tol),
+                      "n_zoomed": int(rows.size),
+                      "n_method_disagrees": int(np.count_nonzero(disagree))})
+    return out
+
+
+def _zoom_columns(out: xr.Dataset, F_zoom, t_zoom, dt_zoom, zoom_flagged) -> None:
+    """The zoom columns of the impact table, each with its units and meaning."""
     out["F_max_zoom"] = ("impact", F_zoom, {
         "units": "N", "long_name": "largest contact force of the impact's ball during the "
         "impact (the ball's contact episode that contains the impact contact's first closing) "
@@ -253,12 +379,8 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
         "units": "s", "long_name": "time step of the compliant zoom of the impact (its shortest "
         "Hertz contact time over zoom_steps_per_contact, at most the run's step; NaN: not "
         "zoomed)"})
-    out["zoom_flagged"] = ("impact", flagged, {
+    out["zoom_flagged"] = ("impact", zoom_flagged, {
         "units": "1", "long_name": "1 where the compliant zoom of the impact flagged a step "
         "(not converged, energy created, or an integrity check such as an indentation beyond "
         "solver.max_indentation, Hertz's range)", "flag_values": np.array([0, 1], np.int8),
         "flag_meanings": "no yes"})
-    out.attrs.update({"zoom_top": zoom_top,
-                      "zoom_steps_per_contact": int(steps_per_contact) if dt is None else 0,
-                      "zoom_window": float(window), "zoom_max_window": float(max_window)})
-    return out

@@ -5,8 +5,9 @@ Prints:
   10 steps), median of N runs of ``--t-end`` seconds in one process on one thread (kernels
   loaded before timing), by wall time and by CPU time;
 - Newton iterations per step (smooth stage) and joint projection iterations;
-- where the time goes: one step's parts timed apart in compiled loops (force evaluation with
-  tangents, the Newton matrix solve, the joint projection, the energy of an output sample);
+- where the time goes: one step's parts timed apart in compiled loops (force evaluation without
+  and with tangents, the Newton matrix solve, a chord iterate's update, the joint projection,
+  the energy of an output sample);
 - the cost of one zoom (0.5 ms at dt = 1e-6 s from the largest impact of a nonsmooth run);
 - the cost of a compliant step in the study's setting: a zoom of a steady run of the default
   study (clearance 1e-4 m, omega0 = 50 rad/s) on its largest impact, 2,000 steps, where the
@@ -69,6 +70,8 @@ def main() -> None:
     from numba import njit
 
     from simcore.kernels.compliant_step import (
+        chord_apply,
+        chord_operator,
         compliant_work,
         newton_solve,
         project_joints_into,
@@ -81,15 +84,23 @@ def main() -> None:
     hw = hertz_work()
 
     @njit
-    def loop_forces(q, v, ma, v_pre, hw, reps):
+    def loop_forces(q, v, ma, v_pre, hw, tangent, reps):
         n, nc = q.shape[0], ma.ct_type.shape[0]
         f, K, C, Ks = np.zeros(n), np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
         w = np.zeros((11, nc))
+        skip = np.zeros(nc, dtype=np.bool_)
         for _ in range(reps):
-            nb.smooth_forces(q, v, ma, f, K, C, Ks, True)
-            contact_forces_into(q, v, ma, v_pre, 1e-4, f, K, C, True, w[0], w[1], w[2], w[3],
-                                w[4], w[5:11], hw)
+            nb.smooth_forces(q, v, ma, f, K, C, Ks, tangent)
+            contact_forces_into(q, v, ma, v_pre, 1e-4, f, K, C, tangent, w[0], w[1], w[2],
+                                w[3], w[4], w[5:11], hw, None, skip)
         return K, C
+
+    @njit
+    def loop_chord(rhs, G, sw, bw, reps):
+        # a chord iterate's update (products with the explicit inverse of the last factors)
+        for _ in range(reps):
+            copy_vector(sw.sol, rhs, rhs.shape[0])
+            chord_apply(sw.fac, G, 1.5e-6, 1.0, bw, sw.sol)
 
     @njit
     def loop_solve(J, rhs, G, sw, bw, reps):
@@ -101,14 +112,17 @@ def main() -> None:
     @njit
     def loop_project(q, v, ma, pw, reps):
         q1, v1 = np.zeros(q.shape[0]), np.zeros(q.shape[0])
+        m = pw.g.shape[0]
+        g, G, dgdt = np.zeros(m), np.zeros((m, q.shape[0])), np.zeros(m)
+        nb.bilateral(q, v, 0.0, ma, g, G, np.zeros(m), dgdt)
         for _ in range(reps):
-            project_joints_into(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1, pw)
+            project_joints_into(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1, pw, None, g, G, dgdt)
 
     @njit
     def loop_energy(q, v, ma, hw, reps):
         e = 0.0
         for _ in range(reps):
-            e += nb.total_energy(q, v, ma) + elastic_energy_into(q, ma, hw.wN, hw.wT)
+            e += nb.total_energy(q, v, ma) + elastic_energy_into(q, ma, None)
         return e
 
     def cpu(fn, *a):
@@ -117,7 +131,7 @@ def main() -> None:
         fn(*a, 20000)
         return (time.process_time() - t0) / 20000 * 1e6
 
-    K, C = loop_forces(st.q, st.v, arr, cs.v_pre, hw, 1)
+    K, C = loop_forces(st.q, st.v, arr, cs.v_pre, hw, np.bool_(True), 1)
     n = st.q.size
     m = nb.joint_row_count(arr.jt_type)
     G = np.zeros((m, n))
@@ -125,9 +139,14 @@ def main() -> None:
     J = np.diag(arr.mdiag) + 1e-12 * K + 1.5e-6 * C
     rhs = np.ones(n + m)
     cw = compliant_work(n, m, arr.ct_type.size)
-    print(f"parts of a step (CPU us, {int(cs.closed.sum())} contacts closed): forces and tangents "
-          f"{cpu(loop_forces, st.q, st.v, arr, cs.v_pre, hw):.2f} per evaluation, Newton solve "
-          f"{cpu(loop_solve, J, rhs, G, smooth_work(n, m), cw.branches):.2f}, joint projection "
+    sw = smooth_work(n, m)
+    newton = cpu(loop_solve, J, rhs, G, sw, cw.branches)
+    chord_operator(sw.fac, G, 1.5e-6, sw.S, sw.piv, cw.branches)
+    print(f"parts of a step (CPU us, {int(cs.closed.sum())} contacts closed): forces "
+          f"{cpu(loop_forces, st.q, st.v, arr, cs.v_pre, hw, np.bool_(False)):.2f} and with "
+          f"tangents {cpu(loop_forces, st.q, st.v, arr, cs.v_pre, hw, np.bool_(True)):.2f} per "
+          f"evaluation, Newton solve {newton:.2f}, chord update "
+          f"{cpu(loop_chord, rhs, G, sw, cw.branches):.2f}, joint projection "
           f"{cpu(loop_project, st.q, st.v, arr, projection_work(n, m)):.2f}, energy (per "
           f"output sample) {cpu(loop_energy, st.q, st.v, arr, hw):.2f}")
 

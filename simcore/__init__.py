@@ -52,13 +52,14 @@ def write_netcdf(ds, path, complevel=4, keep=None):
 
 
 def zoom(run_ds, time, window=2e-3, dt=1e-6, overrides=(), output_dt=None,
-         until_released=True, progress=False, watch_contacts=None, watch_onset=None):
+         until_released=True, progress=False, watch_contacts=None, watch_onset=None,
+         adaptive=False):
     """Compliant zoom on a run; see :func:`simcore.study.zoom.zoom`."""
     from .study.zoom import zoom as _zoom
 
     return _zoom(run_ds, time, window=window, dt=dt, overrides=overrides, output_dt=output_dt,
                  until_released=until_released, progress=progress,
-                 watch_contacts=watch_contacts, watch_onset=watch_onset)
+                 watch_contacts=watch_contacts, watch_onset=watch_onset, adaptive=adaptive)
 
 
 __all__ = ["ConfigError", "SolverError", "load_config", "load_schema", "validate_config", "run",

@@ -2,12 +2,13 @@
 
 import warnings
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 import xarray as xr
 
 from analysis import extract_impacts
-from analysis.figures import plot_reference, plot_run, plot_study, run_label
+from analysis.figures import figure_layout, plot_reference, plot_run, plot_study, run_label
 from analysis.synthetic import make_run_dataset
 
 
@@ -40,26 +41,36 @@ def test_run_label(run):
     assert run_label(run) == "g = 400 µm, μ = 0.01, ω0 = 50 rad/s, e_N = 0.9"
 
 
-def _summary(shape, fill=None, failed_at=None):
-    """A summary with the layout of analysis.summary.summarize over a grid of ``shape``."""
+def _summary(shape, fill=None, failed_at=None, extra_axes=None):
+    """A summary with the layout of analysis.summary.summarize over a grid of ``shape``, both
+    models (``extra_axes``: {name: values} of further swept axes after the four)."""
     values = {"clearance": [2e-5, 1e-4, 4e-4], "mu": [0.0, 0.01, 0.05], "omega0": [25.0, 50.0],
               "e_N": [0.7, 0.9]}
-    dims = ("clearance", "mu", "omega0", "e_N")
+    dims = ("clearance", "mu", "omega0", "e_N") + tuple(extra_axes or ())
+    values.update(extra_axes or {})
+    shape = tuple(shape) + tuple(len(v) for v in (extra_axes or {}).values())
     coords = {d: values[d][:n] for d, n in zip(dims, shape, strict=True)}
-    coords.update(race=np.array([0, 1], "i1"), kind=np.arange(4, dtype="i1"),
-                  level=[100.0, 1000.0], rank=[1, 2, 3], stage=np.arange(3, dtype="i1"))
+    coords.update(model=np.array([0, 1], "i1"), race=np.array([0, 1], "i1"),
+                  kind=np.arange(4, dtype="i1"), level=[100.0, 1000.0], rank=[1, 2, 3],
+                  stage=np.arange(3, dtype="i1"))
     rng = np.random.default_rng(0)
 
-    def var(*extra):
+    def var(*extra, low=1e2, high=5e3):
         sh = tuple(shape) + tuple(len(coords[e]) for e in extra)
-        data = rng.uniform(1e2, 5e3, sh) if fill is None else np.full(sh, fill)
+        data = rng.uniform(low, high, sh) if fill is None else np.full(sh, fill)
         return (dims + extra, data)
 
     ds = xr.Dataset(
-        {"peak_force": var("race"), "p_max": var("race"), "startup_peak_force": var(),
-         "above_per_rev": var("race", "level"), "impacts_per_rev": var("race", "kind"),
-         "iter_max": var("stage"), "failed": (dims, np.zeros(shape))},
+        {"peak_force": var("model", "race"), "peak_force_rev_median": var("model", "race"),
+         "p_max": var("model", "race"), "startup_peak_force": var("model"),
+         "above_per_rev": var("model", "race", "level"), "impacts_per_rev": var("race", "kind"),
+         "method_ratio": var("race", low=0.4, high=3.0),
+         "static_deflection_ratio": var(low=0.1, high=20.0),
+         "L10h": var(low=1e3, high=1e6), "L10rh": var(low=1e3, high=1e6),
+         "iter_max": var("model", "stage"), "failed": (dims + ("model",),
+                                                       np.zeros(tuple(shape) + (2,)))},
         coords=coords, attrs={"settle_revolutions": 1.0})
+    ds["clearance"].attrs.update(units="m", long_name="radial clearance")
     if failed_at is not None:
         ds["failed"][failed_at] = 1.0
         for name in ds.data_vars:
@@ -68,29 +79,80 @@ def _summary(shape, fill=None, failed_at=None):
     return ds
 
 
-QUANTITIES = ["peak_force_outer", "peak_force_inner", "p_max_outer", "p_max_inner",
-              "startup_peak_force", "above_100N_per_rev", "above_1000N_per_rev",
-              "impacts_per_rev"]
+PER_MODEL = ["peak_force_outer", "peak_force_inner", "peak_force_rev_median_outer",
+             "peak_force_rev_median_inner", "p_max_outer", "p_max_inner", "startup_peak_force",
+             "above_100N_per_rev", "above_1000N_per_rev"]
+QUANTITIES = ([f"{q}_{m}" for q in PER_MODEL for m in ("nonsmooth", "compliant")]
+              + ["method_ratio_outer", "method_ratio_inner", "static_deflection_ratio",
+                 "L10h", "L10rh", "impacts_per_rev"])
 
 
 def test_plot_study_shows_every_point_of_four_swept_parameters(tmp_path):
     ds = _summary((3, 3, 2, 2), failed_at=(0, 1, 0, 1))
-    paths = plot_study(ds, tmp_path)
-    names = sorted(p.name for p in paths)
-    assert names == sorted([f"study_{q}.png" for q in QUANTITIES]
-                           + [f"pairs_{q}.png" for q in QUANTITIES])
+    paths = plot_study(ds, tmp_path, part=(0, 8))
+    assert paths[0].name == "life_clearance_speed.png"  # part 0 draws the life figure
+    paths = paths[1:]
+    stems = {p.name.split("_", 1)[1][:-4] for p in paths}
+    assert stems <= set(QUANTITIES) and len(stems) == -(-len(QUANTITIES) // 8)
+    assert sorted(p.name for p in paths) == sorted(f"{kind}_{q}.png" for q in stems
+                                                   for kind in ("study", "pairs"))
     assert all(p.stat().st_size > 20_000 for p in paths)
 
 
 def test_plot_study_two_one_and_no_swept_parameters(tmp_path):
-    paths = plot_study(_summary((2, 3, 1, 1)), tmp_path / "two")
-    assert sorted(p.name for p in paths) == sorted(f"study_{q}.png" for q in QUANTITIES)
-    paths = plot_study(_summary((3, 1, 1, 1), fill=np.nan), tmp_path / "nan")
-    # p_max all missing (older impact tables): no p_max figures
-    assert sorted(p.name for p in paths) == sorted(
-        f"study_{q}.png" for q in QUANTITIES if not q.startswith("p_max"))
+    from analysis.figures import _study_quantities
+
+    assert sorted(q.stem for q in _study_quantities(_summary((2, 3, 1, 1)))) == sorted(QUANTITIES)
+    paths = plot_study(_summary((2, 3, 1, 1)), tmp_path / "two", part=(1, 8))
+    assert len(paths) == 3 and all(p.name.startswith("study_") for p in paths)
+    # p_max and the ratios all missing (older impact tables, no twin): no figures of them
+    assert sorted(q.stem for q in _study_quantities(_summary((3, 1, 1, 1), fill=np.nan))) == \
+        sorted(q for q in QUANTITIES
+               if not q.startswith(("p_max", "method_ratio", "static_deflection", "L10")))
+    paths = plot_study(_summary((3, 1, 1, 1), fill=np.nan), tmp_path / "nan", part=(1, 16))
+    assert len(paths) == 1 and paths[0].name.startswith("study_")
     paths = plot_study(_summary((1, 1, 1, 1)), tmp_path / "one")
     assert [p.name for p in paths] == ["study_single.png"]
+
+
+def test_figure_layout_follows_the_settings():
+    ds = _summary((3, 3, 2, 2), extra_axes={"model.cage_stiffness": [1e4, 1e5, 1e6]})
+    default = figure_layout(ds)
+    assert (default.x, default.y, default.col, default.row) == ("clearance", "mu", "omega0",
+                                                                "e_N")
+    assert default.fixed == {"model.cage_stiffness": 1e5}  # the middle value
+    chosen = figure_layout(ds, ["model.cage_stiffness", "clearance"],
+                           figure_fixed={"mu": 0.05}, reference={"omega0": 30.0, "e_N": 0.9})
+    assert (chosen.x, chosen.y, chosen.col, chosen.row) == ("model.cage_stiffness", "clearance",
+                                                            None, None)
+    assert chosen.fixed == {"mu": 0.05, "omega0": 25.0, "e_N": 0.9}
+    for bad, match in (((["x_axis"], None), "figure_axes: 'x_axis'"),
+                       ((["mu", "mu"], None), "figure_axes"),
+                       ((["mu"], {"mu": 0.01}), "figure_axes"),
+                       ((None, {"mu": 0.02}), r"figure_fixed.mu: 0.02 is not allowed")):
+        with pytest.raises(ValueError, match=match):
+            figure_layout(ds, *bad)
+
+
+def test_a_fifth_axis_is_held_and_any_axis_can_be_drawn(tmp_path):
+    ds = _summary((3, 2, 2, 2), extra_axes={"model.cage_stiffness": [1e4, 1e5, 1e6]})
+    ds["model.cage_stiffness"].attrs.update(units="N m-1", long_name="cage spring stiffness")
+    paths = plot_study(ds, tmp_path, part=(1, 30),
+                       figure_axes=["model.cage_stiffness", "clearance", "mu"],
+                       figure_fixed={"e_N": 0.7})
+    stems = {p.name.split("_", 1)[1] for p in paths}
+    assert len(paths) == 2 and len(stems) == 1 and stems.pop()[:-4] in QUANTITIES
+    assert sorted(p.name.split("_", 1)[0] for p in paths) == ["pairs", "study"]
+
+
+def test_a_grid_too_large_to_draw_says_so(tmp_path):
+    ds = _summary((3, 3, 2, 2), extra_axes={"rank_axis": list(np.arange(40.0))})
+    from analysis import figures
+
+    paths = plot_study(ds, tmp_path, part=(1, 100), figure_axes=["rank_axis", "clearance"])
+    assert figures.MAX_CELLS < 40
+    for path in paths:  # the message page (8 in at 100 dpi), not a 40-cell map
+        assert plt.imread(path).shape[1] == 800
 
 
 def test_plot_reference(run, tmp_path):
@@ -107,17 +169,57 @@ def test_study_figures_command_on_a_summary_file(tmp_path):
 
     path = write_netcdf(_summary((2, 2, 1, 1)), tmp_path / "summary.nc")
     assert main(["study-figures", str(path)]) == 0
-    assert (tmp_path / "figures" / "study_peak_force_outer.png").exists()
+    assert (tmp_path / "figures" / "study_peak_force_outer_nonsmooth.png").exists()
+    assert (tmp_path / "figures" / "study_method_ratio_outer.png").exists()
     assert (tmp_path / "figures" / "summary_table.csv").exists()
 
 
 def test_plot_study_parts_share_the_figures(tmp_path):
     """part=(i, n) draws every n-th quantity: the parts together are the whole set, once."""
-    ds = _summary((2, 2, 2, 2))
+    ds = _summary((2, 2, 1, 1))[["peak_force", "method_ratio", "failed"]]  # no life figure
     whole = {p.name for p in plot_study(ds, tmp_path / "all")}
+    assert len(whole) == 6
     parts = [{p.name for p in plot_study(ds, tmp_path / f"p{i}", part=(i, 2))} for i in (0, 1)]
     assert parts[0] and parts[1] and not parts[0] & parts[1]
     assert parts[0] | parts[1] == whole
     assert plot_study(_summary((1, 1, 1, 1)), tmp_path / "one", part=(1, 2)) == []
     with pytest.raises(ValueError, match="part"):
         plot_study(ds, tmp_path, part=(2, 2))
+
+
+def test_life_figure_marks_the_clearance_classes(tmp_path):
+    from analysis.figures import plot_life
+
+    ds = _summary((3, 1, 2, 1))
+    path = plot_life(ds, tmp_path / "life.png")
+    assert path.stat().st_size > 20_000
+    with pytest.raises(KeyError):
+        plot_life(ds.drop_vars("L10h"), tmp_path / "none.png")
+
+
+def test_study_figures_command_takes_the_layout(tmp_path, capsys):
+    from analysis.__main__ import main
+    from simcore.io import write_netcdf
+
+    path = write_netcdf(_summary((2, 2, 2, 1))[["peak_force", "failed"]], tmp_path / "s.nc")
+    assert main(["study-figures", str(path), "--axes", "omega0", "clearance",
+                 "--fixed", "mu=0.01"]) == 0
+    printed = capsys.readouterr().out
+    assert "study_peak_force_outer_nonsmooth.png" in printed
+    assert main(["study-figures", str(path), "--axes", "speed"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: study.figure_axes: 'speed' is not allowed") and "\n" not in err
+    assert main(["study-figures", str(path), "--fixed", "mu=x"]) == 2
+
+
+def test_a_category_axis_is_labelled_by_its_names(tmp_path):
+    from analysis.figures import _fmt_axis
+
+    ds = _summary((3, 1, 1, 1), extra_axes={"damping_law": [0.0, 1.0, 2.0]})
+    ds = ds.assign_coords(damping_law=("damping_law", np.arange(3, dtype="i1"), {
+        "long_name": "damping law", "flag_values": np.arange(3, dtype="i1"),
+        "flag_meanings": "flores hunt_crossley lankarani_nikravesh"}))
+    assert _fmt_axis(ds, "damping_law", 1) == "damping_law = hunt_crossley"
+    paths = plot_study(ds[["peak_force", "failed"]], tmp_path, part=(0, 4),
+                       figure_axes=["damping_law", "clearance"])
+    assert paths and all(p.stat().st_size > 10_000 for p in paths)

@@ -473,7 +473,8 @@ def _loaded_compliant_step():
         q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, _, _ = w.step
         its, ok = compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, arr,
                                         q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, w.smooth,
-                                        v_pre, v_reg, w.contacts, w.hertz, w.branches)
+                                        v_pre, v_reg, w.contacts, w.hertz, w.branches, 1.0,
+                                        1e-3)
         return dict(its=its, ok=ok, q=q, v=v, acc=acc, vdot=vdot, v_pre=v_pre, lam=lam,
                     q_t=q_t.copy(), v_t=v_t.copy(), acc1=acc1.copy(), vdot1=vdot1.copy(),
                     FN=w.contacts[0].copy())

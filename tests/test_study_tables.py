@@ -65,10 +65,17 @@ def test_zoom_step_setting_reaches_the_table(run_ds):
         load_config(overrides=["analysis.zoom_steps_per_contact=2"])
 
 
+@pytest.fixture(scope="module")
+def compliant_ds():
+    return simcore.run(load_config(overrides=[
+        "solver.t_end=0.004", "model.contact_model=compliant", "solver.dt=2e-6",
+        "solver.output_dt=1e-4", "model.drive=constant"]))
+
+
 def test_summary_from_the_numbers_stored_in_the_tables_equals_the_one_from_the_files(
-        run_ds, tmp_path):
-    """The simulate job stores each point's summary numbers in its impact table; the summary
-    assembled from them is the one reduced from the run files and table columns."""
+        run_ds, compliant_ds, tmp_path):
+    """One reduction: the numbers a simulate job stores in each table (from the run in memory)
+    are those the summary computes from the written files when a table has none."""
     import xarray as xr
 
     from analysis.summary import summarize
@@ -77,27 +84,32 @@ def test_summary_from_the_numbers_stored_in_the_tables_equals_the_one_from_the_f
     keep = simcore.validate_config({})["study"]["keep"]
     failed_point = dict(POINT, clearance=1e-4)
     failed_cfg = load_config(overrides=["model.clearance=1e-4"])
-    runs, stored, plain = [], [], []
-    for point, ds in ((POINT, run_ds),
-                      (failed_point, failed_run_dataset(failed_cfg, "run failed: boom"))):
-        name = f"{point['clearance']:g}.nc"
-        simcore.write_netcdf(ds, tmp_path / f"run{name}", keep=keep)
+    files = {"runs": [], "stored": [], "plain": []}
+    for label, point, ds in (("a", POINT, run_ds),
+                             ("b", failed_point, failed_run_dataset(failed_cfg, "failed: boom")),
+                             ("c", POINT, compliant_ds)):
+        simcore.write_netcdf(ds, tmp_path / f"run{label}.nc", keep=keep)
         table = impact_table(ds, settings, point)
-        assert table.attrs["summary_failed"] == (0.0 if ds is run_ds else 1.0)
-        simcore.write_netcdf(table, tmp_path / f"stored{name}")
+        assert table.attrs["summary_failed"] == (1.0 if label == "b" else 0.0)
+        simcore.write_netcdf(table, tmp_path / f"stored{label}.nc")
         table.attrs = {k: v for k, v in table.attrs.items() if not k.startswith("summary_")}
-        simcore.write_netcdf(table, tmp_path / f"plain{name}")
-        runs.append(tmp_path / f"run{name}")
-        stored.append(tmp_path / f"stored{name}")
-        plain.append(tmp_path / f"plain{name}")
-    kw = {"scheduler": "synchronous", "settle": 0.01, "force_levels": [1000.0, 100.0]}
-    from_files = summarize(runs, plain, **kw)
-    from_tables = summarize([tmp_path / "missing.nc"] * 2, stored, **kw)  # no run file read
+        simcore.write_netcdf(table, tmp_path / f"plain{label}.nc")
+        for kind in files:
+            files[kind].append(tmp_path / f"{'run' if kind == 'runs' else kind}{label}.nc")
+    kw = {"scheduler": "synchronous", "settings": settings}
+    from_files = summarize({"nonsmooth": files["runs"][:2], "compliant": files["runs"][2:]},
+                           {"nonsmooth": files["plain"][:2]}, **kw)
+    missing = [tmp_path / "missing.nc"] * 3  # no run file is read
+    from_tables = summarize({"nonsmooth": missing[:2], "compliant": missing[2:]},
+                            {"nonsmooth": files["stored"][:2], "compliant": files["stored"][2:]},
+                            **kw)
     for ds in (from_files, from_tables):
         ds.attrs.pop("history")
     xr.testing.assert_identical(from_files, from_tables)
-    assert int(from_tables["failed"].sum()) == 1
+    assert int((from_tables["failed"] > 0).sum()) == 1
     assert np.isfinite(from_tables["max_Lambda_N"].sel(clearance=4e-4)).all()
+    assert np.isfinite(from_tables["peak_force"].sel(clearance=4e-4)).any()
     # other settings than the stored ones: the files are read again
-    other = summarize(runs, stored, **dict(kw, settle=0.0))
-    assert float(other["settle_time"].sel(clearance=4e-4).item()) == 0.0
+    other = summarize(files["runs"][:2], files["stored"][:2], **dict(kw, settings=dict(
+        settings, settle=0.0)))
+    assert float(other["settle_time"].sel(clearance=4e-4, model=0).item()) == 0.0

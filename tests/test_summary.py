@@ -1,5 +1,6 @@
-"""The study summary on small synthetic files: steady window, counts per revolution against a
-hand-counted series, per-race peaks, absolute force levels, failed points, CF attributes."""
+"""The study summary on small synthetic files: steady window, counts per revolution and the
+per-revolution peaks against hand-counted series of both models, per-race peaks, absolute force
+levels, the method check between the models, failed points, CF attributes."""
 
 from __future__ import annotations
 
@@ -7,7 +8,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from analysis.summary import category_codes, steady_window, summarize
+from analysis.summary import COMPLIANT, NONSMOOTH, category_codes, steady_window, summarize
+from analysis.synthetic import PAPER_MODEL, make_compliant_run
 from simcore.io import write_netcdf
 
 DT = 1.0e-3
@@ -91,9 +93,44 @@ def _impacts(path, point, new_format=True, failed=False, series=SERIES):
     xr.Dataset(data, coords=point, attrs={"zero_threshold": 2e-7}).to_netcdf(path)
 
 
+# The compliant twin of the point NEW (omega0 = 9.42 rad/s: one revolution in 0.667 s):
+# (contact, first sample time [s], forces of the samples) on 2 balls, contacts 0-1 inner, 2-3 outer
+C_DT = 1.0e-3
+C_PULSES = [
+    (2, 0.200, [1000.0, 3000.0, 800.0]),    # start-up
+    (2, 0.999, [500.0, 1900.0, 700.0]),     # steady revolution 0
+    (3, 1.500, [300.0, 800.0]),             # revolution 1
+    (3, 2.500, [1200.0]),                   # revolution 2
+]
+
+
+def _compliant_forces():
+    t = np.round(np.arange(0.0, T_END + C_DT / 2, C_DT), 12)
+    force = np.zeros((t.size, 4))
+    for contact, start, values in C_PULSES:
+        k = int(round(start / C_DT))
+        force[k:k + len(values), contact] = values
+    # one long inner episode across the boundary of revolutions 0 and 1 (t = 1.334 s)
+    force[int(round(1.2 / C_DT)):int(round(1.6 / C_DT)) + 1, 0] = 200.0
+    force[int(round(1.3 / C_DT)), 0] = 400.0
+    return t, force
+
+
+def _hertz(force, race, clearance):
+    """p_max [Pa] and K [N m-1.5] of Hertz point contact on the paper's radii (E = 2.1e9 Pa)."""
+    E, nu = PAPER_MODEL["model.youngs_modulus"], PAPER_MODEL["model.poisson_ratio"]
+    r_b, r_a = PAPER_MODEL["model.ball_radius"], PAPER_MODEL["model.inner_radius"]
+    r_c = r_a + 2 * r_b + clearance
+    E_star = E / (2 * (1 - nu**2))
+    R = r_b * r_a / (r_a + r_b) if race == "inner" else r_b * r_c / (r_c - r_b)
+    a = (3 * force * R / (4 * E_star)) ** (1 / 3)
+    return 3 * force / (2 * np.pi * a**2), 4 / 3 * E_star * np.sqrt(R)
+
+
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
-    """A 2 x 2 grid: new-format table, old-format table, a failed run, an empty table."""
+    """A 2 x 2 grid: new-format table, old-format table, a failed run, an empty table; compliant
+    twins at NEW (hand-built forces) and EMPTY (failed)."""
     tmp = tmp_path_factory.mktemp("summary")
     runs, impacts = [], []
     for clearance in (1e-4, 4e-4):
@@ -108,7 +145,13 @@ def study(tmp_path_factory):
                 _impacts(tmp / f"imp_{name}", point, new_format=(mu == 0.0), failed=failed)
             runs.append(tmp / f"run_{name}")
             impacts.append(tmp / f"imp_{name}")
-    s = summarize(runs, impacts, scheduler="synchronous", settle=1.0,
+    _, force = _compliant_forces()
+    twin = make_compliant_run(force, output_dt=C_DT, omega0=9.42, clearance=1e-4, mu=0.0)
+    write_netcdf(twin, tmp / "twin_new.nc")
+    write_netcdf(make_compliant_run(force, omega0=9.42, clearance=4e-4, mu=0.0, failed=True),
+                 tmp / "twin_empty.nc")
+    s = summarize({"nonsmooth": runs, "compliant": [tmp / "twin_empty.nc", tmp / "twin_new.nc"]},
+                  {"nonsmooth": impacts}, scheduler="synchronous", settle=1.0,
                   force_levels=[1000.0, 100.0], settings={"settle": 1.0, "zero_tol": 1e-4})
     path = write_netcdf(s, tmp / "summary.nc")
     return s, path
@@ -116,6 +159,8 @@ def study(tmp_path_factory):
 
 NEW, OLD = _point(1e-4, 0.0), _point(1e-4, 0.01)
 EMPTY, FAILED = _point(4e-4, 0.0), _point(4e-4, 0.01)
+PAPER = {"model": NONSMOOTH}
+TWIN = {"model": COMPLIANT}
 
 
 def test_steady_window_of_a_slowing_crank():
@@ -139,7 +184,7 @@ def test_steady_window_constant_drive():
 def test_counts_per_revolution_against_the_hand_counted_series(study):
     s, _ = study
     for point in (NEW, OLD):
-        at = s.sel(point)
+        at = s.sel(point).sel(PAPER)
         assert float(at["settle_time"]) == pytest.approx(0.700)
         assert float(at["revolutions"]) == pytest.approx(STEADY_REVS)
         # steady window, counted by hand from SERIES: outer 2 simple (0.9, 2.2 s), 1 persistent,
@@ -155,34 +200,97 @@ def test_counts_per_revolution_against_the_hand_counted_series(study):
         np.testing.assert_array_equal(at["peak_force"], [101.0, 2000.0])
         np.testing.assert_array_equal(at["top3_force"], [2000.0, 1200.0, 150.0])
         assert float(at["startup_peak_force"]) == 5000.0
-        assert float(at["zero_threshold"]) == 2e-7
+    assert float(s["zero_threshold"].sel(NEW)) == 2e-7
+
+
+def test_peak_per_revolution_of_the_paper_method(study):
+    """theta = 2 pi (1.5 t - 0.1 t^2), settle 1: 2.6 steady revolutions, the tail of 0.6 is a
+    revolution of its own; revolution k ends where 1.5 t - 0.1 t^2 = 2 + k: t = 1.4792 s,
+    2.3765 s. Outer: 150 and 1200 N in revolution 0, none in 1 (the 2.2 s impact has no
+    force), 2000 N in 2: median 1200 N. Inner: 90 N in 1, 101 N in 2, none in 0: median 90 N."""
+    s, _ = study
+    at = s.sel(NEW).sel(PAPER)
+    np.testing.assert_array_equal(at["peak_force_rev_median"], [90.0, 1200.0])
+
+
+def test_compliant_twin_against_its_hand_built_forces(study):
+    """omega0 = 9.42 rad/s, settle 1: the revolutions of the steady window end at turned = 2, 3
+    and the run's end (the tail of 0.498 revolution joins the third): t = 1.334, 2.001 s."""
+    s, _ = study
+    at = s.sel(NEW).sel(TWIN)
+    t, force = _compliant_forces()
+    theta = 9.42 * t
+    settle_time, revolutions = steady_window(t, theta, 1.0)
+    assert float(at["settle_time"]) == settle_time and float(at["revolutions"]) == revolutions
+    # per revolution, outer: 1900, 800, 1200 N; inner: 400, 200 (the long episode), 0 N
+    np.testing.assert_array_equal(at["peak_force"], [400.0, 1900.0])
+    np.testing.assert_array_equal(at["peak_force_rev_median"], [200.0, 1200.0])
+    assert float(at["startup_peak_force"]) == 3000.0
+    # episodes of the steady window: outer 1900, 800, 1200 N; inner one of 400 N
+    np.testing.assert_array_equal(at["top3_force"], [1900.0, 1200.0, 800.0])
+    np.testing.assert_array_equal(at["n_above"].transpose("race", "level"), [[1, 0], [3, 2]])
+    np.testing.assert_allclose(at["above_per_rev"].sel(race=1), np.array([3, 2]) / revolutions)
+    for r, race in enumerate(("inner", "outer")):
+        expected, _ = _hertz(float(at["peak_force"][r]), race, 1e-4)
+        assert float(at["p_max"][r]) == pytest.approx(expected, rel=1e-12)
+
+
+def test_method_ratio_and_the_method_check(study):
+    """Outer: 2000 N (paper) against 1900 N (twin), within method_tol = 0.2: the impact's own
+    flag (none) stands. Inner: 101 against 400 N: flagged by the check."""
+    s, _ = study
+    at = s.sel(NEW)
+    np.testing.assert_allclose(at["method_ratio"], [101.0 / 400.0, 2000.0 / 1900.0])
+    np.testing.assert_array_equal(at["peak_force_flagged"], [1.0, 0.0])
+    assert s.attrs["method_tol"] == 0.2
+    # no twin (OLD) or a failed twin (EMPTY): no ratio, the flags of the impacts alone
+    assert bool(s["method_ratio"].sel(OLD).isnull().all())
+    assert bool(s["method_ratio"].sel(EMPTY).isnull().all())
+
+
+def test_static_deflection_ratio_is_the_series_hertz_deflection_over_the_clearance(study):
+    s, _ = study
+    _, K_in = _hertz(1.0, "inner", 1e-4)
+    _, K_out = _hertz(1.0, "outer", 1e-4)
+    K = (K_in ** (-2 / 3) + K_out ** (-2 / 3)) ** -1.5
+    expected = (1900.0 / K) ** (2 / 3) / 1e-4  # the twin's largest steady force
+    assert float(s["static_deflection_ratio"].sel(NEW)) == pytest.approx(expected, rel=1e-12)
 
 
 def test_columns_that_an_older_table_lacks_are_missing(study):
     s, _ = study
-    np.testing.assert_array_equal(s["p_max"].sel(NEW), [101e5, 2000e5])
+    np.testing.assert_array_equal(s["p_max"].sel(NEW).sel(PAPER), [101e5, 2000e5])
     assert float(s["n_flagged"].sel(NEW)) == 1.0  # the start-up flag does not count
-    np.testing.assert_array_equal(s["peak_force_flagged"].sel(NEW), [0.0, 0.0])
-    assert bool(s["p_max"].sel(OLD).isnull().all())
+    assert bool(s["p_max"].sel(OLD).sel(PAPER).isnull().all())
     assert bool(s["n_flagged"].sel(OLD).isnull())
+    assert bool(s["peak_force_flagged"].sel(OLD).isnull().all())
 
 
 def test_run_numbers_failed_and_empty_points(study):
     s, _ = study
-    assert s["peak_force"].dims == ("clearance", "mu", "omega0", "e_N", "race")
-    np.testing.assert_array_equal(s["iter_max"].sel(NEW), [3, 5, 2])
-    assert float(s["converged_fraction"].sel(NEW)) == pytest.approx(1 - 1 / 3000)
-    assert float(s["max_Lambda_N"].sel(NEW)) == 2e-3
+    assert s["peak_force"].dims == ("clearance", "mu", "omega0", "e_N", "model", "race")
+    assert s["n_impacts"].dims == ("clearance", "mu", "omega0", "e_N", "race", "kind")
+    np.testing.assert_array_equal(s["iter_max"].sel(NEW).sel(PAPER), [3, 5, 2])
+    assert float(s["converged_fraction"].sel(NEW).sel(PAPER)) == pytest.approx(1 - 1 / 3000)
+    assert float(s["max_Lambda_N"].sel(NEW).sel(PAPER)) == 2e-3
     # only a start-up impact: no steady impact (zero counts, no peak), a start-up peak
     assert float(s["n_impacts"].sel(EMPTY).sum()) == 0.0
-    assert bool(s["peak_force"].sel(EMPTY).isnull().all())
-    assert float(s["startup_peak_force"].sel(EMPTY)) == 10.0
+    assert bool(s["peak_force"].sel(EMPTY).sel(PAPER).isnull().all())
+    assert float(s["startup_peak_force"].sel(EMPTY).sel(PAPER)) == 10.0
+    # the failed twin at EMPTY: its model is missing there, the paper's numbers stay
+    assert float(s["failed"].sel(EMPTY).sel(TWIN)) == 1.0
+    assert bool(s["startup_peak_force"].sel(EMPTY).sel(TWIN).isnull())
     # the failed point: flagged, and missing (NaN) everywhere else, not zero
-    assert float(s["failed"].sel(FAILED)) == 1.0 and int(s["failed"].sum()) == 1
+    assert float(s["failed"].sel(FAILED).sel(PAPER)) == 1.0
+    assert int((s["failed"] > 0).sum()) == 2
     for name in s.data_vars:
         if name != "failed":
-            assert bool(s[name].sel(FAILED).isnull().all()), name
-    assert s.attrs["n_failed"] == 1
+            value = s[name].sel(FAILED)
+            value = value.sel(PAPER) if "model" in value.dims else value
+            assert bool(value.isnull().all()), name
+    # points without a twin: the compliant model is missing, not failed
+    assert bool(s["failed"].sel(OLD).sel(TWIN).isnull())
+    assert s.attrs["n_failed"] == 2 and s.attrs["n_runs"] == 6
 
 
 def test_summary_file_is_cf_style(study):
@@ -191,7 +299,7 @@ def test_summary_file_is_cf_style(study):
 
     with netCDF4.Dataset(path) as nc:
         assert nc.getncattr("Conventions") == "CF-1.10"
-        assert "summary of 4 runs" in nc.getncattr("history")
+        assert "summary of 6 runs" in nc.getncattr("history")
         for name, var in nc.variables.items():
             assert var.dtype != str and var.dtype.kind != "S", f"{name} is a string variable"
             attrs = var.ncattrs()
@@ -200,9 +308,13 @@ def test_summary_file_is_cf_style(study):
                 assert "_FillValue" not in attrs, f"coordinate {name} has a fill value"
         assert nc.variables["race"].getncattr("flag_meanings") == "inner outer"
         assert nc.variables["kind"].getncattr("flag_meanings") == "simple persistent pinch multi"
+        assert nc.variables["model"].getncattr("flag_meanings") == "nonsmooth compliant"
+        assert list(nc.variables["model"].getncattr("flag_values")) == [0, 1]
+        assert nc.variables["model"].dtype == np.int8
         assert list(nc.variables["race"][:]) == [0, 1]
+        assert nc.variables["clearance"].getncattr("units") == "m"
     with xr.open_dataset(path) as ds:
-        assert ds["peak_force"].sel(NEW).values.tolist() == [101.0, 2000.0]
+        assert ds["peak_force"].sel(NEW).sel(PAPER).values.tolist() == [101.0, 2000.0]
 
 
 def test_category_codes():
@@ -216,3 +328,126 @@ def test_bad_arguments():
         summarize(["a"], ["b"], settle=-1)
     with pytest.raises(ValueError, match="force_levels"):
         summarize(["a"], ["b"], force_levels=[0.0])
+    with pytest.raises(ValueError, match="method_tol"):
+        summarize(["a"], ["b"], method_tol=0.0)
+
+
+def _hertz_pulse_peak(m, v, K, e_N):
+    """Largest force of a compliant impact, m delta'' = -K delta^1.5 (1 + chi delta'/v) with
+    the Flores chi = 8 (1 - e_N)/(5 e_N), integrated here (independent of analysis.forces)."""
+    from scipy.integrate import solve_ivp
+
+    chi = 8.0 * (1.0 - e_N) / (5.0 * e_N)
+
+    def force(d, dd):
+        return np.where(d > 0, K * np.maximum(d, 0) ** 1.5 * (1.0 + chi * dd / v), 0.0)
+
+    def rhs(_, y):
+        return [y[1], -force(y[0], y[1]) / m]
+
+    def separated(_, y):
+        return y[0]
+    separated.terminal, separated.direction = True, -1
+    t_end = 10 * 2.94 * (5 * m * v**2 / (4 * K)) ** 0.4 / v
+    sol = solve_ivp(rhs, (0.0, t_end), [1e-30, v], method="LSODA", rtol=1e-11, atol=1e-20,
+                    events=separated, dense_output=True)
+    tt = np.linspace(0.0, sol.t[-1], 200001)
+    d, dd = sol.sol(tt)
+    return float(np.max(force(d, dd)))
+
+
+def test_an_isolated_impact_whose_twin_agrees_is_not_flagged(tmp_path):
+    """One ball (m = 2.7 g) hits the outer race at 1 m/s, steel: the paper's Flores force of the
+    impact table against a compliant twin whose F_N is the Hertz pulse integrated here. The
+    method ratio is 1 (to the integration's accuracy) and nothing is flagged."""
+    from analysis import peak_force
+    from analysis.synthetic import make_run_dataset
+
+    m, v, e_N, E, clearance = 2.7e-3, 1.0, 0.9, 2.1e11, 4e-4
+    _, K_paper = _hertz(1.0, "outer", clearance)
+    K = K_paper * 100.0  # E = 2.1e11 instead of the paper's 2.1e9: K goes as E
+    point = {"clearance": clearance, "mu": 0.01, "omega0": 50.0, "e_N": e_N}
+    run = make_run_dataset(n_steps=2000, clearance=clearance, omega0=50.0, e_N=e_N)
+    run.attrs["model.youngs_modulus"] = E
+    write_netcdf(run, tmp_path / "run.nc")
+    F_paper = peak_force((1.0 + e_N) * m * v, v, e_N, K)
+    xr.Dataset({"time": ("impact", [0.05]), "race": ("impact", np.array([1], "i1")),
+                "kind": ("impact", np.array([0], "i1")), "F_max": ("impact", [F_paper]),
+                "flags": ("impact", np.array([0], "i4"))},
+               coords=point).to_netcdf(tmp_path / "impacts.nc")
+    force = np.zeros((2001, 16))
+    force[500, 8] = _hertz_pulse_peak(m, v, K, e_N)  # within one output interval (30 us)
+    write_netcdf(make_compliant_run(force, output_dt=1e-4, omega0=50.0, clearance=clearance,
+                                    e_N=e_N, youngs_modulus=E), tmp_path / "twin.nc")
+    s = summarize({"nonsmooth": [tmp_path / "run.nc"], "compliant": [tmp_path / "twin.nc"]},
+                  {"nonsmooth": [tmp_path / "impacts.nc"]}, scheduler="synchronous").sel(point)
+    assert float(s["method_ratio"].sel(race=1)) == pytest.approx(1.0, abs=1e-4)
+    assert float(s["peak_force_flagged"].sel(race=1)) == 0.0
+    # the same impact against a twin that carries 1.5 times the force: flagged
+    force[500, 8] *= 1.5
+    write_netcdf(make_compliant_run(force, output_dt=1e-4, omega0=50.0, clearance=clearance,
+                                    e_N=e_N, youngs_modulus=E), tmp_path / "twin.nc")
+    s = summarize({"nonsmooth": [tmp_path / "run.nc"], "compliant": [tmp_path / "twin.nc"]},
+                  {"nonsmooth": [tmp_path / "impacts.nc"]}, scheduler="synchronous").sel(point)
+    assert float(s["method_ratio"].sel(race=1)) == pytest.approx(1 / 1.5, rel=1e-4)
+    assert float(s["peak_force_flagged"].sel(race=1)) == 1.0
+
+
+def test_the_models_and_axes_of_the_summary(study, tmp_path):
+    """A plain list of runs is a nonsmooth-only study (model = [0]); ``axes`` orders the grid
+    and names its axes (a file without one of them is refused in one line)."""
+    s, _ = study
+    runs = [tmp_path / "run.nc"]
+    tables = [tmp_path / "imp.nc"]
+    _run(runs[0], NEW)
+    _impacts(tables[0], NEW)
+    alone = summarize(runs, tables, scheduler="synchronous", settle=1.0)
+    assert alone["model"].values.tolist() == [0]
+    assert bool(alone["method_ratio"].isnull().all())
+    ordered = summarize(runs, tables, scheduler="synchronous", settle=1.0,
+                        axes=["e_N", "mu", "clearance", "omega0"])
+    assert ordered["peak_force"].dims == ("e_N", "mu", "clearance", "omega0", "model", "race")
+    xr.testing.assert_equal(ordered["peak_force"].transpose(*alone["peak_force"].dims),
+                            alone["peak_force"])
+    with pytest.raises(ValueError, match="scalar coordinate cage_stiffness is missing"):
+        summarize(runs, tables, scheduler="synchronous", axes=["clearance", "cage_stiffness"])
+    with pytest.raises(ValueError, match="model 'rigid'"):
+        summarize({"rigid": runs}, tables)
+
+
+def test_summary_table_shows_both_models_and_their_ratio(study):
+    from analysis.summary import summary_table
+
+    s, _ = study
+    table = summary_table(s).set_index("quantity")
+    outer = s["peak_force"].isel(race=1)
+    for model, code in (("nonsmooth", 0), ("compliant", 1)):
+        row = table.loc[f"steady peak force, outer race, {model}"]
+        values = outer.sel(model=code).values / 1e3
+        assert float(row["max"]) == pytest.approx(np.nanmax(values), rel=1e-3)
+    ratio = table.loc["method ratio (nonsmooth / compliant peak), outer race"]
+    assert float(ratio["max"]) == pytest.approx(2000.0 / 1900.0, rel=1e-3)
+    # NEW: inner flagged by the check, outer clean; OLD has no flags, EMPTY no steady peak
+    assert table.loc["nonsmooth peak forces flagged (flag or method check)", "max"] == "1 of 2"
+    one = summary_table(s, model="compliant")
+    assert not one["quantity"].str.contains("nonsmooth, |method ratio").any()
+
+
+@pytest.mark.parametrize("turned, expected", [(2.4, 2), (2.6, 3), (3.0, 3), (0.3, 1), (0.0, 0)])
+def test_revolutions_of_the_window_and_the_short_tail(turned, expected):
+    """A last piece shorter than half a revolution joins the revolution before it; a window
+    shorter than one revolution is one revolution; an empty window has none."""
+    from analysis.summary import SteadyWindow
+
+    t = np.linspace(0.0, 1.0, 1001)
+    window = SteadyWindow(0.0, turned, t, turned * t)
+    assert window.n_revolutions == expected
+    if expected:
+        position = turned * t[1:]  # revolutions turned at the samples
+        index = window.revolution(t[1:])
+        assert index.min() == 0 and index.max() == expected - 1
+        step = turned * (t[1] - t[0])
+        for k in range(1, expected):  # revolution k starts where the crank has turned k
+            first = position[index == k].min()
+            assert k <= first < k + step
+        assert position[index == expected - 1].max() == pytest.approx(turned)

@@ -197,8 +197,13 @@ def test_a_study_over_any_two_settings_runs_with_their_units_and_names(results):
         assert s[name].attrs["long_name"] == parameter(key).long_name
     assert int(s["failed"].sum()) == 0
     assert s["peak_force"].sizes["model"] == 2
-    names = [p.name for p in (results / "figures").glob("study_*.png")]
-    assert any("cage_stiffness~10000.0" in n for n in names), names
+    # the heat maps are drawn over the two swept settings (analysis.figures.figure_layout)
+    from analysis.figures import figure_layout
+
+    layout = figure_layout(s)
+    assert (layout.x, layout.y) == ("cage_stiffness", "youngs_modulus")
+    names = {p.name for p in (results / "figures").glob("study_*.png")}
+    assert {"study_peak_force_outer_nonsmooth.png", "study_method_ratio_outer.png"} <= names
 
 
 @pytest.mark.slow

@@ -376,6 +376,14 @@ def _check_consistency(cfg: Mapping[str, Any]) -> None:
             raise ConfigError(f"solver.output_dt: {out_dt!r} is not allowed; allowed: "
                               f"solver.dt ({dt}) or null with model.contact_model = nonsmooth "
                               "(the impulse filter needs every step)")
+    if solver["adaptive"]:
+        if model["contact_model"] != "compliant":
+            raise ConfigError("solver.adaptive: true is not allowed with model.contact_model = "
+                              f"{model['contact_model']}; allowed: false (adaptive steps are for "
+                              "the compliant model)")
+        if solver["dt_min"] > dt:
+            raise ConfigError(f"solver.dt_min: {solver['dt_min']!r} is not allowed; allowed: "
+                              f"<= solver.dt ({dt}), the largest adaptive step")
     if model["contact_model"] == "compliant" and model["damping_law"] == "flores":
         e_values = _swept(cfg, "e_N") + [model["e_N"]]
         if min(e_values) <= 0.0:

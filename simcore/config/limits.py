@@ -120,16 +120,20 @@ def spring_scales(model) -> SpringScales:
     return SpringScales(math.sqrt(float(stiff.max())), float(damp.max()))
 
 
-def check_step_size(model, dt: float, policy: str = "error") -> str | None:
+def check_step_size(model, dt: float, policy: str = "error", key: str = "solver.dt"
+                    ) -> str | None:
     """Refuse (or warn about) a step that cannot resolve the model's fastest spring mode.
 
     Parameters
     ----------
     model : simcore.model.Model
     dt : float
-        Time step [s].
+        Time step [s]: the fixed step, or the smallest an adaptive run can take.
     policy : {"error", "warn"}
         ``solver.on_unresolved_dt``.
+    key : str
+        The configuration key of ``dt`` (``solver.dt``, or ``solver.dt_min`` with adaptive
+        steps), named in the message.
 
     Returns
     -------
@@ -139,7 +143,7 @@ def check_step_size(model, dt: float, policy: str = "error") -> str | None:
     Raises
     ------
     ConfigError
-        One line naming ``solver.dt`` and the limit (policy ``"error"``).
+        One line naming ``key`` and the limit (policy ``"error"``).
     """
     scales = spring_scales(model)
     if dt <= scales.dt_limit:
@@ -150,10 +154,10 @@ def check_step_size(model, dt: float, policy: str = "error") -> str | None:
            f"{scales.omega_damped:.4g} rad/s, damping ratio {scales.zeta:.3g}; omega * dt <= "
            f"{OMEGA_DT_MAX:g})")
     if policy == "error":
-        raise ConfigError(f"solver.dt: {dt!r} is not allowed; allowed: {why}; lower solver.dt "
-                          "(or model.cage_stiffness, or raise model.cage_damping), or set "
+        raise ConfigError(f"{key}: {dt!r} is not allowed; allowed: {why}; lower {key} (or "
+                          "model.cage_stiffness, or raise model.cage_damping), or set "
                           "solver.on_unresolved_dt=warn")
-    msg = (f"solver.dt: {dt!r} is above the limit {why}; running anyway "
+    msg = (f"{key}: {dt!r} is above the limit {why}; running anyway "
            "(solver.on_unresolved_dt=warn), the energy audit watches every step")
     warnings.warn(msg, RuntimeWarning, stacklevel=2)
     return msg
@@ -259,10 +263,21 @@ def check_run_of_config(cfg: dict) -> list[str]:
     the model, for a command line that answers at once."""
     check_memory_of_config(cfg)
     cage = _CageRing(cfg["model"])
-    check_cage_damping(cage, cfg["solver"]["dt"])
-    msgs = [check_step_size(cage, cfg["solver"]["dt"], cfg["solver"]["on_unresolved_dt"]),
+    check_cage_damping(cage, cfg["solver"]["dt"])  # c h / m is largest at the largest step
+    dt, key = limiting_step(cfg)
+    msgs = [check_step_size(cage, dt, cfg["solver"]["on_unresolved_dt"], key),
             check_contact_step(cfg)]
     return [m for m in msgs if m]
+
+
+def limiting_step(cfg: dict) -> tuple[float, str]:
+    """The step the stability limits are checked against, and its key: the fixed step
+    ``solver.dt``, or with adaptive steps the smallest one they can take, ``solver.dt_min``
+    (the error control shortens the step wherever a spring mode or a contact needs it)."""
+    solver = cfg["solver"]
+    if solver.get("adaptive", False):
+        return float(solver["dt_min"]), "solver.dt_min"
+    return float(solver["dt"]), "solver.dt"
 
 
 def check_memory(model, dt: float, t_end: float, max_gb: float) -> int:
@@ -317,7 +332,8 @@ def check_run(cfg: dict, model=None) -> list[str]:
     solver = cfg["solver"]
     check_memory(model, solver["dt"], solver["t_end"], solver["max_memory_gb"])
     check_cage_damping(model, solver["dt"])
-    msgs = [check_step_size(model, solver["dt"], solver["on_unresolved_dt"]),
+    dt, key = limiting_step(cfg)
+    msgs = [check_step_size(model, dt, solver["on_unresolved_dt"], key),
             check_contact_step(cfg)]
     return [m for m in msgs if m]
 
@@ -363,7 +379,8 @@ def check_contact_step(cfg: dict) -> str | None:
     """Refuse (or warn about) a compliant run whose step cannot resolve a contact.
 
     Only for ``model.contact_model = compliant`` (a nonsmooth contact has no duration). The
-    step must be at most 1/:data:`MIN_CONTACT_STEPS` of :func:`hertz_contact_time`.
+    step (with adaptive steps the smallest, :func:`limiting_step`) must be at most
+    1/:data:`MIN_CONTACT_STEPS` of :func:`hertz_contact_time`.
 
     Returns
     -------
@@ -377,7 +394,7 @@ def check_contact_step(cfg: dict) -> str | None:
     """
     if cfg["model"].get("contact_model", "nonsmooth") != "compliant":
         return None
-    dt = float(cfg["solver"]["dt"])
+    dt, key = limiting_step(cfg)
     t_contact = hertz_contact_time(cfg["model"])
     limit = t_contact / MIN_CONTACT_STEPS
     if dt <= limit:
@@ -386,9 +403,9 @@ def check_contact_step(cfg: dict) -> str | None:
            f"more (Hertz contact time of a ball hitting a race at the crank pin's speed: "
            f"{t_contact:.3g} s with model.youngs_modulus = {cfg['model']['youngs_modulus']:g})")
     if cfg["solver"]["on_unresolved_dt"] == "error":
-        raise ConfigError(f"solver.dt: {dt!r} is not allowed; allowed: {why}; lower solver.dt, "
+        raise ConfigError(f"{key}: {dt!r} is not allowed; allowed: {why}; lower {key}, "
                           "or set solver.on_unresolved_dt=warn")
-    msg = (f"solver.dt: {dt!r} is above the limit {why}; running anyway "
+    msg = (f"{key}: {dt!r} is above the limit {why}; running anyway "
            "(solver.on_unresolved_dt=warn), the energy audit watches every step")
     warnings.warn(msg, RuntimeWarning, stacklevel=2)
     return msg

@@ -193,6 +193,9 @@ def run_attributes(traj, layout, cfg: dict, compile_time_s: float, compliant: bo
     audit = traj.extras.get("energy_audit")
     if audit is not None:
         attrs.update(audit.summary(traj.energy))
+    steps = traj.extras.get("adaptive")
+    if steps is not None:  # adaptive steps: how many, how many redone, the smallest
+        attrs.update({k: v for k, v in steps.items() if k != "row_steps"})
     attrs["solver.output_dt"] = output_interval_s
     return attrs
 

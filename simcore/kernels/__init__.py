@@ -10,7 +10,8 @@
   nonsmooth model;
 - :mod:`.hertz`: the compliant contact law (Hertz force with hysteresis damping, regularised
   Coulomb friction) with exact tangents; :mod:`.compliant_step`: joint projection and the time
-  loop of the compliant model with output sampling.
+  loop of the compliant model with output sampling; :mod:`.compliant_adaptive`: its loop with
+  adaptive steps.
 
 The model is handed over as one :class:`~.bundles.ModelArrays` (a namedtuple of arrays).
 Numba's cache is keyed by a hash of these sources (:mod:`simcore.startup.numba_cache`) before any of
@@ -39,12 +40,22 @@ from .bodies import (  # noqa: E402
     unit_direction,
 )
 from .bundles import (  # noqa: E402
+    AdaptiveSettings,
+    AdaptiveState,
     ChunkOutputs,
     CompliantOutputs,
     CompliantState,
     ModelArrays,
     StepSettings,
     StepState,
+)
+from .compliant_adaptive import (  # noqa: E402
+    ACCEPTED,
+    BELOW_DT_MIN,
+    REJECTED_ERROR,
+    REJECTED_NEWTON,
+    REJECTED_ONSET,
+    integrate_compliant_adaptive,
 )
 from .compliant_step import (  # noqa: E402
     compliant_work,
@@ -106,5 +117,7 @@ __all__ = [
     "smooth_forces", "spring_damping",
     "smooth_step", "solve_velocity_problem", "spring_state", "total_energy", "transverse_form",
     "unit_direction", "velocity_step", "contact_forces", "elastic_energy", "normal_force",
-    "compliant_work", "integrate_compliant_chunk", "project_joints",
+    "compliant_work", "integrate_compliant_chunk", "project_joints", "AdaptiveSettings",
+    "AdaptiveState", "integrate_compliant_adaptive", "ACCEPTED", "BELOW_DT_MIN",
+    "REJECTED_ERROR", "REJECTED_NEWTON", "REJECTED_ONSET",
 ]

@@ -37,15 +37,37 @@ StepState = namedtuple("StepState", ["q", "v", "acc", "vdot", "lam_s", "lam_b", 
 #: State of the compliant contacts (per contact, updated in place): v_pre (approach speed at
 #: the onset [m/s]), closed (1 while the contact is closed), the last step's forces FN, FT [N],
 #: gap [m], vn, vt [m/s], and the accumulators of the current output interval: FN_max, FT_at_max
-#: [N], LN, LT [N s], gap_min [m], vn_start [m/s]; it_max (3) and ok (1) of the interval.
+#: [N], LN, LT [N s], gap_min [m], vn_start [m/s]; it_max (3) and ok (1) of the interval, and
+#: the drive's torque impulse over it, drive_impulse (1) [N m s].
 CompliantState = namedtuple("CompliantState", [
     "v_pre", "closed", "FN", "FT", "gap", "vn", "vt", "FN_max", "FT_at_max", "LN", "LT",
-    "gap_min", "vn_start", "it_max", "ok"])
+    "gap_min", "vn_start", "it_max", "ok", "drive_impulse"])
 
-#: Outputs of the compliant time loop, one row per output sample (row 0: t0).
+#: Outputs of the compliant time loop, one row per output sample (row 0: t0); drive_torque is
+#: the drive's torque averaged over the interval that ends at the row (its torque impulse over
+#: the interval's length, whatever the steps in it: the energy audit's drive work).
 CompliantOutputs = namedtuple("CompliantOutputs", [
     "q", "v", "F_N", "F_T", "Lambda_N", "Lambda_T", "gap_N", "vn_pre", "vn_post", "energy",
     "iterations", "converged", "drive_torque"])
+
+#: Settings of the compliant loop with adaptive steps (the largest step is StepSettings.h):
+#: ``out_dt`` the output interval [s], ``dt_min`` the smallest step the error control may ask
+#: for [s], ``err_tol`` the local error tolerance of a step [m], ``onset_steps`` the steps per
+#: Hertz contact time of the step in which a contact closes [-].
+AdaptiveSettings = namedtuple("AdaptiveSettings", ["out_dt", "dt_min", "err_tol",
+                                                   "onset_steps"])
+
+#: State and records of the adaptive loop (updated in place): ``h`` (2) the next step's size
+#: and the last accepted step's [s]; ``counts`` (5) accepted steps, steps rejected by the error
+#: estimate, by a contact's onset, by a smooth stage that did not converge, and steps that
+#: needed less than dt_min (taken at dt_min and flagged); ``h_min`` (1) the smallest step
+#: taken [s]; ``t_flag`` (1) the end time of the first step taken below its need [s] (-1:
+#: none); ``weight`` (n) the error weight of each coordinate (1 for a position, the body's
+#: radius of gyration [m] for its angle); ``row_steps`` (rows) the steps taken in each output
+#: interval; work: ``acc_c`` (n), ``lam_save`` (m), ``vdot_old_save`` (n), ``reuse_save`` (1).
+AdaptiveState = namedtuple("AdaptiveState", ["h", "counts", "h_min", "t_flag", "weight",
+                                             "row_steps", "acc_c", "lam_save",
+                                             "vdot_old_save", "reuse_save"])
 
 #: Per-step outputs (row k + 1 written by step k), see :class:`simcore.model.Trajectory`.
 ChunkOutputs = namedtuple("ChunkOutputs", [

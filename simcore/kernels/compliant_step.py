@@ -16,21 +16,27 @@ from collections import namedtuple
 
 import numpy as np
 
-from .bodies import BLOCKS_NEWTON, clear_pair_blocks, fill_pair_blocks
+from .bodies import BLOCKS_NEWTON, clear_pair_blocks, fill_pair_blocks, row_dot
+from .contact import CONTACT_PLANE, contact_gap_cached, contact_rows_cached
 from .generalized_alpha import (
     alpha_coefficients,
     alpha_predict,
-    smooth_residual,
     smooth_work,
     step_work,
 )
-from .hertz import contact_forces_into, elastic_energy_into, hertz_work
-from .jit import kernel, loop_kernel, step_kernel
-from .joints import bilateral, joint_row_count, joint_support
+from .hertz import (
+    contact_forces_into,
+    elastic_energy_into,
+    hertz_work,
+    open_contact_velocities_into,
+)
+from .jit import inline_kernel, kernel, loop_kernel, step_kernel
+from .joints import bilateral_cached, joint_row_count, joint_support
 from .linalg import (
     GENERAL,
     block_factor,
     block_solve,
+    cholesky_solve,
     copy_matrix,
     copy_vector,
     lu_factor,
@@ -42,9 +48,12 @@ from .springs import WITH_TANGENTS, smooth_forces_into, total_energy
 #: (:func:`~.generalized_alpha.step_work`), the smooth stage's (:func:`~.generalized_alpha.
 #: smooth_work`), the contacts' (11, nc) rows of FN, FT, gap, vn, vt and tangential Jacobian
 #: entries, the Hertz law's (:func:`~.hertz.hertz_work`), the joint projection's
-#: (:data:`ProjectionWork`) and the friction branches' (:data:`BranchWork`).
+#: (:data:`ProjectionWork`) and the friction branches' (:data:`BranchWork`); ``onset`` (nc) an
+#: onset speed to use for a contact that closes in the step instead of the approach speed of
+#: the last state (NaN: none; the adaptive step's, see
+#: :func:`~.compliant_adaptive.settle_onset_speeds`).
 CompliantWork = namedtuple("CompliantWork", ["step", "smooth", "contacts", "hertz",
-                                             "projection", "branches"])
+                                             "projection", "branches", "onset"])
 
 #: Work arrays of :func:`project_joints_into`: joint rows g, G (m x n), their velocity terms,
 #: the rows' supports (cols (m x 6), ncols), S = G M^-1 G^T and its LU pivots, a right-hand
@@ -58,11 +67,27 @@ ProjectionWork = namedtuple("ProjectionWork", ["g", "G", "gm", "dgdt", "cols", "
 #: solves W, Z (m x n) and where each starts (m); what the factors of the last Newton step
 #: (``fac``, ``S``, ``piv`` of the smooth work) were made with, for the next steps' updates
 #: (:func:`chord_solve`): the joint rows G_f (m x n) and the coefficient c_f (1); ``reuse``
-#: (2): whether those factors may serve (0: no) and whether the last step converged (then its
-#: start accelerations ``vdot_old`` (n) extrapolate the next step's first iterate).
+#: (3): whether those factors may serve (0: no), whether the last step converged (then its
+#: start accelerations ``vdot_old`` (n) extrapolate the next step's first iterate) and
+#: whether the explicit inverse of those factors (:func:`chord_operator`: ``inv_t`` (n x n,
+#: the transposed inverse of J's coupled block in its leading k x k), ``jg`` (m x n, J^-1
+#: G^T by rows), ``s_inv`` (m x m, S^-1)) is made; the joint rows' supports in ascending
+#: order (``jcols`` (m x 6), ``jncols`` (m)) and the joints' reaction G^T lambda (``react``,
+#: n) of the residual (:func:`_residual`); ``xc`` (n): work; ``stats`` (2): the Newton steps
+#: and the chord iterates taken so far (a record of the cost); the open contacts a step's
+#: iterates need not evaluate (:func:`_skip_far_open`): ``q_ref``, ``v_ref`` (n) and ``g_ref``
+#: (nc) the state and the gaps they are measured from (the last step's result, or this step's
+#: first iterate while ``ready[1]`` is 0), ``skip`` (nc), ``lever`` (2 x nc) the distance of
+#: each contact's point from its body's reference point [m]; ``stale`` (nc): the open contacts
+#: whose velocities the last step left out (their onset speed, should they close, comes from
+#: the reference state: :func:`_lazy_onset_speeds`); ``ready`` (2): whether ``jcols``,
+#: ``jncols`` and ``lever`` are made (:func:`_prepare`) and whether the reference is the last
+#: step's result.
 BranchWork = namedtuple("BranchWork", ["J2", "r2", "current", "assumed", "r0", "W", "Z",
                                        "first_w", "first_z", "G_f", "c_f", "reuse",
-                                       "vdot_old"])
+                                       "vdot_old", "jcols", "jncols", "react", "inv_t", "jg",
+                                       "s_inv", "xc", "stats", "q_ref", "v_ref", "g_ref",
+                                       "skip", "lever", "stale", "ready"])
 
 
 def projection_work(n, m):
@@ -78,7 +103,7 @@ def compliant_work(n, nbil, nc):
     rows and nc contacts, made once per run in Python."""
     return CompliantWork(step=step_work(n), smooth=smooth_work(n, nbil),
                          contacts=np.zeros((11, nc)), hertz=hertz_work(),
-                         projection=projection_work(n, nbil),
+                         projection=projection_work(n, nbil), onset=np.full(nc, np.nan),
                          branches=BranchWork(J2=np.zeros((n, n)), r2=np.zeros(n + nbil),
                                              current=np.zeros(nc, dtype=np.int64),
                                              assumed=np.zeros(nc, dtype=np.int64),
@@ -87,8 +112,20 @@ def compliant_work(n, nbil, nc):
                                              first_w=np.zeros(nbil, dtype=np.int64),
                                              first_z=np.zeros(nbil, dtype=np.int64),
                                              G_f=np.zeros((nbil, n)), c_f=np.zeros(1),
-                                             reuse=np.zeros(2, dtype=np.int64),
-                                             vdot_old=np.zeros(n)))
+                                             reuse=np.zeros(3, dtype=np.int64),
+                                             vdot_old=np.zeros(n),
+                                             jcols=np.zeros((nbil, 6), dtype=np.int64),
+                                             jncols=np.zeros(nbil, dtype=np.int64),
+                                             react=np.zeros(n), inv_t=np.zeros((n, n)),
+                                             jg=np.zeros((nbil, n)),
+                                             s_inv=np.zeros((nbil, nbil)), xc=np.zeros(n),
+                                             stats=np.zeros(2, dtype=np.int64),
+                                             q_ref=np.zeros(n), v_ref=np.zeros(n),
+                                             g_ref=np.zeros(nc),
+                                             skip=np.zeros(nc, dtype=np.bool_),
+                                             lever=np.zeros((2, nc)),
+                                             stale=np.zeros(nc, dtype=np.bool_),
+                                             ready=np.zeros(2, dtype=np.int64)))
 
 
 #: An iterate of the reused factors (:func:`compliant_smooth_step`) counts as converged once
@@ -113,15 +150,20 @@ def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
     pw = ProjectionWork(np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m),
                         np.zeros((m, 6), dtype=np.int64), np.zeros(m, dtype=np.int64),
                         np.zeros((m, m)), np.zeros(m), np.zeros(m, dtype=np.int64))
-    return project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw)
+    bilateral_cached(q_t, v_t, t1, ma, pw.g, pw.G, pw.gm, pw.dgdt, None)
+    return project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw, None, pw.g,
+                               pw.G, pw.dgdt)
 
 
 @step_kernel
-def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw):
+def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw, trig, g0, G0, dgdt0):
     """Remove the joints' drift: q1 = q_t + M^-1 G^T nu with g(q1) = 0 (Newton, |g|/h <= tol;
     no iteration when the drift is already within it), then v1 = v_t + M^-1 G^T mu with
-    G(q1) v1 + dg/dt = 0. ``pw``: :data:`ProjectionWork`. Each S = G M^-1 G^T is factorised
-    once (LU), the last one serves the velocities too. Returns (iterations, converged)."""
+    G(q1) v1 + dg/dt = 0. ``pw``: :data:`ProjectionWork`; ``trig``: the bodies' sines and
+    cosines (:func:`~.bodies.body_point_cached`, or None); ``g0``, ``G0``, ``dgdt0``: the joint
+    rows at (q_t, v_t, t1) (the smooth stage's last evaluation). Each S = G M^-1 G^T is
+    factorised once (LU), the last one serves the velocities too. Returns (iterations,
+    converged)."""
     n = q_t.shape[0]
     m = joint_row_count(ma.jt_type)
     for i in range(n):
@@ -129,10 +171,9 @@ def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw):
         v1[i] = v_t[i]
     if m == 0:
         return 0, True
-    g = pw.g
-    G = pw.G
-    gm = pw.gm
-    dgdt = pw.dgdt
+    g = g0
+    G = G0
+    dgdt = dgdt0
     cols = pw.cols
     ncols = pw.ncols
     S = pw.S
@@ -140,22 +181,30 @@ def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw):
     piv = pw.piv
     mdiag = ma.mdiag
     # each joint row touches its two bodies' columns only (G is zero elsewhere)
-    joint_support(ma.jt_type, ma.jt_body, cols, ncols)
+    _joint_columns(ma, cols, ncols)
     target = tol * h
     iters = 0
     ok = False
     for it in range(max_iter + 1):
-        bilateral(q1, v_t, t1, ma, g, G, gm, dgdt)
+        if it > 0:
+            g = pw.g
+            G = pw.G
+            dgdt = pw.dgdt
+            bilateral_cached(q1, v_t, t1, ma, g, G, pw.gm, dgdt, trig)
         res = 0.0
         for r in range(m):
             res = max(res, abs(g[r]))
+        # S is symmetric: the same sums (the supports in ascending order, a zero term adds
+        # nothing) give S[c, r] and S[r, c]
         for r in range(m):
-            for c in range(m):
+            for c in range(r, m):
                 s = 0.0
                 for t in range(ncols[r]):
                     i = cols[r, t]
-                    s += G[r, i] * G[c, i] / mdiag[i]
+                    if G[c, i] != 0.0:  # (a zero term adds nothing: the same sum, no division)
+                        s += G[r, i] * G[c, i] / mdiag[i]
                 S[r, c] = s
+                S[c, r] = s
         lu_factor(S, m, piv)
         if res <= target:
             ok = True
@@ -186,6 +235,121 @@ def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw):
 
 
 @step_kernel
+def _joint_columns(ma, cols, ncols):
+    """The support of every joint row (:func:`~.joints.joint_support`), each in ascending
+    order: the order in which a loop over all columns visits them, so that a sum over a
+    support is the same number as that loop's."""
+    joint_support(ma.jt_type, ma.jt_body, cols, ncols)
+    for r in range(ncols.shape[0]):
+        for a in range(1, ncols[r]):
+            c = cols[r, a]
+            b = a
+            while b > 0 and cols[r, b - 1] > c:
+                cols[r, b] = cols[r, b - 1]
+                b -= 1
+            cols[r, b] = c
+
+
+@step_kernel
+def _prepare(ma, bw):
+    """Once per run (``bw.ready``): the joint rows' supports (:func:`_joint_columns`) and each
+    contact's levers, the distances of its two points from their bodies' reference points."""
+    if bw.ready[0] == 1:
+        return
+    _joint_columns(ma, bw.jcols, bw.jncols)
+    for k in range(ma.ct_type.shape[0]):
+        for s in range(2):
+            px = ma.ct_geom[k, 2 * s]
+            py = ma.ct_geom[k, 2 * s + 1]
+            bw.lever[s, k] = np.sqrt(px * px + py * py)
+    bw.ready[0] = 1
+
+
+@step_kernel
+def _skip_far_open(q_t, ma, bw):
+    """Mark the contacts that are open at the iterate ``q_t`` because they were open at the
+    reference state (``bw.q_ref``, gaps ``bw.g_ref``: the last step's result) by more than the
+    bodies have moved since: a sphere element's gap changes by at most the motion of its two
+    points, each at most |dx| + |dy| + lever |dphi| of its body (a plane turning with its body
+    is always evaluated). Such a contact has no force at this iterate, whatever its exact gap;
+    its gap at the step's result comes from :func:`finish_contacts`."""
+    for k in range(ma.ct_type.shape[0]):
+        g0 = bw.g_ref[k]
+        skip = g0 > 0.0 and not (ma.ct_type[k] == CONTACT_PLANE and ma.ct_body[k, 0] >= 0)
+        if skip:
+            reach = 1e-12  # (round-off of the gaps, far below any indentation)
+            for s in range(2):
+                b = ma.ct_body[k, s]
+                if b >= 0:
+                    reach += (abs(q_t[3 * b] - bw.q_ref[3 * b])
+                              + abs(q_t[3 * b + 1] - bw.q_ref[3 * b + 1])
+                              + bw.lever[s, k] * abs(q_t[3 * b + 2] - bw.q_ref[3 * b + 2]))
+            skip = g0 > reach
+        bw.skip[k] = skip
+
+
+@step_kernel
+def _lazy_onset_speeds(q_t, ma, v_pre, v_pre_min, bw, hw, trig):
+    """The onset speed of each contact that the iterate ``q_t`` closes although it was open,
+    with its velocities left out, at the last step's result (``bw.stale``): the approach speed
+    there, max(-vn, v_pre_min), from the reference state (``bw.q_ref``, ``bw.v_ref``), the same
+    number the step would have computed at its start (:func:`compliant_step_into`)."""
+    for k in range(ma.ct_type.shape[0]):
+        if not bw.stale[k] or bw.skip[k]:
+            continue
+        if contact_gap_cached(q_t, k, ma.ct_type, ma.ct_body, ma.ct_geom, trig) < 0.0:
+            ia = ma.ct_body[k, 0]
+            ib = ma.ct_body[k, 1]
+            contact_rows_cached(bw.q_ref, k, ma.ct_type, ma.ct_body, ma.ct_geom, hw.wN, hw.wT,
+                                trig)
+            v_pre[k] = max(-row_dot(hw.wN, ia, ib, bw.v_ref), v_pre_min)
+            bw.stale[k] = False
+
+
+@step_kernel
+def finish_contacts(q_t, v_t, ma, cwork, bw, hw, trig, velocities):
+    """The contacts at a step's result (q_t, v_t) beyond what its last iterate evaluated:
+    the gaps of the contacts it skipped, and with ``velocities`` the normal and tangential
+    velocities of every open contact (:func:`~.hertz.open_contact_velocities_into`; where
+    these are left out, their contacts become ``bw.stale``, see :func:`commit_step`)."""
+    for k in range(ma.ct_type.shape[0]):
+        if bw.skip[k]:
+            cwork[2, k] = contact_gap_cached(q_t, k, ma.ct_type, ma.ct_body, ma.ct_geom, trig)
+    if velocities:
+        open_contact_velocities_into(q_t, v_t, ma, cwork[2], cwork[3], cwork[4], cwork[5:11],
+                                     hw, trig)
+
+
+@inline_kernel
+def _residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale, cols, ncols, react):
+    """:func:`~.generalized_alpha.smooth_residual` over the joint rows' supports (``cols``,
+    ``ncols`` from :func:`_joint_columns`; G is zero elsewhere): the same numbers, the same
+    sums in the same order without their zero terms. ``react`` (n): work."""
+    n = vdot1.shape[0]
+    m = lam.shape[0]
+    for i in range(n):
+        react[i] = 0.0
+    for r in range(m):
+        for t in range(ncols[r]):
+            i = cols[r, t]
+            react[i] += G[r, i] * lam[r]
+    res_f = 0.0
+    for i in range(n):
+        rhs[i] = -(mdiag[i] * vdot1[i] - f_t[i] - react[i])
+        res_f = max(res_f, abs(rhs[i]))
+        scale = max(scale, abs(f_t[i]), abs(mdiag[i] * vdot1[i]), abs(react[i]))
+    res_c = 0.0
+    for r in range(m):
+        c = dgdt[r]
+        for t in range(ncols[r]):
+            i = cols[r, t]
+            c += G[r, i] * v_t[i]
+        rhs[n + r] = -c
+        res_c = max(res_c, abs(c))
+    return res_f, res_c, scale
+
+
+@step_kernel
 def _branch(x):
     """Friction branch of a scaled slip x = v_T / v_reg: 0 inside the band, else its sign."""
     if abs(x) < 1.0:
@@ -193,9 +357,12 @@ def _branch(x):
     return 1 if x > 0.0 else -1
 
 
-@step_kernel
-def _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, cwork, hw):
-    """Forces (and with ``tangent`` their tangents) and joint rows at (q_t, v_t)."""
+@inline_kernel
+def _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, cwork, hw,
+              skip):
+    """Forces (and with ``tangent`` their tangents) and joint rows at (q_t, v_t); of the
+    open contacts only their gaps, none of those marked in ``skip``
+    (:func:`~.hertz.contact_forces_into`)."""
     if tangent:
         # the contacts' tangents are added in their body pairs' blocks: clear those first
         # (smooth_forces_into clears the springs' own)
@@ -203,13 +370,14 @@ def _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, 
         clear_pair_blocks(C_t, ma.ct_body)
     smooth_forces_into(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, tangent, sw.fw, sw.iw)
     contact_forces_into(q_t, v_t, ma, v_pre, v_reg, f_t, K_t, C_t, tangent, cwork[0],
-                        cwork[1], cwork[2], cwork[3], cwork[4], cwork[5:11], hw)
-    bilateral(q_t, v_t, t1, ma, sw.g, sw.G, sw.gm, sw.dgdt)
+                        cwork[1], cwork[2], cwork[3], cwork[4], cwork[5:11], hw, sw.trig, skip)
+    bilateral_cached(q_t, v_t, t1, ma, sw.g, sw.G, sw.gm, sw.dgdt, sw.trig)
 
 
 @step_kernel
 def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t,
-                          acc1, vdot1, f_t, K_t, C_t, Ks_t, sw, v_pre, v_reg, cwork, hw, bw):
+                          acc1, vdot1, f_t, K_t, C_t, Ks_t, sw, v_pre, v_reg, cwork, hw, bw,
+                          ratio, v_pre_min):
     """The generalized-alpha stage of a compliant step: Newton on ``vdot1`` with the springs'
     and the Hertz contacts' forces and their exact tangents, joints at velocity level. The
     scheme of :func:`~.generalized_alpha.smooth_step` (the nonsmooth model's) with the contact
@@ -227,15 +395,20 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
 
     Reused factors (a chord iteration): a step after a converged one first iterates with the
     factors of the last Newton matrix (``sw.fac``, ``sw.S``, ``sw.piv``, made with the joint
-    rows ``bw.G_f``), without tangents or a factorisation (:func:`chord_solve`). At the
-    zooms' steps (tens per Hertz contact time) the Newton matrix is the mass matrix to a few
-    per mille, and changes by less from one step to the next, so these iterates contract by
-    about a hundred each. Their iterate counts as converged only within
-    :data:`CHORD_TIGHTENING` of the tolerance (a Newton iterate, quadratic, lands there after
-    its step); an update that would change a friction branch, or a contraction weaker than
-    :data:`CHORD_CONTRACTION`, hands over to Newton, whose factors then serve the next steps.
+    rows ``bw.G_f``), without tangents or a factorisation, as products with their explicit
+    inverse (:func:`chord_operator`, :func:`chord_apply`). At the zooms' steps (tens per
+    Hertz contact time) the Newton matrix is the mass matrix to a few per mille, and changes by
+    less from one step to the next, so these iterates contract by about a hundred each. Their
+    iterate counts as converged only within :data:`CHORD_TIGHTENING` of the tolerance (a
+    Newton iterate, quadratic, lands there after its step); an update that would change a
+    friction branch, or a contraction weaker than :data:`CHORD_CONTRACTION`, hands over to
+    Newton, whose factors then serve the next steps. Factors made at another step size serve
+    too (adaptive steps), with the joints' rows of the residual scaled to theirs; the
+    contraction test says when they no longer fit.
+
     The first iterate is the accelerations extrapolated linearly from the last two steps
-    (``bw.vdot_old``). Returns (iterations, converged)."""
+    (``bw.vdot_old``), over ``ratio`` = h over the last step's size (1 for a fixed step).
+    Returns (iterations, converged)."""
     am, af, gam, beta = coef
     mdiag = ma.mdiag
     n = q.shape[0]
@@ -250,7 +423,12 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
     # the last step converged; else the last step's)
     extrapolate = bw.reuse[1] == 1
     for i in range(n):
-        vdot1[i] = 2.0 * vdot[i] - bw.vdot_old[i] if extrapolate else vdot[i]
+        if not extrapolate:
+            vdot1[i] = vdot[i]
+        elif ratio == 1.0:
+            vdot1[i] = 2.0 * vdot[i] - bw.vdot_old[i]
+        else:  # a step of another size than the last one (adaptive steps)
+            vdot1[i] = vdot[i] + ratio * (vdot[i] - bw.vdot_old[i])
         bw.vdot_old[i] = vdot[i]
     iters = 0
     converged = False
@@ -261,21 +439,36 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
     copy_vector(lam_prev, lam, m)
     halvings = 0
     cv = h * gam * ca
+    _prepare(ma, bw)
     # the updates may use the last step's Newton factors (see the docstring)
-    chord = bw.reuse[0] == 1 and bw.c_f[0] == cv
+    chord = bw.reuse[0] == 1
     for it in range(max_iter + 1):
         alpha_predict(q, v, acc, vdot, vdot1, h, coef, acc1, q_t, v_t)
         # the predictor (it = 0) practically never satisfies the tolerance: its tangents are
         # evaluated with it, unless its update reuses the last factors; a later iterate first
         # gets its forces alone
         tangent = it == 0 and not chord
-        _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, cwork, hw)
+        # the open contacts that cannot have closed since the last step's result (or, for a
+        # first step, since this one's first iterate) are not evaluated (_skip_far_open)
+        first = it == 0 and bw.ready[1] == 0
+        if first:
+            for k in range(bw.skip.shape[0]):
+                bw.skip[k] = False
+        else:
+            _skip_far_open(q_t, ma, bw)
+        _lazy_onset_speeds(q_t, ma, v_pre, v_pre_min, bw, hw, sw.trig)
+        _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, cwork, hw,
+                  bw.skip)
+        if first:
+            copy_vector(bw.q_ref, q_t, n)
+            copy_vector(bw.g_ref, cwork[2], bw.g_ref.shape[0])
         # contact forces and the loads they balance cancel in f_t: the force scale of the
         # residual is that of the largest contact force
         scale = 1e-300
         for k in range(cwork.shape[1]):
             scale = max(scale, cwork[0, k])
-        res_f, res_c, scale = smooth_residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale)
+        res_f, res_c, scale = _residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale,
+                                        bw.jcols, bw.jncols, bw.react)
         # an iterate of the reused factors converges only linearly: it must be well inside
         # the tolerance, where a Newton iterate (quadratic) lands after its step
         limit = CHORD_TIGHTENING if chord and it > 0 else 1.0
@@ -306,7 +499,11 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
         copy_vector(lam_prev, lam, m)
         if chord:
             copy_vector(sol, rhs, n + m)
-            chord_solve(sw.fac, bw.G_f, cv, sw.S, sw.piv, sol, bw.r0)
+            if bw.reuse[2] == 0:
+                chord_operator(sw.fac, bw.G_f, bw.c_f[0], sw.S, sw.piv, bw)
+                bw.reuse[2] = 1
+            chord_apply(sw.fac, bw.G_f, bw.c_f[0], bw.c_f[0] / cv, bw, sol)
+            bw.stats[1] += 1
             if _branches_hold(sol, cv, ma, v_reg, cwork):
                 for r in range(m):
                     lam[r] += sol[n + r]
@@ -316,7 +513,7 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
             chord = False
         if not tangent:  # the same forces again, now with their tangents
             _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, WITH_TANGENTS, sw, cwork,
-                      hw)
+                      hw, bw.skip)
         # Newton step on [J, -G^T; c G, 0]: J is diagonal but for the bodies joined by
         # springs and loaded contacts (their body-pair blocks)
         fill_pair_blocks(J, C_t, K_t, h, gam, beta, ca, ma.sp_body, BLOCKS_NEWTON)
@@ -325,12 +522,14 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
             J[i, i] = (C_t[i, i] * h * gam + K_t[i, i] * h * h * beta) * ca + mdiag[i]
         copy_vector(sol, rhs, n + m)
         newton_solve(J, G, cv, sol, sw.fac, sw.S, sw.piv, bw)
+        bw.stats[0] += 1
         _friction_branches(J, rhs, G, cv, sol, ma, v_reg, cwork, sw, bw)
         # the factors now in sw.fac, sw.S, sw.piv (those of the last solve, with the friction
         # branches it settled on) and the joint rows they were made with
         copy_matrix(bw.G_f, G, m, n)
         bw.c_f[0] = cv
         bw.reuse[0] = 1
+        bw.reuse[2] = 0  # (their explicit inverse is made when a chord iterate needs it)
         for r in range(m):
             lam[r] += sol[n + r]
         for i in range(n):
@@ -457,6 +656,92 @@ def chord_solve(fac, G, c, S, piv, rhs, r0):
 
 
 @step_kernel
+def chord_operator(fac, G, c, S, piv, bw):
+    """The explicit inverse of the factors a Newton step left (:func:`newton_solve`: the LU
+    of J's coupled block in ``fac``, that of S = c G J^-1 G^T in ``S``, ``piv``) for
+    :func:`chord_apply`: the transposed inverse of the coupled block (``bw.inv_t``, k
+    solves), J^-1 G^T (``bw.jg``, by rows) and S^-1 (``bw.s_inv``).
+
+    A chord iterate applies the same matrix many times (a Newton step's factors serve the
+    next hundred steps or so): as products with these inverses it costs a quarter of the two
+    triangular solves per block of :func:`chord_solve`, whose long chains of dependent
+    additions cannot overlap, and it vectorises. The result is the same to round-off."""
+    n = bw.r0.shape[0]
+    m = G.shape[0]
+    k = fac.info[0]
+    tmp = fac.tmp
+    inv_t = bw.inv_t
+    for j in range(k):
+        for a in range(k):
+            tmp[a] = 0.0
+        tmp[j] = 1.0
+        if fac.info[1] == 0:
+            cholesky_solve(fac.B, k, tmp)
+        else:
+            lu_solve(fac.B, k, fac.piv, tmp)
+        for a in range(k):
+            inv_t[j, a] = tmp[a]
+    jg = bw.jg
+    for a in range(m):
+        for i in range(n):
+            jg[a, i] = G[a, i]
+        block_solve(fac, n, jg[a])
+    e = bw.xc
+    for b in range(m):
+        for a in range(m):
+            e[a] = 0.0
+        e[b] = 1.0
+        lu_solve(S, m, piv, e)
+        for a in range(m):
+            bw.s_inv[a, b] = e[a]
+
+
+@inline_kernel
+def chord_apply(fac, G, c, c_ratio, bw, rhs):
+    """Solve [J, -G^T; c G, 0] [x; y] = rhs in place with the inverses of
+    :func:`chord_operator` (made from the factors of this J, G and c): x0 = J^-1 r,
+    y = S^-1 (r_m - c G x0), x = x0 + J^-1 G^T y, with r_m scaled by ``c_ratio`` (c over the
+    current step's coefficient: a step of another size keeps its joints' velocity rows
+    exact). The products run over the joint rows' supports (``bw.jcols``)."""
+    n = bw.r0.shape[0]
+    m = G.shape[0]
+    k = fac.info[0]
+    idx = fac.idx
+    dinv = fac.dinv
+    inv_t = bw.inv_t
+    xc = bw.xc
+    for a in range(k):
+        xc[a] = 0.0
+    for j in range(k):  # (columns of the inverse: contiguous, no reduction, vectorised)
+        rj = rhs[idx[j]]
+        if rj != 0.0:
+            for a in range(k):
+                xc[a] += inv_t[j, a] * rj
+    for i in range(n):
+        rhs[i] *= dinv[i]
+    for a in range(k):
+        rhs[idx[a]] = xc[a]
+    if m == 0:
+        return
+    t = bw.r0
+    for a in range(m):
+        gx = 0.0
+        for p in range(bw.jncols[a]):
+            i = bw.jcols[a, p]
+            gx += G[a, i] * rhs[i]
+        t[a] = rhs[n + a] * c_ratio - c * gx
+    for a in range(m):
+        s = 0.0
+        for b in range(m):
+            s += bw.s_inv[a, b] * t[b]
+        rhs[n + a] = s
+    for a in range(m):
+        ya = rhs[n + a]
+        for i in range(n):
+            rhs[i] += bw.jg[a, i] * ya
+
+
+@step_kernel
 def _predicted_branch(k, sol, cv, ma, v_reg, cwork):
     """Friction branch of contact k at the slip a Newton step ``sol`` predicts: v_T + cv dv_T
     (``cwork``: its slip and tangential Jacobian entries at the iterate)."""
@@ -543,19 +828,139 @@ def _friction_branches(J, rhs, G, cv, sol, ma, v_reg, cwork, sw, bw):
         newton_solve(J2, G, cv, sol, sw.fac, sw.S, sw.piv, bw)
 
 
+@step_kernel
+def compliant_step_into(q, v, acc, vdot, lam_s, t1, h, ratio, coef, st, ma, cs, work,
+                        velocities):
+    """One compliant step of size ``h`` [s] ending at ``t1`` [s] from the state (q, v, acc,
+    vdot, lam_s): onset speeds of the open contacts (the approach speed of the last state, or
+    where ``work.onset`` holds one, that), the smooth stage
+    (:func:`compliant_smooth_step`, its first iterate extrapolated over ``ratio`` = h over the
+    last step), the contacts at its result (:func:`finish_contacts`; the open ones'
+    velocities only with ``velocities``) and the joint projection. The step's end state is
+    left in ``work.step`` (q1, v1, acc1, vdot1; ``lam_s`` is updated in place), its contact
+    quantities in ``work.contacts``. Returns (smooth iterations, converged, projection
+    iterations, converged)."""
+    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
+    cwork = work.contacts
+    sw = work.smooth
+    hw = work.hertz
+    bw = work.branches
+    # onset speeds of the contacts open at the start of the step (of those whose velocities the
+    # last step left out, when they close: _lazy_onset_speeds)
+    for j in range(ma.ct_type.shape[0]):
+        if cs.closed[j] == 0:
+            if not np.isnan(work.onset[j]):
+                cs.v_pre[j] = work.onset[j]
+            elif not bw.stale[j]:
+                cs.v_pre[j] = max(-cs.vn[j], st.v_pre_min)
+    it_s, ok_s = compliant_smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, st.tol,
+                                       st.max_iter, ma, q_t, v_t, acc1, vdot1, f_t, K_t, C_t,
+                                       Ks_t, sw, cs.v_pre, st.v_reg, cwork, hw, bw, ratio,
+                                       st.v_pre_min)
+    finish_contacts(q_t, v_t, ma, cwork, bw, hw, sw.trig, velocities)
+    it_p, ok_p = project_joints_into(q_t, v_t, t1, h, st.tol, st.max_iter, ma, q1, v1,
+                                     work.projection, sw.trig, sw.g, sw.G, sw.dgdt)
+    return it_s, ok_s, it_p, ok_p
+
+
+@step_kernel
+def commit_step(h, state, cs, work, it_s, it_p, ok, drive_row, velocities):
+    """Take the step of :func:`compliant_step_into` (size ``h`` [s]; ``velocities``: whether
+    it computed the open contacts' velocities): its end state becomes the state, and its
+    contact forces (those of the converged smooth stage: the joint projection moves the state
+    by the joints' drift only, far below the indentations) are added to the output interval's
+    records (largest force and the friction at it, impulses by the trapezoidal rule, smallest
+    gap, the drive's torque impulse [N m s]) with its iteration counts and convergence. The
+    smooth stage's result becomes the reference of the next step's contacts
+    (:func:`_skip_far_open`, :func:`_lazy_onset_speeds`)."""
+    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
+    cwork = work.contacts
+    bw = work.branches
+    for i in range(q1.shape[0]):
+        state.q[i] = q1[i]
+        state.v[i] = v1[i]
+        state.acc[i] = acc1[i]
+        state.vdot[i] = vdot1[i]
+        bw.q_ref[i] = q_t[i]
+        bw.v_ref[i] = v_t[i]
+    bw.ready[1] = 1
+    for j in range(cs.FN.shape[0]):
+        FN_old = cs.FN[j]
+        FT_old = cs.FT[j]
+        cs.FN[j] = cwork[0, j]
+        cs.FT[j] = cwork[1, j]
+        cs.gap[j] = cwork[2, j]
+        cs.vn[j] = cwork[3, j]
+        cs.vt[j] = cwork[4, j]
+        cs.closed[j] = 1 if cs.gap[j] < 0.0 else 0
+        bw.g_ref[j] = cs.gap[j]
+        bw.stale[j] = not velocities and cs.closed[j] == 0
+        cs.LN[j] += 0.5 * h * (FN_old + cs.FN[j])
+        cs.LT[j] += 0.5 * h * (FT_old + cs.FT[j])
+        if cs.FN[j] > cs.FN_max[j]:
+            cs.FN_max[j] = cs.FN[j]
+            cs.FT_at_max[j] = cs.FT[j]
+        if cs.gap[j] < cs.gap_min[j]:
+            cs.gap_min[j] = cs.gap[j]
+    if drive_row >= 0:
+        cs.drive_impulse[0] += h * state.lam_s[drive_row]
+    cs.it_max[COMPLIANT_STAGE_SMOOTH] = max(cs.it_max[COMPLIANT_STAGE_SMOOTH], it_s)
+    cs.it_max[COMPLIANT_STAGE_POSITION] = max(cs.it_max[COMPLIANT_STAGE_POSITION], it_p)
+    if not ok:
+        cs.ok[0] = 0
+
+
+@step_kernel
+def write_sample(row, state, cs, out, ma, drive_row, trig, duration):
+    """Write output row ``row`` at the end of its interval of ``duration`` [s] (q, v, energy:
+    kinetic, gravitational, springs and the contacts' elastic energy; the drive torque averaged
+    over the interval, its torque impulse over its length; the interval's records of
+    :func:`commit_step`) and start the next interval's records."""
+    q = state.q
+    v = state.v
+    for i in range(q.shape[0]):  # (an array assignment would need reference counting)
+        out.q[row, i] = q[i]
+        out.v[row, i] = v[i]
+    for j in range(cs.FN.shape[0]):
+        out.F_N[row, j] = cs.FN_max[j]
+        out.F_T[row, j] = cs.FT_at_max[j]
+        out.Lambda_N[row, j] = cs.LN[j]
+        out.Lambda_T[row, j] = cs.LT[j]
+        out.gap_N[row, j] = cs.gap_min[j]
+        out.vn_pre[row, j] = cs.vn_start[j]
+        out.vn_post[row, j] = cs.vn[j]
+        cs.FN_max[j] = 0.0
+        cs.FT_at_max[j] = 0.0
+        cs.LN[j] = 0.0
+        cs.LT[j] = 0.0
+        cs.gap_min[j] = np.inf
+        cs.vn_start[j] = cs.vn[j]
+    out.energy[row] = total_energy(q, v, ma) + elastic_energy_into(q, ma, trig)
+    for s in range(3):
+        out.iterations[row, s] = cs.it_max[s]
+        cs.it_max[s] = 0
+    out.converged[row] = cs.ok[0]
+    cs.ok[0] = 1
+    if drive_row >= 0:
+        out.drive_torque[row] = cs.drive_impulse[0] / duration
+    cs.drive_impulse[0] = 0.0
+
+
 @loop_kernel
 def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
-    """Advance steps k0 .. k1-1 of the compliant model (state at t0 + k0 h on entry).
+    """Advance steps k0 .. k1-1 of the compliant model by the fixed step ``st.h`` (state at
+    t0 + k0 h on entry).
 
-    Every ``every`` steps the output row (k + 1) // every is written: q, v, energy (kinetic,
-    gravitational, springs and the contacts' elastic energy) at that instant, the drive torque
-    averaged over the interval's steps (so that torque x drive rate x interval is the drive's
-    work, which the energy audit subtracts; at ``every`` = 1 the step's torque);
-    per contact the largest normal force of the interval ``F_N`` [N], the friction force at that
-    peak ``F_T`` [N], the impulses ``Lambda_N``, ``Lambda_T`` [N s] (trapezoidal rule on the
-    step-end forces), the smallest gap ``gap_N`` [m], the normal velocity at the start
-    (``vn_pre``) and at the end (``vn_post``) of the interval [m/s]; the largest iteration
-    counts and whether every step converged.
+    Every ``every`` steps the output row (k + 1) // every is written (:func:`write_sample`):
+    q, v, energy (kinetic, gravitational, springs and the contacts' elastic energy) at that
+    instant, the drive torque averaged over the interval (its torque impulse over the
+    interval's length, so that torque x drive rate x interval is the drive's work, which the
+    energy audit subtracts; at ``every`` = 1 the step's torque); per contact the largest normal
+    force of the interval ``F_N`` [N], the friction force at that peak ``F_T`` [N], the
+    impulses ``Lambda_N``, ``Lambda_T`` [N s] (trapezoidal rule on the step-end forces), the
+    smallest gap ``gap_N`` [m], the normal velocity at the start (``vn_pre``) and at the end
+    (``vn_post``) of the interval [m/s]; the largest iteration counts and whether every step
+    converged.
 
     Parameters
     ----------
@@ -572,92 +977,21 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
         First step that did not converge, or -1.
     """
     h = st.h
-    tol = st.tol
-    max_iter = st.max_iter
-    q = state.q
-    v = state.v
-    acc = state.acc
-    vdot = state.vdot
-    lam_s = state.lam_s
-    n = q.shape[0]
-    nc = ma.ct_type.shape[0]
     coef = alpha_coefficients(st.rho_inf)
-    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
-    cwork = work.contacts
-    sw = work.smooth
-    hw = work.hertz
-    pw = work.projection
-    bw = work.branches
     first_bad = -1
-    torque_sum = 0.0  # drive torque summed over the interval (k0 starts an interval)
     for k in range(k0, k1):
         t1 = st.t0 + (k + 1) * h
-        # onset speeds of the contacts open at the start of the step
-        for j in range(nc):
-            if cs.closed[j] == 0:
-                cs.v_pre[j] = max(-cs.vn[j], st.v_pre_min)
-        it_s, ok_s = compliant_smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, tol, max_iter,
-                                           ma, q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, sw,
-                                           cs.v_pre, st.v_reg, cwork, hw, bw)
-        it_p, ok_p = project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw)
-        for i in range(n):
-            q[i] = q1[i]
-            v[i] = v1[i]
-            acc[i] = acc1[i]
-            vdot[i] = vdot1[i]
-        # contact forces of the step: those of the converged smooth stage (the joint
-        # projection moves the state by the joints' drift only, far below the indentations)
-        for j in range(nc):
-            FN_old = cs.FN[j]
-            FT_old = cs.FT[j]
-            cs.FN[j] = cwork[0, j]
-            cs.FT[j] = cwork[1, j]
-            cs.gap[j] = cwork[2, j]
-            cs.vn[j] = cwork[3, j]
-            cs.vt[j] = cwork[4, j]
-            cs.closed[j] = 1 if cs.gap[j] < 0.0 else 0
-            cs.LN[j] += 0.5 * h * (FN_old + cs.FN[j])
-            cs.LT[j] += 0.5 * h * (FT_old + cs.FT[j])
-            if cs.FN[j] > cs.FN_max[j]:
-                cs.FN_max[j] = cs.FN[j]
-                cs.FT_at_max[j] = cs.FT[j]
-            if cs.gap[j] < cs.gap_min[j]:
-                cs.gap_min[j] = cs.gap[j]
-        cs.it_max[COMPLIANT_STAGE_SMOOTH] = max(cs.it_max[COMPLIANT_STAGE_SMOOTH], it_s)
-        cs.it_max[COMPLIANT_STAGE_POSITION] = max(cs.it_max[COMPLIANT_STAGE_POSITION], it_p)
+        # the open contacts' velocities are needed at the output rows only (elsewhere an
+        # onset speed is computed when its contact closes)
+        sample = (k + 1) % every == 0
+        it_s, ok_s, it_p, ok_p = compliant_step_into(state.q, state.v, state.acc, state.vdot,
+                                                     state.lam_s, t1, h, 1.0, coef, st, ma,
+                                                     cs, work, sample)
         ok = ok_s and ok_p
-        if not ok:
-            cs.ok[0] = 0
-            if first_bad < 0:
-                first_bad = k
-        if st.drive_row >= 0:
-            torque_sum += lam_s[st.drive_row]
-        if (k + 1) % every == 0:
-            row = (k + 1) // every
-            for i in range(n):  # (an array assignment would need reference counting)
-                out.q[row, i] = q[i]
-                out.v[row, i] = v[i]
-            for j in range(nc):
-                out.F_N[row, j] = cs.FN_max[j]
-                out.F_T[row, j] = cs.FT_at_max[j]
-                out.Lambda_N[row, j] = cs.LN[j]
-                out.Lambda_T[row, j] = cs.LT[j]
-                out.gap_N[row, j] = cs.gap_min[j]
-                out.vn_pre[row, j] = cs.vn_start[j]
-                out.vn_post[row, j] = cs.vn[j]
-                cs.FN_max[j] = 0.0
-                cs.FT_at_max[j] = 0.0
-                cs.LN[j] = 0.0
-                cs.LT[j] = 0.0
-                cs.gap_min[j] = np.inf
-                cs.vn_start[j] = cs.vn[j]
-            out.energy[row] = total_energy(q, v, ma) + elastic_energy_into(q, ma, hw.wN, hw.wT)
-            for s in range(3):
-                out.iterations[row, s] = cs.it_max[s]
-                cs.it_max[s] = 0
-            out.converged[row] = cs.ok[0]
-            cs.ok[0] = 1
-            if st.drive_row >= 0:
-                out.drive_torque[row] = torque_sum / every
-            torque_sum = 0.0
+        commit_step(h, state, cs, work, it_s, it_p, ok, st.drive_row, sample)
+        if not ok and first_bad < 0:
+            first_bad = k
+        if sample:
+            write_sample((k + 1) // every, state, cs, out, ma, st.drive_row, work.smooth.trig,
+                         every * h)
     return first_bad

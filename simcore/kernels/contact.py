@@ -30,6 +30,42 @@ CONTACT_INSIDE = 2
 
 
 @step_kernel
+def _plane_normal(q, ia, angle):
+    """Unit normal of a plane at ``angle`` [rad] in body ia's frame (-1: the ground)."""
+    if ia >= 0:
+        angle += q[3 * ia + 2]
+    return np.cos(angle), np.sin(angle)
+
+
+@step_kernel
+def _sphere_gap(kind, dist, ra, rb):
+    """Gap [m] of a sphere element whose centres are ``dist`` apart: outside (convex)
+    dist - r_a - r_b, inside (a sphere in a ring) r_a - r_b - dist."""
+    if kind == CONTACT_OUTSIDE:
+        return dist - ra - rb
+    return ra - rb - dist
+
+
+@step_kernel
+def contact_gap_cached(q, k, ct_type, ct_body, ct_geom, trig):
+    """Gap ``g_N`` [m] of contact ``k`` alone: the number :func:`contact_rows_cached` returns,
+    to the bit (the same operations), without its Jacobian rows. An open contact of the
+    compliant model needs no more while a step iterates."""
+    ia = ct_body[k, 0]
+    ib = ct_body[k, 1]
+    cax, cay, _, _ = body_point_cached(q, ia, ct_geom[k, 0], ct_geom[k, 1], trig)
+    cbx, cby, _, _ = body_point_cached(q, ib, ct_geom[k, 2], ct_geom[k, 3], trig)
+    dx = cbx - cax
+    dy = cby - cay
+    kind = ct_type[k]
+    if kind == CONTACT_PLANE:
+        nx, ny = _plane_normal(q, ia, ct_geom[k, 4])
+        return nx * dx + ny * dy - ct_geom[k, 5]
+    dist = np.sqrt(dx * dx + dy * dy)  # (the length unit_direction computes)
+    return _sphere_gap(kind, dist, ct_geom[k, 4], ct_geom[k, 5])
+
+
+@step_kernel
 def contact_rows(q, k, ct_type, ct_body, ct_geom, wN, wT):
     """:func:`contact_rows_cached` without a cache of the bodies' sines and cosines."""
     return contact_rows_cached(q, k, ct_type, ct_body, ct_geom, wN, wT, None)
@@ -62,11 +98,7 @@ def contact_rows_cached(q, k, ct_type, ct_body, ct_geom, wN, wT, trig):
     dy = cby - cay
     kind = ct_type[k]
     if kind == CONTACT_PLANE:
-        ang = p4
-        if ia >= 0:
-            ang += q[3 * ia + 2]
-        nx = np.cos(ang)
-        ny = np.sin(ang)
+        nx, ny = _plane_normal(q, ia, p4)
         g = nx * dx + ny * dy - rb
         tx = -ny
         ty = nx
@@ -83,12 +115,11 @@ def contact_rows_cached(q, k, ct_type, ct_body, ct_geom, wN, wT, trig):
         tx = -ny
         ty = nx
         sign = 1.0
+        g = _sphere_gap(kind, dist, p4, rb)
         if kind == CONTACT_OUTSIDE:
-            g = dist - p4 - rb
             rbx = abx - rb * nx
             rby = aby - rb * ny
         else:
-            g = p4 - rb - dist
             sign = -1.0
             rbx = abx + rb * nx
             rby = aby + rb * ny

@@ -23,7 +23,7 @@ from collections import namedtuple
 import numpy as np
 
 from .bodies import row_dot
-from .contact import contact_hessian_into, contact_rows
+from .contact import contact_gap_cached, contact_hessian_into, contact_rows_cached
 from .jit import kernel, step_kernel
 
 #: Work arrays of :func:`contact_forces_into` and :func:`elastic_energy_into` (made once per
@@ -60,22 +60,51 @@ def normal_force(delta, delta_dot, K, chi, v_pre):
 def contact_forces(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt, WT):
     """Add the compliant contact forces to ``f`` [N, N m] and, with ``tangent``, their
     stiffness ``K`` and damping ``C`` to the matrices (in place): :func:`contact_forces_into`
-    with work arrays of its own (for calls outside the time loop)."""
-    contact_forces_into(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt, WT,
-                        HertzWork(np.zeros(6), np.zeros(6), np.zeros((6, 6)), np.zeros(6),
-                                  np.zeros(6), np.zeros(6), np.zeros(6, dtype=np.int64),
-                                  np.zeros((2, 6))))
+    and :func:`open_contact_velocities_into` with work arrays of their own (for calls outside
+    the time loop), so that ``vn``, ``vt`` and ``WT`` are filled for every contact."""
+    hw = HertzWork(np.zeros(6), np.zeros(6), np.zeros((6, 6)), np.zeros(6), np.zeros(6),
+                   np.zeros(6), np.zeros(6, dtype=np.int64), np.zeros((2, 6)))
+    contact_forces_into(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt, WT, hw,
+                        None, np.zeros(ma.ct_type.shape[0], dtype=np.bool_))
+    open_contact_velocities_into(q, v, ma, gap, vn, vt, WT, hw, None)
 
 
 @step_kernel
-def contact_forces_into(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt, WT, hw):
+def open_contact_velocities_into(q, v, ma, gap, vn, vt, WT, hw, trig):
+    """The gaps [m], normal and tangential relative velocities ``vn``, ``vt`` [m/s] and the
+    tangential Jacobian entries ``WT`` of the open contacts (``gap`` >= 0 on entry), which
+    :func:`contact_forces_into` leaves out or skips: the time loop needs them once a step, at
+    its end, not at every Newton iterate. ``trig``: see :func:`~.contact.contact_rows_cached`.
+    """
+    wN = hw.wN
+    wT = hw.wT
+    for k in range(ma.ct_type.shape[0]):
+        if gap[k] < 0.0:
+            continue
+        ia = ma.ct_body[k, 0]
+        ib = ma.ct_body[k, 1]
+        gap[k] = contact_rows_cached(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT, trig)
+        vn[k] = row_dot(wN, ia, ib, v)
+        vt[k] = row_dot(wT, ia, ib, v)
+        for a in range(6):
+            WT[a, k] = wT[a]
+
+
+@step_kernel
+def contact_forces_into(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt, WT, hw,
+                        trig, skip):
     """Add the compliant contact forces to ``f`` [N, N m] and, with ``tangent``, their
     stiffness ``K`` and damping ``C`` to the matrices (in place). Fills the per-contact normal
-    force ``FN`` [N], friction force ``FT`` [N] (along t = e_z x n), gap [m] and the normal and
-    tangential relative velocities [m/s], and ``WT`` (6, nc) the tangential Jacobian entries
-    of each contact. The friction slope is the exact one: mu F / v_reg inside the band
-    |v_T| < v_reg, 0 outside (see :func:`simcore.kernels.generalized_alpha.smooth_step` for
-    how Newton copes with the kink). ``hw``: work arrays (:func:`hertz_work`)."""
+    force ``FN`` [N], friction force ``FT`` [N] (along t = e_z x n) and gap [m]; for the
+    closed contacts (gap < 0) also the normal and tangential relative velocities [m/s] and
+    ``WT`` (6, nc) the tangential Jacobian entries (:func:`open_contact_velocities_into` adds
+    those of the open ones: an open contact costs its gap alone here). The friction slope is
+    the exact one: mu F / v_reg inside the band |v_T| < v_reg, 0 outside (see
+    :func:`simcore.kernels.generalized_alpha.smooth_step` for how Newton copes with the
+    kink). ``hw``: work arrays (:func:`hertz_work`); ``trig``: the bodies' sines and cosines
+    (:func:`~.bodies.body_point_cached`, or None). A contact with ``skip`` set is known to be
+    open (see :func:`~.compliant_step.compliant_smooth_step`): no force, its gap left as it
+    is."""
     wN = hw.wN
     wT = hw.wT
     H = hw.H
@@ -84,10 +113,19 @@ def contact_forces_into(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, v
     dFdq = hw.dFdq
     idx = hw.idx
     for k in range(ma.ct_type.shape[0]):
+        if skip[k]:
+            FN[k] = 0.0
+            FT[k] = 0.0
+            continue
+        g = contact_gap_cached(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, trig)
+        gap[k] = g
+        if g >= 0.0:  # open: no force (normal_force of delta = -g <= 0)
+            FN[k] = 0.0
+            FT[k] = 0.0
+            continue
         ia = ma.ct_body[k, 0]
         ib = ma.ct_body[k, 1]
-        g = contact_rows(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT)
-        gap[k] = g
+        contact_rows_cached(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT, trig)
         vN = row_dot(wN, ia, ib, v)
         vT = row_dot(wT, ia, ib, v)
         vn[k] = vN
@@ -146,15 +184,16 @@ def contact_forces_into(q, v, ma, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, v
 @kernel
 def elastic_energy(q, ma):
     """Energy stored in the compliant contacts, sum of (2/5) K delta^(5/2) [J]."""
-    return elastic_energy_into(q, ma, np.zeros(6), np.zeros(6))
+    return elastic_energy_into(q, ma, None)
 
 
 @step_kernel
-def elastic_energy_into(q, ma, wN, wT):
-    """:func:`elastic_energy` with work rows ``wN``, ``wT`` (6 each)."""
+def elastic_energy_into(q, ma, trig):
+    """:func:`elastic_energy` with the bodies' sines and cosines cached in ``trig``
+    (:func:`~.bodies.body_point_cached`, or None)."""
     e = 0.0
     for k in range(ma.ct_type.shape[0]):
-        delta = -contact_rows(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, wN, wT)
+        delta = -contact_gap_cached(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, trig)
         if delta > 0.0:
             e += 0.4 * ma.ct_hertz[k, 0] * delta * delta * np.sqrt(delta)
     return e

@@ -9,8 +9,9 @@ count, some 15 % of a step's time in the bearing's small functions. Such a kerne
 create an array (``np.zeros``, ``.copy()``), nor keep one a callee returns: it would never be
 freed. Views (``a[i]``, ``a[:n]``) are fine, they borrow the parent's memory.
 
-:func:`loop_kernel` is :data:`step_kernel` for a time loop, whose callees (the stages of a step)
-are large and already optimised: see its docstring.
+:data:`inline_kernel` is :data:`step_kernel` for small helpers that their callers take in
+whole (see its comment). :func:`loop_kernel` is :data:`step_kernel` for a time loop, whose
+callees (the stages of a step) are large and already optimised: see its docstring.
 
 All release Python's global interpreter lock while they run (``nogil``): runs started from
 several Python threads integrate in parallel (each run has its own arrays; the kernels keep no
@@ -30,6 +31,15 @@ kernel = njit(cache=True, error_model="numpy", _nrt=True, no_cfunc_wrapper=True,
 #: Kernels that allocate nothing (see the module docstring).
 step_kernel = njit(cache=True, error_model="numpy", _nrt=False, no_cfunc_wrapper=True,
                    nogil=True)
+
+#: Small step kernels that their callers take in whole (Numba's own inlining, before LLVM).
+#: A call between kernels passes every array of its bundles as separate arguments (seven
+#: words each: a ModelArrays is some ninety); for a helper called at every Newton iterate with
+#: several bundles that copying cost more than its arithmetic (the compliant step's force
+#: evaluation, residual and chord update, and the spring state of every spring: about a tenth
+#: of a compliant step). The same arithmetic, so the same numbers.
+inline_kernel = njit(cache=True, error_model="numpy", _nrt=False, no_cfunc_wrapper=True,
+                     nogil=True, inline="always")
 
 
 def loop_kernel(func):

@@ -15,7 +15,7 @@ from .bodies import (
     transverse_form,
     unit_direction,
 )
-from .jit import kernel, step_kernel
+from .jit import inline_kernel, kernel, step_kernel
 
 #: ``tangent`` flags of :func:`smooth_forces_into`. NumPy booleans, not Python ones: Numba types
 #: a Python constant argument as a literal and compiles a specialisation per value.
@@ -23,7 +23,7 @@ WITH_TANGENTS = np.bool_(True)
 FORCES_ONLY = np.bool_(False)
 
 
-@step_kernel
+@inline_kernel
 def spring_state(q, v, k, sp_body, sp_geom):
     """Length [m], its rate [m/s], unit direction and lever arms of spring ``k``."""
     bi = sp_body[k, 0]

@@ -23,7 +23,10 @@ and impulsive part of an impact in that step). The crank turns at exactly omega0
 work over the step is ``drive_torque[k+1] * omega0 * h``. (A trapezoid of the stored torque
 mixes the impulse of an impact into the neighbouring step: on the paper's case with the
 constant drive it misplaces up to 4.8 J of a 34 J run per step, while the step-end value
-balances to 1e-4 J.)
+balances to 1e-4 J.) A compliant run writes one row per output interval of many steps; its
+``drive_torque`` is the torque averaged over the interval (its torque impulse, the sum of
+h * torque over the interval's steps, over the interval's length), so that the same product is
+the drive's work over the interval, whatever the steps (fixed or adaptive).
 
 Tolerance
 ---------

@@ -256,7 +256,7 @@ class Model:
 
     # -- time loop ---------------------------------------------------------------------------
     def simulate(self, settings: SolverSettings, q0=None, v0=None, t0: float = 0.0,
-                 release: ReleaseStop | None = None) -> Trajectory:
+                 release: ReleaseStop | None = None, v_pre0=None) -> Trajectory:
         """Integrate with the decoupled nonsmooth generalized-alpha scheme, or with compliant
         (Hertz) contacts in the generalized-alpha smooth step (:mod:`simcore.model.driver`).
 
@@ -271,6 +271,10 @@ class Model:
         release : ReleaseStop, optional
             Compliant: stop early once the contacts (or watched groups of contacts) have let
             go.
+        v_pre0 : array, optional
+            Compliant: the contacts' onset speeds at the start [m/s] (a restart from a
+            compliant run's state, ``extras["compliant_state"].v_pre``); default: each
+            contact's approach speed at the start, at least ``settings.v_pre_min``.
 
         Returns
         -------
@@ -284,4 +288,5 @@ class Model:
             ``settings.on_nonconvergence = "error"``; at a singular Newton matrix or a
             non-finite state always.
         """
-        return driver.simulate(self, settings, q0=q0, v0=v0, t0=t0, release=release)
+        return driver.simulate(self, settings, q0=q0, v0=v0, t0=t0, release=release,
+                               v_pre0=v_pre0)

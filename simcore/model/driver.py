@@ -29,6 +29,12 @@ from .hertz import DAMPING_LAWS
 from .integrity import CheckSettings, run_checks
 
 CONTACT_MODELS = ("nonsmooth", "compliant")
+#: defaults of the adaptive compliant step (docs/compliant.md, "Adaptive steps"): the smallest
+#: step [s], the local error tolerance [m] and the steps per Hertz contact time at a contact's
+#: onset [-]
+DT_MIN_DEFAULT = 1e-9
+ADAPTIVE_TOL_DEFAULT = 1e-9
+ONSET_STEPS_DEFAULT = 40.0
 ON_NONCONVERGENCE = ("error", "warn")
 #: names of the three sub-problems of a step, in the order of the ``iterations`` columns
 STAGES = ("smooth", "position", "velocity")
@@ -91,13 +97,26 @@ class SolverSettings:
         the run's energy scale counts as not converged [-].
     chunk : int
         Steps per kernel call (the checks, the progress bar and an early stop act between
-        calls).
+        calls); with adaptive steps, chunk // output_every output intervals per call.
     progress : bool
         Print a progress bar on stderr (when it is a terminal).
     max_indentation : float
         Largest indentation of a compliant contact over the ball radius, and the Hertz
         deflection the model's integrity checks allow (:mod:`simcore.model.integrity`) [-],
         in (0, 1].
+    adaptive : bool
+        Compliant: choose each step's size by the local error estimate (docs/compliant.md,
+        "Adaptive steps"); ``dt`` is then the largest step and the output interval is
+        ``output_every`` times ``dt``, as for a fixed step.
+    dt_min : float
+        Adaptive: the smallest step the error control may ask for [s], in (0, dt]; a step that
+        needs less is taken at dt_min and counts as not converged.
+    adaptive_tol : float
+        Adaptive: the local error allowed in a step, as a length [m] (a body's translation, or
+        its rotation times its radius of gyration), > 0.
+    onset_steps : float
+        Adaptive: a step in which a contact closes lasts at most the Hertz contact time of its
+        approach speed over this many steps [-], > 0.
     """
 
     dt: float
@@ -116,6 +135,10 @@ class SolverSettings:
     chunk: int = 500
     progress: bool = False
     max_indentation: float = 0.1
+    adaptive: bool = False
+    dt_min: float = DT_MIN_DEFAULT
+    adaptive_tol: float = ADAPTIVE_TOL_DEFAULT
+    onset_steps: float = ONSET_STEPS_DEFAULT
 
     def __post_init__(self):
         dt = _finite("solver.dt", self.dt, positive=True)
@@ -132,6 +155,8 @@ class SolverSettings:
             raise ValueError(f"solver.output_dt: {every} steps per output is not allowed; "
                              "allowed: 1 for the nonsmooth model (its impulse filter needs every "
                              "step), a whole number >= 1 of steps for compliant")
+        if self.adaptive:
+            self._check_adaptive(dt)
         object.__setattr__(self, "dt", dt)
         object.__setattr__(self, "t_end", t_end)
         object.__setattr__(self, "friction_regularization", v_reg)
@@ -141,6 +166,18 @@ class SolverSettings:
             raise ValueError(f"solver.max_indentation: {indentation} is not allowed; allowed: "
                              "in (0, 1]")
         object.__setattr__(self, "max_indentation", indentation)
+
+    def _check_adaptive(self, dt: float) -> None:
+        if not self.compliant:
+            raise ValueError("solver.adaptive: true is not allowed with model.contact_model = "
+                             "nonsmooth; allowed: false (adaptive steps are for compliant "
+                             "contacts)")
+        dt_min = _finite("solver.dt_min", self.dt_min, positive=True)
+        if dt_min > dt:
+            raise ValueError(f"solver.dt_min: {self.dt_min!r} is not allowed; allowed: in "
+                             f"(0, solver.dt = {dt!r}]")
+        _finite("solver.adaptive_tol", self.adaptive_tol, positive=True)
+        _finite("onset_steps", self.onset_steps, positive=True)
 
     @classmethod
     def from_config(cls, cfg, **changes) -> SolverSettings:
@@ -156,7 +193,9 @@ class SolverSettings:
                       contact_model=model["contact_model"], damping_law=model["damping_law"],
                       friction_regularization=model["friction_regularization"],
                       output_every=output_every(cfg), energy_tol=solver["energy_tol"],
-                      max_indentation=solver["max_indentation"])
+                      max_indentation=solver["max_indentation"],
+                      adaptive=solver["adaptive"], dt_min=solver["dt_min"],
+                      adaptive_tol=solver["adaptive_tol"])
         values.update(changes)
         return cls(**values)
 
@@ -328,9 +367,11 @@ class _Start:
     drive_row: int
 
 
-def _start(model, settings: SolverSettings, q0, v0, t0) -> _Start:
+def _start(model, settings: SolverSettings, q0, v0, t0, v_pre0=None) -> _Start:
     """Stage 1: the model's arrays, the initial state and its generalized-alpha acceleration
-    (the smooth equations at t0, compliant contact forces included)."""
+    (the smooth equations at t0, compliant contact forces included). ``v_pre0``: the contacts'
+    onset speeds [m/s] of a restart (default: each contact's approach speed now, floored at
+    v_pre_min)."""
     compliant = settings.compliant
     arr = model.arrays(settings.damping_law, compliant=compliant)
     q, v = model.initial_state()
@@ -345,6 +386,11 @@ def _start(model, settings: SolverSettings, q0, v0, t0) -> _Start:
     nb.contact_velocities_into(q, v, arr, gap0, vn0, vt0, np.zeros(6), np.zeros(6),
                                work.smooth.trig)
     v_pre = np.maximum(-vn0, settings.v_pre_min)
+    if v_pre0 is not None:
+        v_pre = np.array(v_pre0, dtype=np.float64).copy()
+        if v_pre.shape != vn0.shape or not np.all(v_pre > 0.0):
+            raise ValueError(f"v_pre0: {v_pre0!r} is not allowed; allowed: {nc} onset speeds "
+                             "> 0 [m/s]")
     f_contact = np.zeros(ndof)  # the compliant contact forces at the start
     FN0 = FT0 = None
     if compliant:
@@ -402,7 +448,22 @@ def _compliant_state(start: _Start):
         FT=start.F_T, gap=start.gap.copy(), vn=start.vn.copy(), vt=start.state.vt.copy(),
         FN_max=np.zeros(nc), FT_at_max=np.zeros(nc), LN=np.zeros(nc), LT=np.zeros(nc),
         gap_min=np.full(nc, np.inf), vn_start=start.vn.copy(),
-        it_max=np.zeros(3, np.int64), ok=np.ones(1, np.int8))
+        it_max=np.zeros(3, np.int64), ok=np.ones(1, np.int8), drive_impulse=np.zeros(1))
+
+
+def _adaptive_state(model, settings: SolverSettings, start: _Start, n_out: int):
+    """The adaptive loop's state (:class:`~simcore.kernels.AdaptiveState`): the first step
+    planned at dt, and each coordinate's error weight, 1 for a position and the body's radius
+    of gyration sqrt(I / m) [m] for its angle."""
+    mdiag = start.arrays.mdiag
+    weight = np.ones(mdiag.size)
+    weight[2::3] = np.sqrt(mdiag[2::3] / mdiag[0::3])
+    ndof, nbil = mdiag.size, start.state.lam_s.size
+    return nb.AdaptiveState(
+        h=np.full(2, settings.dt), counts=np.zeros(5, np.int64), h_min=np.full(1, np.inf),
+        t_flag=np.full(1, -1.0), weight=weight, row_steps=np.zeros(n_out, np.int64),
+        acc_c=np.zeros(ndof), lam_save=np.zeros(nbil), vdot_old_save=np.zeros(ndof),
+        reuse_save=np.zeros(1, np.int64))
 
 
 class _Loop:
@@ -411,8 +472,9 @@ class _Loop:
     def __init__(self, model, settings: SolverSettings, start: _Start, out: Trajectory,
                  t0: float, release: ReleaseStop | None):
         self.settings, self.out, self.t0 = settings, out, float(t0)
-        self.state = start.state
+        self.state, self.work = start.state, start.work
         self.first_bad = -1
+        self.adaptive = None
         kset = _kernel_settings(settings, start.drive_row, t0)
         every = settings.output_every
         if settings.compliant:
@@ -422,9 +484,18 @@ class _Loop:
                                           out.energy, out.iterations, out.converged,
                                           out.drive_torque)
             self.chunk = max(1, int(settings.chunk) // every) * every
-            self._advance = lambda k, k_next: nb.integrate_compliant_chunk(
-                k, k_next, every, kset, start.arrays, start.state, self.cstate, outputs,
-                start.work)
+            if settings.adaptive:
+                aset = nb.AdaptiveSettings(settings.output_dt, float(settings.dt_min),
+                                           float(settings.adaptive_tol),
+                                           float(settings.onset_steps))
+                self.adaptive = _adaptive_state(model, settings, start, out.time.size)
+                self._advance = lambda k, k_next: nb.integrate_compliant_adaptive(
+                    k // every, k_next // every, kset, aset, start.arrays, start.state,
+                    self.cstate, outputs, start.work, self.adaptive)
+            else:
+                self._advance = lambda k, k_next: nb.integrate_compliant_chunk(
+                    k, k_next, every, kset, start.arrays, start.state, self.cstate, outputs,
+                    start.work)
         else:
             self.cstate = None
             outputs = nb.ChunkOutputs(out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N,
@@ -490,6 +561,8 @@ class _Loop:
         the run stops it or is flagged (``on_nonconvergence``)."""
         out, every = self.out, self.settings.output_every
         gain = self.audit.check(out.energy, out.drive_torque, out.converged, row0, row1)
+        if self.adaptive is not None and bad >= 0:  # (the kernel returns a row)
+            bad = bad * every - 1
         if gain >= 0 and self.first_bad < 0 and (bad < 0 or gain * every < bad):
             self.first_bad = gain * every
             self._fail(self.audit.message(gain))
@@ -515,6 +588,8 @@ class _Loop:
                        f"(t = {self._time(step):.6g} s): {v.detail}")
 
     def _unconverged_message(self, bad: int) -> str:
+        if self.adaptive is not None:
+            return self._below_dt_min_message()
         every = self.settings.output_every
         row = (bad + 1 + every - 1) // every
         stages = [s for s, it in zip(STAGES, self.out.iterations[row], strict=True)
@@ -522,6 +597,14 @@ class _Loop:
         return (f"solver did not converge at step {bad + 1} (t = {self._time(bad + 1):.6g} s); "
                 f"stage(s) at the iteration cap: {', '.join(stages) or 'fallback'} "
                 f"(solver.max_iter = {self.settings.max_iter}, solver.tol = {self.settings.tol})")
+
+    def _below_dt_min_message(self) -> str:
+        s = self.settings
+        return (f"adaptive step: the step ending at t = {self.adaptive.t_flag[0]:.6g} s needed "
+                f"less than solver.dt_min = {s.dt_min:g} s (its error estimate above "
+                f"solver.adaptive_tol = {s.adaptive_tol:g} m, or its Newton iterations not "
+                f"converged within solver.max_iter = {s.max_iter}, solver.tol = {s.tol}); "
+                "taken at dt_min")
 
     def _fail(self, message: str) -> None:
         if self.settings.on_nonconvergence == "error":
@@ -552,13 +635,37 @@ def _finish(loop: _Loop, steps_done: int, wall_time_s: float) -> Trajectory:
     out.first_unconverged_step = loop.first_bad
     out.extras["energy_audit"] = loop.audit
     out.extras["integrity"] = loop.violations
+    if settings.compliant:  # (a record of the cost: Newton steps and chord iterates)
+        out.extras["newton_steps"], out.extras["chord_iterates"] = (
+            int(x) for x in loop.work.branches.stats)
+    if loop.adaptive is not None:
+        out.extras["adaptive"] = adaptive_records(loop.adaptive, steps_done
+                                                  // settings.output_every + 1)
     return out
 
 
+def adaptive_records(aw, n_rows: int) -> dict:
+    """What an adaptive run records about its steps (run attributes): accepted and rejected
+    steps (and why rejected), the smallest step taken [s], the steps taken below their need
+    (at dt_min, flagged), and the steps of each output interval (``row_steps``, per row)."""
+    c = aw.counts
+    return {
+        "n_steps_accepted": int(c[nb.ACCEPTED]),
+        "n_steps_rejected": int(c[nb.REJECTED_ERROR] + c[nb.REJECTED_ONSET]
+                                + c[nb.REJECTED_NEWTON]),
+        "n_steps_rejected_error": int(c[nb.REJECTED_ERROR]),
+        "n_steps_rejected_onset": int(c[nb.REJECTED_ONSET]),
+        "n_steps_rejected_newton": int(c[nb.REJECTED_NEWTON]),
+        "n_steps_below_dt_min": int(c[nb.BELOW_DT_MIN]),
+        "dt_smallest_s": float(aw.h_min[0]) if np.isfinite(aw.h_min[0]) else float("nan"),
+        "row_steps": aw.row_steps[:n_rows].copy(),
+    }
+
+
 def simulate(model, settings: SolverSettings, q0=None, v0=None, t0: float = 0.0,
-             release: ReleaseStop | None = None) -> Trajectory:
+             release: ReleaseStop | None = None, v_pre0=None) -> Trajectory:
     """Integrate ``model`` with ``settings``; see :meth:`simcore.model.Model.simulate`."""
-    start = _start(model, settings, q0, v0, t0)
+    start = _start(model, settings, q0, v0, t0, v_pre0)
     out = _allocate(model, settings, start, t0)
     loop = _Loop(model, settings, start, out, t0, release)
     began = time.perf_counter()

@@ -197,26 +197,17 @@ def twin_step(model: Mapping[str, Any], analysis: Mapping[str, Any], out_dt: flo
     return out_dt / max(1, math.ceil(out_dt / step - 1e-9))
 
 
-def adaptive_steps() -> bool:
-    """True where the schema has ``solver.adaptive`` (error-controlled compliant steps)."""
-    return "solver.adaptive" in registry()
-
-
 def twin_config(run_cfg: Mapping[str, Any]) -> dict:
     """The compliant twin of a nonsmooth run: the same model, drive and window with Hertz
     contacts, its output step the nonsmooth step (``solver.output_dt``: per interval the
     largest force, so no peak is lost; the same samples as the nonsmooth run); no zooms (a
-    compliant run is its own reference). Its step: with error-controlled steps
-    (``solver.adaptive``, where the schema has it) at most the output step; else the fixed
-    step of :func:`twin_step`."""
+    compliant run is its own reference). Its steps are error-controlled (``solver.adaptive``),
+    at most the output step."""
     twin = copy.deepcopy(dict(run_cfg))
     twin["model"]["contact_model"] = "compliant"
     out_dt = float(run_cfg["solver"]["dt"])
-    if adaptive_steps():
-        twin["solver"]["adaptive"] = True
-        twin["solver"]["dt"] = out_dt
-    else:
-        twin["solver"]["dt"] = twin_step(twin["model"], twin["analysis"], out_dt)
+    twin["solver"]["adaptive"] = True
+    twin["solver"]["dt"] = out_dt
     twin["solver"]["output_dt"] = out_dt
     twin["analysis"]["zoom_top"] = 0
     return twin

@@ -45,14 +45,15 @@ def config_of_run(run_ds) -> dict:
 
 
 def zoom_config(run_ds, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(),
-                output_dt=None) -> dict:
+                output_dt=None, adaptive=False) -> dict:
     """Validated configuration of a zoom on ``run_ds``: the run's model with
-    ``contact_model = compliant``, step ``dt`` [s] for ``window`` [s], then ``overrides``
-    (``section.key=value`` strings)."""
+    ``contact_model = compliant``, step ``dt`` [s] (with ``adaptive``, the largest) for
+    ``window`` [s], then ``overrides`` (``section.key=value`` strings)."""
     check_run_dataset(run_ds)
     cfg = config_of_run(run_ds)
     cfg["model"]["contact_model"] = "compliant"
-    cfg["solver"].update({"dt": float(dt), "t_end": float(window), "output_dt": output_dt})
+    cfg["solver"].update({"dt": float(dt), "t_end": float(window), "output_dt": output_dt,
+                          "adaptive": bool(adaptive)})
     for item in overrides:
         keys, value = parse_override(item)
         node = cfg
@@ -75,7 +76,8 @@ def start_index(run_ds, time: float) -> int:
 
 
 def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), output_dt=None,
-         until_released=True, progress=False, watch_contacts=None, watch_onset=None):
+         until_released=True, progress=False, watch_contacts=None, watch_onset=None,
+         adaptive=False):
     """Re-simulate the whole mechanism with compliant contacts from the state of ``run_ds``
     just before ``time``.
 
@@ -88,7 +90,7 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
     window : float
         Longest duration of the zoom [s].
     dt : float
-        Step of the zoom [s].
+        Step of the zoom [s]; with ``adaptive``, its largest step.
     overrides : sequence of str
         ``section.key=value`` settings applied to the zoom (e.g. ``model.youngs_modulus=2.1e11``).
     output_dt : float, optional
@@ -101,6 +103,11 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
         Groups of contacts (nc,) or (groups, nc) and their onset contacts: see
         :meth:`simcore.model.Model.simulate`. :func:`analysis.zoom.add_zoom_forces` watches
         the contacts of the ball of each impact, with the impact's contact as onset.
+    adaptive : bool
+        Adaptive steps (``solver.adaptive``, docs/compliant.md): each step's size from the
+        local error estimate, at most ``dt``, the output every ``output_dt`` as with a fixed
+        step (``solver.dt_min`` and ``solver.adaptive_tol`` from the run's settings or
+        ``overrides``).
 
     Returns
     -------
@@ -119,7 +126,7 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
     traj, model, layout, cfg = zoom_trajectory(
         run_ds, time, window=window, dt=dt, overrides=overrides, output_dt=output_dt,
         until_released=until_released, progress=progress, watch_contacts=watch_contacts,
-        watch_onset=watch_onset)
+        watch_onset=watch_onset, adaptive=adaptive)
     ds = trajectory_dataset(traj, model, layout, cfg)
     ds.attrs.update({
         "zoom_time": float(time),
@@ -132,7 +139,7 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
 
 def zoom_trajectory(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(),
                     output_dt=None, until_released=True, progress=False, watch_contacts=None,
-                    watch_onset=None):
+                    watch_onset=None, adaptive=False):
     """:func:`zoom` as plain arrays: (trajectory, model, layout, configuration), the
     :class:`simcore.model.Trajectory` of the zoom with the model, layout and validated
     configuration that made it (what :func:`zoom` turns into its dataset). Same parameters and
@@ -140,7 +147,8 @@ def zoom_trajectory(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, override
     (:func:`analysis.zoom.add_zoom_forces`)."""
     from ..io import state_at
 
-    cfg = zoom_config(run_ds, window=window, dt=dt, overrides=overrides, output_dt=output_dt)
+    cfg = zoom_config(run_ds, window=window, dt=dt, overrides=overrides, output_dt=output_dt,
+                      adaptive=adaptive)
     i = start_index(run_ds, time)
     model, layout = crank_slider(cfg["model"])
     q0, v0 = state_at(run_ds, i)
