@@ -266,8 +266,9 @@ def _zoom_numbers(run_ds, table, time, plan, overrides) -> dict:
     out = {}
     for g, row in enumerate(rows):
         F_contact = _struck(F_N[:, int(contacts[row])])
-        F_ball = F_N[:, groups[g]].max(axis=1)
-        onset = _pinch_onset(F_N[:, groups[g]]) if kinds[row] == KIND["pinch"] else F_contact
+        ball = np.flatnonzero(groups[g])  # (the run's ball contacts come first, guards after)
+        F_ball = F_N[:, ball].max(axis=1)
+        onset = _pinch_onset(F_N[:, ball]) if kinds[row] == KIND["pinch"] else F_contact
         out[row] = (_episode_peak(F_ball, onset), _first_episode(F_contact, output_dt),
                     flagged)
     return out
