@@ -45,7 +45,7 @@ def config_of_run(run_ds) -> dict:
 
 
 def zoom_config(run_ds, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(),
-                output_dt=None, adaptive=False) -> dict:
+                output_dt=None, adaptive=True) -> dict:
     """Validated configuration of a zoom on ``run_ds``: the run's model with
     ``contact_model = compliant``, step ``dt`` [s] (with ``adaptive``, the largest) for
     ``window`` [s], then ``overrides`` (``section.key=value`` strings)."""
@@ -77,7 +77,7 @@ def start_index(run_ds, time: float) -> int:
 
 def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), output_dt=None,
          until_released=True, progress=False, watch_contacts=None, watch_onset=None,
-         adaptive=False):
+         adaptive=True):
     """Re-simulate the whole mechanism with compliant contacts from the state of ``run_ds``
     just before ``time``.
 
@@ -104,10 +104,11 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
         :meth:`simcore.model.Model.simulate`. :func:`analysis.zoom.add_zoom_forces` watches
         the contacts of the ball of each impact, with the impact's contact as onset.
     adaptive : bool
-        Adaptive steps (``solver.adaptive``, docs/compliant.md): each step's size from the
-        local error estimate, at most ``dt``, the output every ``output_dt`` as with a fixed
-        step (``solver.dt_min`` and ``solver.adaptive_tol`` from the run's settings or
-        ``overrides``).
+        Adaptive steps (``solver.adaptive``, the default; docs/compliant.md): each step's size
+        from the local error estimate and cut where a contact closes, at most ``dt``, the
+        output every ``output_dt`` as with a fixed step (``solver.dt_min`` and
+        ``solver.adaptive_tol`` from the run's settings or ``overrides``); False: every step
+        ``dt``.
 
     Returns
     -------
@@ -139,7 +140,7 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
 
 def zoom_trajectory(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(),
                     output_dt=None, until_released=True, progress=False, watch_contacts=None,
-                    watch_onset=None, adaptive=False):
+                    watch_onset=None, adaptive=True):
     """:func:`zoom` as plain arrays: (trajectory, model, layout, configuration), the
     :class:`simcore.model.Trajectory` of the zoom with the model, layout and validated
     configuration that made it (what :func:`zoom` turns into its dataset). Same parameters and
