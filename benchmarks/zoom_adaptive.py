@@ -2,15 +2,15 @@
 
 One nonsmooth run per point (steel, constant drive, the study's run length: one start-up
 revolution and ``--revolutions`` steady ones); its impact table's zoomed rows
-(:func:`analysis.zoom.zoom_rows`, ``analysis.zoom_top`` 5 and the start-up's largest) are zoomed
-with fixed steps (t_Hertz / N for each ``--fixed`` N) and with adaptive steps (largest step
-t_Hertz / N for each ``--adaptive`` N). Prints, per point, F_max_zoom and contact_time_zoom of
-every row and, per variant, the steps and the CPU time of all the zooms (median of
-``--repeat``, variants alternated) and the largest and
-median relative difference of F_max_zoom from the finest fixed variant. ``--full-window``:
-every zoom runs its whole window (no early stop on the impacts' balls).
+(:func:`analysis.zoom.zoom_rows`, ``analysis.zoom_top`` 5 and the start-up's largest) are
+zoomed with fixed steps (t_Hertz / N for each ``--fixed`` N) and with adaptive steps (largest
+step t_Hertz / :data:`analysis.zoom.ADAPTIVE_STEPS_PER_CONTACT`). Prints, per point,
+F_max_zoom and contact_time_zoom of every row and, per variant, the steps and the CPU time of
+all the zooms (median of ``--repeat``, variants alternated) and the largest and median
+relative difference of F_max_zoom from the finest fixed variant. ``--full-window``: every zoom
+runs its whole window (no early stop on the impacts' balls).
 
-    python benchmarks/zoom_adaptive.py [--fixed 20 40 80] [--adaptive 2 5 20] [--revolutions 3]
+    python benchmarks/zoom_adaptive.py [--fixed 20 40 80] [--revolutions 3] [--full-window]
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import analysis
 import simcore
 import simcore.study.zoom
 from analysis.summary import SteadyWindow
-from analysis.zoom import add_zoom_forces, zoom_rows
+from analysis.zoom import ADAPTIVE_STEPS_PER_CONTACT, add_zoom_forces, zoom_rows
 
 POINTS = {
     "reference (4e-4 m, mu 0.01, 50 rad/s, e_N 0.9)": [
@@ -49,8 +49,6 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--fixed", type=int, nargs="+", default=[20, 40, 80],
                    help="steps per Hertz contact time of the fixed-step zooms")
-    p.add_argument("--adaptive", type=int, nargs="+", default=[2, 5, 20],
-                   help="Hertz contact time over the largest adaptive step")
     p.add_argument("--revolutions", type=float, default=3.0, help="steady revolutions")
     p.add_argument("--top", type=int, default=5, help="analysis.zoom_top")
     p.add_argument("--repeat", type=int, default=5, help="timings per variant (median)")
@@ -62,7 +60,7 @@ def main(argv=None) -> int:
         whole = simcore.study.zoom.zoom_trajectory
         simcore.study.zoom.zoom_trajectory = (
             lambda *a, **kw: whole(*a, **dict(kw, until_released=False)))
-    variants = [("fixed", n) for n in args.fixed] + [("adaptive", n) for n in args.adaptive]
+    variants = [("fixed", n) for n in args.fixed] + [("adaptive", ADAPTIVE_STEPS_PER_CONTACT)]
     for name, point in POINTS.items():
         run, table, settle = study_run(point, args.revolutions)
         rows = zoom_rows(table, args.top, settle)
