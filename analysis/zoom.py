@@ -5,17 +5,18 @@ The zoomed impacts (:func:`zoom_rows`) are the largest Flores forces of the stea
 largest of each race first, ``zoom_top`` in all) and the largest of the start-up: the impacts
 that give the summary's ``peak_force`` and ``startup_peak_force``. For each, the whole mechanism
 is restarted from the run's state just before the impact with compliant (Hertz) contacts and a
-small step (:func:`simcore.zoom`, its step the shortest Hertz contact time it must resolve over
-:data:`STEPS_PER_CONTACT`) for a window of three Flores contact times of the impact (at least
-0.5 ms, at most 20 ms), or until the ball of every impact it serves is free again. The
-impact table gains ``F_max_zoom`` [N], the largest contact force of the impact's ball during
-the impact: over the ball's contact episode that contains the first force of the impact's own
+small step (:func:`simcore.zoom`: adaptive steps of at most the shortest Hertz contact time it
+must resolve over :data:`ADAPTIVE_STEPS_PER_CONTACT`, or with ``adaptive=False`` a fixed step,
+that time over ``steps_per_contact``) for a window of three Flores contact times of the impact
+(at least 0.5 ms, at most 20 ms), or until the ball of every impact it serves is free again. The
+impact table gains ``F_max_zoom`` [N], the largest contact force of the impact's ball during the
+impact: over the ball's contact episode that contains the first force of the impact's own
 contact (for a pinch, the first sample where both contacts of the ball carry force, so that the
 pinch's two rows read the same episode; the ball's force is the larger of its two contacts; NaN
-when that force still rises at the end of the zoom), and
-``contact_time_zoom`` [s], how long the impact's own contact stayed closed in its first contact
-episode (NaN when it was still closed at the end of the zoom: the impact turned into persistent
-contact, as it does for the loaded balls of the bearing).
+when that force still rises at the end of the zoom), and ``contact_time_zoom`` [s], how long the
+impact's own contact stayed closed in its first contact episode (NaN when it was still closed at
+the end of the zoom: the impact turned into persistent contact, as it does for the loaded balls
+of the bearing).
 
 Where the zoom contradicts the paper's force, |F_max / F_max_zoom - 1| > ``analysis.method_tol``,
 the row gets the flag bit ``method_disagrees`` and is no longer ``trusted``.
@@ -213,8 +214,9 @@ def zoom_rows(impacts_ds: xr.Dataset, zoom_top: int, settle_time: float = -np.in
 
 
 def _zoom_plans(run_ds, table, rows, dt, window, max_window, overrides, steps_per_contact):
-    """One zoom per distinct impact time: {time: (window [s], step [s], rows it serves)}; the
-    step is an adaptive zoom's largest (``steps_per_contact`` its steps per contact time).
+    """One zoom per distinct impact time: {time: (window [s], step [s], rows it serves)}, the
+    step its shortest Hertz contact time over ``steps_per_contact`` (an adaptive zoom's
+    largest step) or ``dt``.
 
     A zoom lasts three Flores contact times of the impacts it serves (a soft contact,
     E = 2.1e9 Pa, lasts milliseconds), at least ``window``, at most ``max_window``."""
@@ -408,11 +410,7 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
                 F_zoom[row], t_zoom[row], dt_zoom[row] = force, duration, plan[1]
                 dt_smallest[row] = smallest
                 zoom_flagged[row] = flag
-    _zoom_columns(out, F_zoom, t_zoom, dt_zoom, zoom_flagged, adaptive)
-    out["dt_zoom_smallest"] = ("impact", dt_smallest, {
-        "units": "s", "long_name": "smallest time step the compliant zoom of the impact took "
-        "(adaptive: chosen by the error control and the contact onsets; fixed: dt_zoom; NaN: "
-        "not zoomed)"})
+    _zoom_columns(out, F_zoom, t_zoom, (dt_zoom, dt_smallest), zoom_flagged, adaptive)
     disagree = method_disagrees(out["F_max"].values, F_zoom, method_tol)
     if "flags" in out:
         flags = np.asarray(out["flags"].values).copy()
@@ -432,8 +430,10 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
     return out
 
 
-def _zoom_columns(out: xr.Dataset, F_zoom, t_zoom, dt_zoom, zoom_flagged, adaptive) -> None:
-    """The zoom columns of the impact table, each with its units and meaning."""
+def _zoom_columns(out: xr.Dataset, F_zoom, t_zoom, steps, zoom_flagged, adaptive) -> None:
+    """The zoom columns of the impact table, each with its units and meaning; ``steps``: the
+    zooms' (largest) steps and their smallest steps taken [s]."""
+    dt_zoom, dt_smallest = steps
     out["F_max_zoom"] = ("impact", F_zoom, {
         "units": "N", "long_name": "largest contact force of the impact's ball during the "
         "impact (the ball's contact episode that contains the impact contact's first closing) "
@@ -448,6 +448,10 @@ def _zoom_columns(out: xr.Dataset, F_zoom, t_zoom, dt_zoom, zoom_flagged, adapti
     out["dt_zoom"] = ("impact", dt_zoom, {
         "units": "s", "long_name": f"{step} (its shortest Hertz contact time over the table's "
         "zoom_steps_per_contact, at most the run's step; NaN: not zoomed)"})
+    out["dt_zoom_smallest"] = ("impact", dt_smallest, {
+        "units": "s", "long_name": "smallest time step the compliant zoom of the impact took "
+        "(adaptive: chosen by the error control and at contact onsets; fixed: dt_zoom; NaN: "
+        "not zoomed)"})
     out["zoom_flagged"] = ("impact", zoom_flagged, {
         "units": "1", "long_name": "1 where the compliant zoom of the impact flagged a step "
         "(not converged, energy created, or an integrity check such as an indentation beyond "
