@@ -48,6 +48,14 @@ def _param_value(ds, name):
     return None
 
 
+def _run_parameters(ds):
+    """``(name, value)`` of each study parameter the run states, in study order."""
+    for name in STUDY_PARAMETERS:
+        value = _param_value(ds, name)
+        if value is not None:
+            yield name, value
+
+
 def _fmt_param(name, value):
     label, unit, fac = _PARAM.get(name, (name, "", 1.0))
     short = label.split()[-1]
@@ -67,11 +75,7 @@ def run_label(ds) -> str:
     -------
     str
     """
-    parts = []
-    for name in STUDY_PARAMETERS:
-        v = _param_value(ds, name)
-        if v is not None:
-            parts.append(_fmt_param(name, v))
+    parts = [_fmt_param(name, v) for name, v in _run_parameters(ds)]
     return ", ".join(parts) if parts else "run"
 
 
@@ -87,11 +91,7 @@ def run_prefix(ds) -> str:
     -------
     str
     """
-    parts = []
-    for name in STUDY_PARAMETERS:
-        v = _param_value(ds, name)
-        if v is not None:
-            parts.append(f"{name}{v:g}")
+    parts = [f"{name}{v:g}" for name, v in _run_parameters(ds)]
     return "_".join(parts) if parts else "run"
 
 

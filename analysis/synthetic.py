@@ -30,6 +30,17 @@ PAPER_MODEL = {
 }
 
 
+def _contact_coords(t, n_balls):
+    """Coordinates ``time`` (``t`` [s]) and ``contact`` with its ``ball`` and ``race`` labels:
+    balls 0..n_balls-1 on the inner race, then on the outer race (as a run file)."""
+    return {
+        "time": ("time", t, {"units": "s", "long_name": "time"}),
+        "contact": np.arange(2 * n_balls),
+        "ball": ("contact", np.tile(np.arange(n_balls), 2)),
+        "race": ("contact", np.array(["inner"] * n_balls + ["outer"] * n_balls)),
+    }
+
+
 def make_run_dataset(n_steps=600, n_balls=8, seed=0, clearance=4.0e-4, mu=0.01, omega0=50.0,
                      e_N=0.9, dt=1.0e-4, journal=True, lam_scale=1e-3, vn_free=True):
     """A synthetic run dataset with the layout of a run file (README, 'The run file').
@@ -119,10 +130,7 @@ def make_run_dataset(n_steps=600, n_balls=8, seed=0, clearance=4.0e-4, mu=0.01, 
                           {"units": "1", "long_name": "converged"}),
         },
         coords={
-            "time": ("time", t, {"units": "s", "long_name": "time"}),
-            "contact": np.arange(nc),
-            "ball": ("contact", np.tile(np.arange(n_balls), 2)),
-            "race": ("contact", np.array(["inner"] * n_balls + ["outer"] * n_balls)),
+            **_contact_coords(t, n_balls),
             "body": bodies,
             "dof": ["x", "y", "phi"],
             "stage": ["smooth", "position", "velocity"],
@@ -197,10 +205,7 @@ def make_pinch_dataset(v_inner=0.3, v_outer=0.2, m_crank=2.0, m_rod=3.0, e_N=0.9
                           {"units": "1", "long_name": "converged"}),
         },
         coords={
-            "time": ("time", t, {"units": "s", "long_name": "time"}),
-            "contact": np.arange(nc),
-            "ball": ("contact", np.tile(np.arange(n_balls), 2)),
-            "race": ("contact", np.array(["inner"] * n_balls + ["outer"] * n_balls)),
+            **_contact_coords(t, n_balls),
             "clearance": 4e-4, "mu": 0.01, "omega0": 50.0, "e_N": e_N,
         },
     )
@@ -267,10 +272,7 @@ def make_compliant_run(force, output_dt=1.0e-4, omega0=50.0, clearance=4.0e-4, m
             "converged": ("time", np.ones(n_samples, dtype=np.int8),
                           {"units": "1", "long_name": "converged"}),
         },
-        coords={"time": ("time", t, {"units": "s", "long_name": "time"}),
-                "contact": np.arange(nc),
-                "ball": ("contact", np.tile(np.arange(n_balls), 2)),
-                "race": ("contact", np.array(["inner"] * n_balls + ["outer"] * n_balls)),
+        coords={**_contact_coords(t, n_balls),
                 "stage": ["smooth", "position", "velocity"], **coords},
         attrs=attrs)
     return ds
