@@ -37,6 +37,7 @@ import tempfile
 import time
 
 import numpy as np
+from _common import timed_repeats
 
 ONE_STEP = (
     "import time; t0 = time.perf_counter(); import simcore; "
@@ -309,12 +310,8 @@ def main() -> None:
     model, _ = crank_slider(cfg["model"])
     s = cfg["solver"]
     model.simulate(SolverSettings(s["dt"], 10 * s["dt"]))  # load the kernels
-    walls, cpus = [], []
-    for _ in range(args.repeats):
-        c0 = time.process_time()
-        traj = model.simulate(SolverSettings.from_config(cfg))
-        cpus.append(time.process_time() - c0)
-        walls.append(traj.wall_time_s)
+    walls, cpus, traj = timed_repeats(lambda: model.simulate(SolverSettings.from_config(cfg)),
+                                      args.repeats, lambda traj: traj.wall_time_s)
     n_steps = traj.time.size - 1
     med = statistics.median(walls)
     cpu = statistics.median(cpus)
