@@ -113,9 +113,13 @@ def study_axes(cfg: Mapping[str, Any]) -> dict[str, list]:
     params = registry()
     axes = {}
     for key in params:
+        if DETERMINED.get(key) in swept:
+            # the swept key sets this axis' value per run; a list of it beside (the default
+            # study's, merged under a smaller configuration) is not an axis
+            continue
         if key in swept:
             axes[key] = swept[key]
-        elif key in BASE_AXES and DETERMINED.get(key) not in swept:
+        elif key in BASE_AXES:
             section, name = key.split(".", 1)
             axes[key] = [params[key].plain(cfg[section][name])]
     return axes
