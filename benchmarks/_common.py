@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import statistics
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -30,16 +32,35 @@ def as_overrides(model: dict, solver: dict) -> list[str]:
             + [f"solver.{k}={v}" for k, v in solver.items()])
 
 
-def timed_repeats(call, repeats: int, wall_time):
-    """Run ``call()`` ``repeats`` times; the integration's wall times (``wall_time(result)``
-    [s]), the CPU times of the whole calls [s] and the last result."""
+class Timing(NamedTuple):
+    """Times of repeated calls: the integration's wall times and the whole calls' CPU times [s],
+    and the last call's result."""
+
+    walls: list
+    cpus: list
+    result: object
+
+    @property
+    def wall(self) -> float:
+        """Median wall time [s]."""
+        return statistics.median(self.walls)
+
+    @property
+    def cpu(self) -> float:
+        """Median CPU time [s]."""
+        return statistics.median(self.cpus)
+
+
+def timed_repeats(call, repeats: int, wall_time) -> Timing:
+    """Run ``call()`` ``repeats`` times, with ``wall_time(result)`` the integration's wall
+    time [s] (the run measures it itself) and the CPU time of each whole call."""
     walls, cpus = [], []
     for _ in range(repeats):
         c0 = time.process_time()
         result = call()
         cpus.append(time.process_time() - c0)
         walls.append(wall_time(result))
-    return walls, cpus, result
+    return Timing(walls, cpus, result)
 
 
 def steady_run_largest_impact():

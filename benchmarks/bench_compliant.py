@@ -46,12 +46,10 @@ def main() -> None:
     dt = 1e-6
     fast = dict(contact_model="compliant", output_every=10)
     model.simulate(SolverSettings(dt, 20 * dt, **fast))  # load kernels
-    walls, cpus, traj = timed_repeats(
-        lambda: model.simulate(SolverSettings(dt, args.t_end, **fast)), args.repeats,
-        lambda traj: traj.wall_time_s)
+    timing = timed_repeats(lambda: model.simulate(SolverSettings(dt, args.t_end, **fast)),
+                           args.repeats, lambda traj: traj.wall_time_s)
+    traj, med, cmed = timing.result, timing.wall, timing.cpu
     n_steps = round(args.t_end / dt)
-    med = statistics.median(walls)
-    cmed = statistics.median(cpus)
     print(f"compliant paper case (E = 2.1e11 Pa, dt = 1e-6 s, {n_steps} steps, 1 thread), "
           f"median of {args.repeats}: wall {med:.3f} s -> {n_steps / med:,.0f} steps/s; "
           f"CPU time {cmed:.3f} s -> {n_steps / cmed:,.0f} steps/s, "
@@ -165,15 +163,15 @@ def main() -> None:
     # omega0 = 50 rad/s) on its largest impact, where the loaded balls stay in contact
     run, t_imp = steady_run_largest_impact()
     dt_zoom, n_zoom = 3.128e-6, 2000  # the study's zoom step at this point
-    walls, cpus, z = timed_repeats(
+    timing = timed_repeats(
         lambda: simcore.zoom(run, t_imp, window=n_zoom * dt_zoom, dt=dt_zoom,
                              until_released=False),
         args.repeats, lambda z: z.attrs["wall_time_s"])
-    closed = int((z["F_N"].values[-1] > 0.0).sum())
+    closed = int((timing.result["F_N"].values[-1] > 0.0).sum())
     print(f"study zoom (steady run, {closed} contacts loaded, {n_zoom} steps of "
-          f"{dt_zoom:.4g} s), median of {args.repeats}: integration {statistics.median(walls):.3f}"
-          f" s wall -> {1e6 * statistics.median(walls) / n_zoom:.1f} us/step; whole zoom "
-          f"{statistics.median(cpus):.3f} s CPU")
+          f"{dt_zoom:.4g} s), median of {args.repeats}: integration {timing.wall:.3f}"
+          f" s wall -> {1e6 * timing.wall / n_zoom:.1f} us/step; whole zoom "
+          f"{timing.cpu:.3f} s CPU")
 
 
 if __name__ == "__main__":
