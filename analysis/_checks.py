@@ -30,3 +30,16 @@ def positive(name: str, value, allow_zero: bool = False) -> float:
     if not math.isfinite(number) or number < 0.0 or (number == 0.0 and not allow_zero):
         raise ValueError(f"{name}: {number!r} is not allowed; allowed: a finite number {allowed}")
     return number
+
+
+def poisson_ratio(name: str, value) -> float:
+    """``value`` as a float Poisson ratio in (-1, 0.5), or a ``ValueError`` naming ``name``."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: {value!r} is not allowed; allowed: a Poisson ratio in "
+                         "(-1, 0.5)") from exc
+    if not math.isfinite(number) or not (-1.0 < number < 0.5):
+        raise ValueError(f"{name}: {number!r} is not allowed; allowed: a Poisson ratio in "
+                         "(-1, 0.5)")
+    return number

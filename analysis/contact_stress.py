@@ -58,8 +58,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._checks import positive
-from .forces import _poisson, effective_radius
+from ._checks import poisson_ratio, positive
+from .forces import effective_radius
 
 __all__ = [
     "contact_modulus",
@@ -89,9 +89,9 @@ def contact_modulus(E1, nu1, E2=None, nu2=None) -> float:
         E* [Pa].
     """
     E1 = positive("E1", E1)
-    nu1 = _poisson("nu1", nu1)
+    nu1 = poisson_ratio("nu1", nu1)
     E2 = E1 if E2 is None else positive("E2", E2)
-    nu2 = nu1 if nu2 is None else _poisson("nu2", nu2)
+    nu2 = nu1 if nu2 is None else poisson_ratio("nu2", nu2)
     return 1.0 / ((1.0 - nu1**2) / E1 + (1.0 - nu2**2) / E2)
 
 

@@ -43,8 +43,7 @@ from functools import lru_cache
 import numpy as np
 from numba import njit
 
-from ._checks import positive
-from .filtering import _check_nonneg
+from ._checks import poisson_ratio, positive
 
 __all__ = [
     "effective_radius",
@@ -64,16 +63,6 @@ _RTOL = 1e-9
 _ATOL = 1e-11
 _TAU_MAX = 1000.0
 _METHOD = "LSODA"
-
-
-def _poisson(name, value) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a number, got {value!r}") from exc
-    if not math.isfinite(value) or not (-1.0 < value < 0.5):
-        raise ValueError(f"{name} (Poisson ratio) must be in (-1, 0.5), got {value!r}")
-    return value
 
 
 def _restitution(e_N) -> float:
@@ -139,8 +128,8 @@ def hertz_stiffness(r1, r2, E1, nu1, E2, nu2, concave=False) -> float:
     """
     E1 = positive("E1", E1)
     E2 = positive("E2", E2)
-    nu1 = _poisson("nu1", nu1)
-    nu2 = _poisson("nu2", nu2)
+    nu1 = poisson_ratio("nu1", nu1)
+    nu2 = poisson_ratio("nu2", nu2)
     from simcore.model.hertz import contact_modulus, stiffness
 
     return stiffness(effective_radius(r1, r2, concave), contact_modulus(E1, nu1, E2, nu2))
@@ -565,7 +554,7 @@ def peak_force(impulse, v_pre, e_N, K, F_static=0.0, h=None, details=False):
     v_pre = positive("v_pre", v_pre)
     e_N = _restitution(e_N)
     K = positive("K", K)
-    F_static = _check_nonneg("F_static", F_static)
+    F_static = positive("F_static", F_static, allow_zero=True)
     if h is not None:
         h = positive("h", h)
     scales = _impact_scales(impulse, v_pre, e_N, K)
@@ -644,7 +633,7 @@ def peak_forces(impulse, v_pre, e_N, K, F_static=None, h=None) -> dict:
             positive(name, values[np.flatnonzero(bad)[0]])
     bad = ~(np.isfinite(F_static) & (F_static >= 0))
     if bad.any():
-        _check_nonneg("F_static", F_static[np.flatnonzero(bad)[0]])
+        positive("F_static", F_static[np.flatnonzero(bad)[0]], allow_zero=True)
     # the arithmetic of peak_force, element by element
     scales = _impact_scales(impulse, v_pre, e_N, K)
     distinct, where = np.unique(F_static / scales[2], return_inverse=True)
