@@ -291,8 +291,13 @@ def test_the_twin_takes_error_controlled_steps_at_most_the_output_step():
     assert twin["solver"]["dt"] == twin["solver"]["output_dt"] == run["solver"]["dt"]
     fixed = plan.twin_step(twin["model"], twin["analysis"], run["solver"]["dt"])
     steps = run["solver"]["t_end"] / fixed
+    cost = plan.COST
     assert plan.estimate_seconds(twin) == pytest.approx(
-        plan.work_seconds("compliant", steps), rel=1e-12)
+        cost.per_run + cost.adaptive_share * steps * cost.compliant_step, rel=1e-12)
+    # the point's estimate before its runs are planned is the sum of its runs' estimates
+    point = plan.plan_runs(_study())[0].point
+    assert plan.point_seconds(_study(), point, ["nonsmooth", "compliant"]) == pytest.approx(
+        plan.estimate_seconds(run) + plan.estimate_seconds(twin), rel=1e-12)
 
 
 def test_a_swept_clearance_class_replaces_the_clearance_axis_even_beside_a_clearance_list():
