@@ -45,24 +45,16 @@ import warnings
 from collections import Counter
 
 import numpy as np
+from _common import as_overrides, draw_model, log_uniform
 
 
 def draw(rng, t_end: float, compliant: bool) -> list[str]:
     """One random configuration, as ``section.key=value`` overrides."""
-    def log_uniform(a, b):
-        return float(np.exp(rng.uniform(np.log(a), np.log(b))))
-
-    model = dict(clearance=log_uniform(1e-6, 2e-3), mu=float(rng.uniform(0, 0.5)),
-                 omega0=float(rng.uniform(1, 400)), e_N=float(rng.uniform(0, 1)),
-                 e_T=float(rng.uniform(0, 1)), n_balls=int(rng.integers(3, 23)),
-                 cage_stiffness=log_uniform(1e3, 1e7),
-                 cage_damping=0.0 if rng.uniform() < 0.25 else log_uniform(1.0, 1e4),
-                 drive=str(rng.choice(["free", "constant"])))
-    solver = dict(dt=log_uniform(1e-5, 5e-4), t_end=t_end, on_nonconvergence="warn")
+    model = draw_model(rng)
+    solver = dict(dt=log_uniform(rng, 1e-5, 5e-4), t_end=t_end, on_nonconvergence="warn")
     if compliant:
         model["contact_model"] = "compliant"
-    return ([f"model.{k}={v}" for k, v in model.items()]
-            + [f"solver.{k}={v}" for k, v in solver.items()])
+    return as_overrides(model, solver)
 
 
 def resolvable(cfg: dict) -> dict:
