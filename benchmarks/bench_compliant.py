@@ -150,11 +150,11 @@ def main() -> None:
     lam = run["Lambda_N"].values
     k = np.unravel_index(int(np.argmax(lam)), lam.shape)
     t_imp = float(run.time[k[0]])
-    simcore.zoom(run, t_imp, window=1e-5)  # load
+    simcore.zoom(run, t_imp, window=1e-5, adaptive=False)  # load
     zooms = []
     for _ in range(3):
         start = time.perf_counter()
-        simcore.zoom(run, t_imp, window=5e-4, dt=1e-6)
+        simcore.zoom(run, t_imp, window=5e-4, dt=1e-6, adaptive=False)
         zooms.append(time.perf_counter() - start)
     print(f"one zoom (0.5 ms at dt = 1e-6 s, 500 steps, incl. model build and Dataset): "
           f"{statistics.median(zooms):.3f} s median of 3")
@@ -165,7 +165,7 @@ def main() -> None:
     dt_zoom, n_zoom = 3.128e-6, 2000  # the study's zoom step at this point
     timing = timed_repeats(
         lambda: simcore.zoom(run, t_imp, window=n_zoom * dt_zoom, dt=dt_zoom,
-                             until_released=False),
+                             until_released=False, adaptive=False),
         args.repeats, lambda z: z.attrs["wall_time_s"])
     closed = int((timing.result["F_N"].values[-1] > 0.0).sum())
     print(f"study zoom (steady run, {closed} contacts loaded, {n_zoom} steps of "

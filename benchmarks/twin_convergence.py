@@ -84,7 +84,7 @@ def zoom_forces(cfg, ns):
     zooms = {}
     for n in sorted(ns):
         zoomed = add_zoom_forces(run, table, zoom_top=cfg["analysis"]["zoom_top"],
-                                 steps_per_contact=n)
+                                 steps_per_contact=n, adaptive=False)
         f = np.asarray(zoomed["F_max_zoom"].values, dtype=float)
         zooms[n] = f[np.isfinite(f)]
     return zooms
