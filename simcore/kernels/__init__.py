@@ -80,10 +80,6 @@ from .generalized_alpha import (  # noqa: E402
 from .hertz import (  # noqa: E402
     FN_ROW,
     FT_ROW,
-    GAP_ROW,
-    VN_ROW,
-    VT_ROW,
-    WT_ROW,
     contact_forces,
     contact_records,
     elastic_energy,
@@ -131,5 +127,5 @@ __all__ = [
     "compliant_work", "integrate_compliant_chunk", "project_joints", "AdaptiveSettings",
     "AdaptiveState", "integrate_compliant_adaptive", "ACCEPTED", "BELOW_DT_MIN",
     "REJECTED_ERROR", "REJECTED_NEWTON", "REJECTED_ONSET", "contact_records", "FN_ROW",
-    "FT_ROW", "GAP_ROW", "VN_ROW", "VT_ROW", "WT_ROW",
+    "FT_ROW",
 ]
