@@ -66,6 +66,7 @@ def main() -> None:
     from numba import njit
 
     from simcore.kernels.compliant_step import (
+        JointRows,
         chord_apply,
         chord_operator,
         compliant_work,
@@ -74,7 +75,13 @@ def main() -> None:
         projection_work,
     )
     from simcore.kernels.generalized_alpha import smooth_work
-    from simcore.kernels.hertz import contact_forces_into, elastic_energy_into, hertz_work
+    from simcore.kernels.hertz import (
+        RECORD_ROWS,
+        ContactLaw,
+        contact_forces_into,
+        elastic_energy_into,
+        hertz_work,
+    )
     from simcore.kernels.linalg import copy_vector
 
     hw = hertz_work()
@@ -83,12 +90,12 @@ def main() -> None:
     def loop_forces(q, v, ma, v_pre, hw, tangent, reps):
         n, nc = q.shape[0], ma.ct_type.shape[0]
         f, K, C, Ks = np.zeros(n), np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
-        w = np.zeros((11, nc))
+        w = np.zeros((RECORD_ROWS, nc))
         skip = np.zeros(nc, dtype=np.bool_)
+        law = ContactLaw(v_pre, 1e-4)
         for _ in range(reps):
             nb.smooth_forces(q, v, ma, f, K, C, Ks, tangent)
-            contact_forces_into(q, v, ma, v_pre, 1e-4, f, K, C, tangent, w[0], w[1], w[2],
-                                w[3], w[4], w[5:11], hw, None, skip)
+            contact_forces_into(q, v, ma, law, f, K, C, tangent, w, hw, None, skip)
         return K, C
 
     @njit
@@ -112,7 +119,8 @@ def main() -> None:
         g, G, dgdt = np.zeros(m), np.zeros((m, q.shape[0])), np.zeros(m)
         nb.bilateral(q, v, 0.0, ma, g, G, np.zeros(m), dgdt)
         for _ in range(reps):
-            project_joints_into(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1, pw, None, g, G, dgdt)
+            project_joints_into(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1, pw, None,
+                                JointRows(g, G, dgdt))
 
     @njit
     def loop_energy(q, v, ma, hw, reps):

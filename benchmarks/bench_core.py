@@ -213,8 +213,7 @@ def _profile_kernel():
         for k in range(n_steps):
             t1 = (k + 1) * h
             c0 = clock()
-            smooth_step(q, v, acc, vdot, state.lam_s, t1, h, coef, tol, max_iter, ma, q_t,
-                        v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, sw)
+            smooth_step(q, v, acc, vdot, state.lam_s, t1, h, coef, st, ma, work.step, sw)
             c1 = clock()
             position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, pwk)
             c2 = clock()

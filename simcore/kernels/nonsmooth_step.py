@@ -915,8 +915,7 @@ def loop_stage_calls(st, ma, state, work):
     coef = alpha_coefficients.py_func(st.rho_inf)  # (the Python function: nothing compiled)
     return {
         "smooth": (smooth_step, (state.q, state.v, state.acc, state.vdot, state.lam_s, t1, h,
-                                 coef, tol, max_iter, ma, q_t, v_t, acc1, vdot1, f_t, K_t, C_t,
-                                 Ks_t, work.smooth)),
+                                 coef, st, ma, work.step, work.smooth)),
         "position": (position_step, (q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap,
                                      work.position)),
         "velocity": (velocity_step, (q1, q_t, v_t, t1, h, tol, max_iter, eta, tol * h, ma, f_t,
@@ -978,8 +977,7 @@ def integrate_chunk(k0, k1, st, ma, state, out, work):
     first_bad = -1
     for k in range(k0, k1):
         t1 = (k + 1) * h
-        it_s, ok_s = smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, tol, max_iter, ma,
-                                 q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, sw)
+        it_s, ok_s = smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, st, ma, work.step, sw)
         it_p, ok_p = position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap,
                                    pwk)
         # normal velocities before the jump, G_N(q1) v~, from the position stage's rows at q1

@@ -394,10 +394,10 @@ def _start(model, settings: SolverSettings, q0, v0, t0, v_pre0=None) -> _Start:
     f_contact = np.zeros(ndof)  # the compliant contact forces at the start
     FN0 = FT0 = None
     if compliant:
-        FN0, FT0 = np.zeros(nc), np.zeros(nc)
+        rec = nb.contact_records(nc)
         nb.contact_forces(q, v, arr, v_pre, settings.friction_regularization, f_contact,
-                          np.zeros((1, 1)), np.zeros((1, 1)), False, FN0, FT0, gap0.copy(),
-                          vn0.copy(), vt0.copy(), np.zeros((6, nc)))
+                          np.zeros((1, 1)), np.zeros((1, 1)), False, rec)
+        FN0, FT0 = rec[nb.FN_ROW].copy(), rec[nb.FT_ROW].copy()
     vdot, lam_s = np.zeros(ndof), np.zeros(nbil)
     try:
         nb.initial_acceleration(q, v, float(t0), arr, f_contact, vdot, lam_s, work.smooth)
