@@ -154,6 +154,40 @@ def format_top_forces(run_ds, n=3, race="outer", zero_tol=1e-4, zero_floor=1e-12
     return "\n".join(lines)
 
 
+#: the numeric options and what each allows: (test, allowed in words)
+_NUMBERS = {
+    "zero_tol": (lambda x: 0.0 <= x < 1.0, "a number in [0, 1)"),
+    "zero_floor": (lambda x: x >= 0.0, "a number >= 0 [N s]"),
+    "v_min": (lambda x: x > 0.0, "a speed > 0 [m/s]"),
+    "groove_conformity": (lambda x: x > 0.5, "a number > 0.5 (groove radius over ball "
+                                             "diameter), or leave it out"),
+    "contact_long_ratio": (lambda x: x > 0.0, "a number > 0"),
+    "tol": (lambda x: x > 0.0, "a number > 0"),
+    "t_check": (lambda x: x > 0.0, "a time > 0 [s]"),
+    "n": (lambda x: x >= 1, "an integer >= 1"),
+}
+
+
+def check_args(args) -> str | None:
+    """Why the arguments of ``python -m analysis`` cannot be used (one line), or None: every
+    number, output file (the same rules as ``python -m simcore run --out``) and output folder,
+    before any work."""
+    from simcore.cli import check_out, check_outdir
+
+    for name, (ok, allowed) in _NUMBERS.items():
+        value = getattr(args, name, None)
+        if value is not None and not (np.isfinite(value) and ok(value)):
+            option = "-n" if name == "n" else "--" + name.replace("_", "-")
+            return f"{option}: {value!r} is not allowed; allowed: {allowed}"
+    if getattr(args, "out", None) is not None:
+        problem = check_out(args.out)
+        if problem:
+            return problem
+    if getattr(args, "outdir", None) is not None:
+        return check_outdir(args.outdir)
+    return None
+
+
 def _study_figures(args) -> int:
     """``study-figures``: the study's heat maps and its table from a summary file."""
     from pathlib import Path
@@ -187,19 +221,12 @@ def _study_figures(args) -> int:
 def main(argv=None) -> int:
     """Entry point; returns the exit status."""
     args = build_parser().parse_args(argv)
+    problem = check_args(args)  # settings and outputs first, before any work
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
+        return 2
     import xarray as xr
 
-    if args.cmd == "dt-check":  # settings first, before any work
-        problems = []
-        if not (np.isfinite(args.tol) and args.tol > 0):
-            problems.append(f"--tol: {args.tol!r} is not allowed; allowed: a number > 0")
-        if args.n < 1:
-            problems.append(f"-n: {args.n!r} is not allowed; allowed: an integer >= 1")
-        if args.t_check is not None and not (np.isfinite(args.t_check) and args.t_check > 0):
-            problems.append(f"--t-check: {args.t_check!r} is not allowed; allowed: a time > 0 [s]")
-        if problems:
-            print(f"error: {problems[0]}", file=sys.stderr)
-            return 2
     try:
         if args.cmd == "study-figures":
             return _study_figures(args)
@@ -256,7 +283,7 @@ def main(argv=None) -> int:
                               prefix=args.prefix):
                 print(p)
     except (ValueError, KeyError, OSError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     return 0
 

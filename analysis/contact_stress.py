@@ -58,7 +58,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .forces import _poisson, _positive, effective_radius
+from ._checks import poisson_ratio, positive
+from .forces import effective_radius
 
 __all__ = [
     "contact_modulus",
@@ -87,10 +88,10 @@ def contact_modulus(E1, nu1, E2=None, nu2=None) -> float:
     float
         E* [Pa].
     """
-    E1 = _positive("E1", E1)
-    nu1 = _poisson("nu1", nu1)
-    E2 = E1 if E2 is None else _positive("E2", E2)
-    nu2 = nu1 if nu2 is None else _poisson("nu2", nu2)
+    E1 = positive("E1", E1)
+    nu1 = poisson_ratio("nu1", nu1)
+    E2 = E1 if E2 is None else positive("E2", E2)
+    nu2 = nu1 if nu2 is None else poisson_ratio("nu2", nu2)
     return 1.0 / ((1.0 - nu1**2) / E1 + (1.0 - nu2**2) / E2)
 
 
@@ -118,8 +119,8 @@ def hertz_circular(F, R_eff, E_star):
     a, delta, p_max : ndarray or float
         Contact radius [m], indentation [m], largest pressure [Pa] (0 at F = 0).
     """
-    R_eff = _positive("R_eff", R_eff)
-    E_star = _positive("E_star", E_star)
+    R_eff = positive("R_eff", R_eff)
+    E_star = positive("E_star", E_star)
     F = _forces(F)
     a = np.cbrt(3.0 * F * R_eff / (4.0 * E_star))
     delta = a**2 / R_eff
@@ -151,9 +152,9 @@ def groove_radii(ball_radius, race_radius, conformity, race="inner"):
     R_x, R_y : float
         [m].
     """
-    r_b = _positive("ball_radius", ball_radius)
-    r_r = _positive("race_radius", race_radius)
-    f = _positive("groove_conformity", conformity)
+    r_b = positive("ball_radius", ball_radius)
+    r_r = positive("race_radius", race_radius)
+    f = positive("groove_conformity", conformity)
     if f <= 0.5:
         raise ValueError(f"groove_conformity must be > 0.5 (groove wider than the ball), got {f!r}")
     if race not in ("inner", "outer"):
@@ -238,9 +239,9 @@ def elliptical_contact(R_x, R_y, E_star, fit="1983") -> EllipticalContact:
     -------
     EllipticalContact
     """
-    R_x = _positive("R_x", R_x)
-    R_y = _positive("R_y", R_y)
-    E_star = _positive("E_star", E_star)
+    R_x = positive("R_x", R_x)
+    R_y = positive("R_y", R_y)
+    E_star = positive("E_star", E_star)
     alpha = R_y / R_x
     if fit == "1983":
         k = alpha ** (2.0 / math.pi)
@@ -291,7 +292,9 @@ def contact_stress(F, ball_radius, race_radius, race, E, nu, conformity=None, r_
         concave = race == "outer" and r_eff == "concave"
         R = effective_radius(ball_radius, race_radius, concave=concave)
         a, delta, p = hertz_circular(F, R, E_star)
-        K = 4.0 / 3.0 * E_star * math.sqrt(R)
+        from simcore.model.hertz import stiffness
+
+        K = stiffness(R, E_star)
         return {"contact_radius": a, "semi_minor": a, "delta": delta, "p_max": p, "K": K}
     R_x, R_y = groove_radii(ball_radius, race_radius, conformity, race)
     ell = elliptical_contact(R_x, R_y, E_star)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from .impacts import RACE, _race_codes, run_geometry
+from .impacts import RACE, race_codes, race_stresses, run_geometry
 
 __all__ = ["contact_episodes", "episode_peaks", "compliant_forces"]
 
@@ -65,13 +65,7 @@ def episode_peaks(force: np.ndarray):
 
 def _stress_columns(geo: dict, races: np.ndarray, force: np.ndarray) -> dict:
     """Hertz indentation, contact semi-axes and pressure at each episode's force."""
-    stress = {name: np.full(force.size, np.nan)
-              for name in ("contact_radius", "contact_semi_minor", "delta_max", "p_max")}
-    for code in (RACE["inner"], RACE["outer"]):
-        sel = races == code
-        if sel.any():
-            for name, value in zip(stress, geo["stress"](force[sel], code), strict=True):
-                stress[name][sel] = value
+    stress = race_stresses(geo, races, force)
     return {
         "delta_max": (stress["delta_max"], "m", "Hertz indentation under F_max"),
         "contact_radius": (stress["contact_radius"], "m", "Hertz contact radius under F_max "
@@ -117,7 +111,7 @@ def contact_episodes(run_ds: xr.Dataset, r_eff: str = "concave",
     order = np.lexsort((contact, peak_index))
     contact, start, stop, peak_index, peak = (a[order] for a in
                                               (contact, start, stop, peak_index, peak))
-    races = _race_codes(run_ds, force.shape[0])[contact]
+    races = race_codes(run_ds, force.shape[0])[contact]
     balls = np.asarray(run_ds["ball"].values).astype(np.int64)[contact]
     columns = {
         "contact": (contact, "1", "contact index (balls 0..n-1 on the inner race, then outer)"),

@@ -48,6 +48,14 @@ def _param_value(ds, name):
     return None
 
 
+def _run_parameters(ds):
+    """``(name, value)`` of each study parameter the run states, in study order."""
+    for name in STUDY_PARAMETERS:
+        value = _param_value(ds, name)
+        if value is not None:
+            yield name, value
+
+
 def _fmt_param(name, value):
     label, unit, fac = _PARAM.get(name, (name, "", 1.0))
     short = label.split()[-1]
@@ -67,11 +75,7 @@ def run_label(ds) -> str:
     -------
     str
     """
-    parts = []
-    for name in STUDY_PARAMETERS:
-        v = _param_value(ds, name)
-        if v is not None:
-            parts.append(_fmt_param(name, v))
+    parts = [_fmt_param(name, v) for name, v in _run_parameters(ds)]
     return ", ".join(parts) if parts else "run"
 
 
@@ -87,11 +91,7 @@ def run_prefix(ds) -> str:
     -------
     str
     """
-    parts = []
-    for name in STUDY_PARAMETERS:
-        v = _param_value(ds, name)
-        if v is not None:
-            parts.append(f"{name}{v:g}")
+    parts = [f"{name}{v:g}" for name, v in _run_parameters(ds)]
     return "_".join(parts) if parts else "run"
 
 
@@ -197,9 +197,7 @@ def _plot_lambda(run_ds, impacts_ds, path, zero_tol, zero_floor, contact=None):
         ax.grid(alpha=0.3)
     fig.suptitle(f"Impulse history and filter — {_contact_label(run_ds, c)}\n{run_label(run_ds)}"
                  f"  (zero_tol = {zero_tol:g}, floor = {zero_floor:g} N s)")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def _clearance(ds):
@@ -230,9 +228,7 @@ def _plot_orbit(run_ds, path):
     ax.set_ylabel("y, outer race centre − inner race centre [µm]")
     ax.grid(alpha=0.3)
     ax.set_title(f"Journal orbit (rod big end relative to crank pin)\n{run_label(run_ds)}")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def _plot_slider(run_ds, path):
@@ -269,9 +265,7 @@ def _plot_slider(run_ds, path):
     a2.grid(alpha=0.3)
     a1.set_title(f"Slider position against the ideal slider-crank "
                  f"(L1 = {L1:g} m, L2 = {L2:g} m)\n{run_label(run_ds)}")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def plot_run(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, outdir, zero_tol=1e-4,
@@ -396,9 +390,7 @@ def _plot_force_angle(run_ds, cols, path, settle, zero_tol, zero_floor):
     axes[-1].set_xticks(np.arange(0, 361, 45))
     fig.suptitle("Contact force over the crank angle, reference run\n"
                  f"{run_label(run_ds)}; {_steady_title(cols, settle)}")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def _ball_angles(run_ds, cols):
@@ -449,9 +441,24 @@ def _plot_ball_load(run_ds, cols, path, settle):
     fig.suptitle("Where the impacts land: angle of the hit ball on each race (in the race's "
                  "own frame) and its peak force\n"
                  f"{run_label(run_ds)}; {_steady_title(cols, settle)}")
-    fig.savefig(path, dpi=110)
+    return _save(fig, path)
+
+
+def _save(fig, path, dpi=110):
+    """Write ``fig`` to ``path`` at ``dpi`` dots per inch, close it, return ``path``."""
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path
+
+
+def _log_log(ax, xlabel, ylabel, legend_loc):
+    """Log-log axes of the impact figures: labels, major and minor grid, legend."""
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8, loc=legend_loc)
 
 
 def _plot_exceedance(run_ds, cols, path, settle, force_levels):
@@ -473,17 +480,11 @@ def _plot_exceedance(run_ds, cols, path, settle, force_levels):
         ax.axvline(level, color="0.3", ls=":", lw=1)
         ax.text(level, 1.0, f" {_fmt_force(level)}", transform=ax.get_xaxis_transform(),
                 va="top", fontsize=8)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("force F [N]")
-    ax.set_ylabel("impacts per crank revolution with a peak force F_max ≥ F")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8, loc="lower left")
+    _log_log(ax, "force F [N]", "impacts per crank revolution with a peak force F_max ≥ F",
+             "lower left")
     ax.set_title("Exceedance of the impact peak force, per race (dotted: analysis.force_levels)"
                  f"\n{run_label(run_ds)}\n{_steady_title(cols, settle)}", fontsize=10)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def _plot_force_speed(run_ds, cols, path, settle):
@@ -501,18 +502,11 @@ def _plot_force_speed(run_ds, cols, path, settle):
                 ax.scatter(cols["v_pre"][m], cols["F_max"][m], s=12, color=_RACE_COLOURS[r],
                            marker=_KIND_MARKERS[k], alpha=0.7, linewidths=0.8,
                            label=f"{name} race, {kind} ({m.sum()})")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("approach speed v_pre [m/s]")
-    ax.set_ylabel("peak force F_max [N]")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8, loc="upper left")
+    _log_log(ax, "approach speed v_pre [m/s]", "peak force F_max [N]", "upper left")
     ax.set_title("Impact peak force against approach speed (Hertz: F_max ∝ m_eff^0.6 "
                  f"v_pre^1.2 at a given stiffness)\n{run_label(run_ds)}\n"
                  f"{_steady_title(cols, settle)}", fontsize=10)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def _plot_iterations(run_ds, cols, path, settle):
@@ -541,9 +535,7 @@ def _plot_iterations(run_ds, cols, path, settle):
     n_bad = int(np.sum(np.asarray(run_ds["converged"].values)[1:] == 0))
     fig.suptitle(f"Solver iterations per step and sub-problem ({t.size} steps, {n_bad} "
                  f"unconverged)\n{run_label(run_ds)}")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def plot_reference(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, outdir, settle=0.0,
@@ -968,9 +960,7 @@ def _too_large(path, title, message):
     fig = plt.figure(figsize=(8, 2.5))
     fig.text(0.03, 0.6, title, fontsize=10, va="center")
     fig.text(0.03, 0.3, message, fontsize=10, va="center", color="tab:red", wrap=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return _save(fig, path, dpi=100)
 
 
 def _facet_figure(q: StudyQuantity, layout: FigureLayout, ds, path, failed, title):
@@ -1012,9 +1002,7 @@ def _facet_figure(q: StudyQuantity, layout: FigureLayout, ds, path, failed, titl
                 _ticks(ax, "y", da, y)
     _colorbar(fig, mesh, cax, q.label, q.kind)
     fig.suptitle(title, fontsize=11)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return _save(fig, path, dpi=100)
 
 
 def _reduce(da, dims, how):
@@ -1052,9 +1040,7 @@ def _pairs_figure(q: StudyQuantity, swept, ds, path, failed, title):
         ax.set_axis_off()
     _colorbar(fig, mesh, cax, q.label, q.kind)
     fig.suptitle(title, fontsize=11)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return _save(fig, path, dpi=100)
 
 
 def _line_figure(q: StudyQuantity, dim, ds, path, failed, title):
@@ -1073,9 +1059,7 @@ def _line_figure(q: StudyQuantity, dim, ds, path, failed, title):
     ax.set_ylabel(q.label)
     ax.grid(alpha=0.3)
     ax.set_title(title, fontsize=10)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return _save(fig, path, dpi=100)
 
 
 def _single_figure(summary_ds, quantities, held, path):
@@ -1086,9 +1070,7 @@ def _single_figure(summary_ds, quantities, held, path):
     ax.text(0.02, 0.5, "\n".join(lines), va="center", transform=ax.transAxes, fontsize=9)
     ax.set_axis_off()
     ax.set_title("Study: a single parameter set (nothing swept)")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def _failed_mask(summary_ds, model):

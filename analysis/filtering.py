@@ -45,6 +45,8 @@ from numba import njit
 
 from simcore.startup.numba_cache import configure_cache
 
+from ._checks import positive
+
 # The analysis kernels (here and in analysis.forces) are cached in the folder of the simulation
 # kernels, whatever was imported first: Numba picks a kernel's cache folder when the kernel is
 # defined, so without this the study's warm-up (which imported analysis first) and its jobs
@@ -127,10 +129,10 @@ def zero_threshold(lam=None, zero_tol=1e-4, floor=1e-12, scale=None) -> float:
     float
         ``max(zero_tol * scale, floor)``; impulses at or below it count as zero.
     """
-    zero_tol = _check_nonneg("zero_tol", zero_tol)
+    zero_tol = positive("zero_tol", zero_tol, allow_zero=True)
     if zero_tol >= 1.0:
         raise ValueError(f"zero_tol must be in [0, 1), got {zero_tol!r}")
-    floor = _check_nonneg("floor", floor)
+    floor = positive("floor", floor, allow_zero=True)
     if scale is None:
         if lam is None:
             raise ValueError("zero_threshold needs lam or scale")
@@ -138,18 +140,8 @@ def zero_threshold(lam=None, zero_tol=1e-4, floor=1e-12, scale=None) -> float:
         scale = float(np.max(arr)) if arr.size else 0.0
         scale = max(scale, 0.0)
     else:
-        scale = _check_nonneg("scale", scale)
+        scale = positive("scale", scale, allow_zero=True)
     return max(zero_tol * scale, floor)
-
-
-def _check_nonneg(name, value) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a number, got {value!r}") from exc
-    if not np.isfinite(value) or value < 0:
-        raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
-    return value
 
 
 def split_impulses(lam, zero_tol=1e-4, floor=1e-12, scale=None):

@@ -43,7 +43,7 @@ from functools import lru_cache
 import numpy as np
 from numba import njit
 
-from .filtering import _check_nonneg
+from ._checks import poisson_ratio, positive
 
 __all__ = [
     "effective_radius",
@@ -63,26 +63,6 @@ _RTOL = 1e-9
 _ATOL = 1e-11
 _TAU_MAX = 1000.0
 _METHOD = "LSODA"
-
-
-def _positive(name, value) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a positive number, got {value!r}") from exc
-    if not math.isfinite(value) or value <= 0.0:
-        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-    return value
-
-
-def _poisson(name, value) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a number, got {value!r}") from exc
-    if not math.isfinite(value) or not (-1.0 < value < 0.5):
-        raise ValueError(f"{name} (Poisson ratio) must be in (-1, 0.5), got {value!r}")
-    return value
 
 
 def _restitution(e_N) -> float:
@@ -114,8 +94,8 @@ def effective_radius(r1, r2, concave=False) -> float:
     float
         R_eff [m].
     """
-    r1 = _positive("r1", r1)
-    r2 = _positive("r2", r2)
+    r1 = positive("r1", r1)
+    r2 = positive("r2", r2)
     if concave:
         if r1 == r2:
             raise ValueError("r1 and r2 must differ for a concave contact (R_eff is infinite)")
@@ -146,13 +126,13 @@ def hertz_stiffness(r1, r2, E1, nu1, E2, nu2, concave=False) -> float:
     float
         K [N/m^1.5].
     """
-    E1 = _positive("E1", E1)
-    E2 = _positive("E2", E2)
-    nu1 = _poisson("nu1", nu1)
-    nu2 = _poisson("nu2", nu2)
-    reff = effective_radius(r1, r2, concave)
-    sigma = (1.0 - nu1**2) / E1 + (1.0 - nu2**2) / E2
-    return 4.0 / (3.0 * sigma) * math.sqrt(reff)
+    E1 = positive("E1", E1)
+    E2 = positive("E2", E2)
+    nu1 = poisson_ratio("nu1", nu1)
+    nu2 = poisson_ratio("nu2", nu2)
+    from simcore.model.hertz import contact_modulus, stiffness
+
+    return stiffness(effective_radius(r1, r2, concave), contact_modulus(E1, nu1, E2, nu2))
 
 
 def flores_damping(K, e_N, v_pre) -> float:
@@ -172,9 +152,9 @@ def flores_damping(K, e_N, v_pre) -> float:
     float
         D [N s/m^2.5]; the force is F = K δ^{3/2} + D δ^{3/2} δ̇.
     """
-    K = _positive("K", K)
+    K = positive("K", K)
     e_N = _restitution(e_N)
-    v_pre = _positive("v_pre", v_pre)
+    v_pre = positive("v_pre", v_pre)
     return 8.0 * K * (1.0 - e_N) / (5.0 * e_N * v_pre)
 
 
@@ -196,9 +176,9 @@ def closed_form_elastic(m_eff, v_pre, K):
         Peak force [N] K δ_max^{3/2}, largest indentation [m] (5 m v²/(4K))^{2/5} and contact time
         [s] 2 ∫_0^1 dx/√(1 - x^{5/2}) · δ_max/v ≈ 3.2145 δ_max/v.
     """
-    m_eff = _positive("m_eff", m_eff)
-    v_pre = _positive("v_pre", v_pre)
-    K = _positive("K", K)
+    m_eff = positive("m_eff", m_eff)
+    v_pre = positive("v_pre", v_pre)
+    K = positive("K", K)
     dmax = (5.0 * m_eff * v_pre**2 / (4.0 * K)) ** 0.4
     # 2 ∫_0^1 (1 - x^{5/2})^{-1/2} dx = 2 * (2/5) B(2/5, 1/2)
     beta = math.gamma(0.4) * math.gamma(0.5) / math.gamma(0.9)
@@ -570,13 +550,13 @@ def peak_force(impulse, v_pre, e_N, K, F_static=0.0, h=None, details=False):
     m_eff = impulse / ((1 + e_N) v_pre). The scaled problem (module docstring) is integrated to
     the end of the impact; relative accuracy about 1e-9 on F_max.
     """
-    impulse = _positive("impulse", impulse)
-    v_pre = _positive("v_pre", v_pre)
+    impulse = positive("impulse", impulse)
+    v_pre = positive("v_pre", v_pre)
     e_N = _restitution(e_N)
-    K = _positive("K", K)
-    F_static = _check_nonneg("F_static", F_static)
+    K = positive("K", K)
+    F_static = positive("F_static", F_static, allow_zero=True)
     if h is not None:
-        h = _positive("h", h)
+        h = positive("h", h)
     scales = _impact_scales(impulse, v_pre, e_N, K)
     scaled = _scaled_impact(e_N, F_static / scales[2])
     if not details:
@@ -646,14 +626,14 @@ def peak_forces(impulse, v_pre, e_N, K, F_static=None, h=None) -> dict:
                 else np.asarray(F_static, dtype=float).ravel())
     e_N = _restitution(e_N)
     if h is not None:
-        h = _positive("h", h)
+        h = positive("h", h)
     for name, values in (("impulse", impulse), ("v_pre", v_pre), ("K", K)):
         bad = ~(np.isfinite(values) & (values > 0))
         if bad.any():
-            _positive(name, values[np.flatnonzero(bad)[0]])
+            positive(name, values[np.flatnonzero(bad)[0]])
     bad = ~(np.isfinite(F_static) & (F_static >= 0))
     if bad.any():
-        _check_nonneg("F_static", F_static[np.flatnonzero(bad)[0]])
+        positive("F_static", F_static[np.flatnonzero(bad)[0]], allow_zero=True)
     # the arithmetic of peak_force, element by element
     scales = _impact_scales(impulse, v_pre, e_N, K)
     distinct, where = np.unique(F_static / scales[2], return_inverse=True)

@@ -28,12 +28,13 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
+from ._checks import positive
 from .contact_stress import contact_modulus, elliptical_contact, groove_radii, hertz_circular
 from .filtering import impact_masks, split_impulses, zero_threshold
-from .forces import _positive, effective_radius, hertz_stiffness, peak_forces
+from .forces import effective_radius, hertz_stiffness, peak_forces
 
 __all__ = ["extract_impacts", "top_forces", "run_geometry", "series_stiffness", "STUDY_PARAMETERS",
-           "race_name", "kind_name", "stiffness", "count_flags",
+           "race_name", "kind_name", "stiffness", "count_flags", "race_codes", "race_stresses",
            "KIND", "RACE", "FLAG"]
 
 STUDY_PARAMETERS = ("clearance", "mu", "omega0", "e_N")
@@ -114,8 +115,8 @@ def series_stiffness(K1, K2) -> float:
     The same force passes both: δ = δ1 + δ2 = (F/K1)^{2/3} + (F/K2)^{2/3} = (F/K)^{2/3} with
     K = (K1^{-2/3} + K2^{-2/3})^{-3/2}.
     """
-    K1 = _positive("K1", K1)
-    K2 = _positive("K2", K2)
+    K1 = positive("K1", K1)
+    K2 = positive("K2", K2)
     return (K1 ** (-2.0 / 3.0) + K2 ** (-2.0 / 3.0)) ** -1.5
 
 
@@ -181,7 +182,9 @@ def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave", groove_conformity=N
     }
 
 
-def _race_codes(run_ds, n_contacts):
+def race_codes(run_ds, n_contacts: int) -> np.ndarray:
+    """Race code (:data:`RACE`) of each contact, from the run's coordinate ``race`` (names or
+    codes); a ``ValueError`` when it is missing, holds other names or has not ``n_contacts``."""
     if "race" not in run_ds.coords:
         raise ValueError("run dataset has no coordinate 'race' on 'contact'")
     raw = np.asarray(run_ds["race"].values)
@@ -271,7 +274,7 @@ def _read_series(run_ds: xr.Dataset, vname: str) -> _Series:
     nc, nt = lam.shape
     balls = (np.asarray(run_ds["ball"].values).astype(np.int64) if "ball" in run_ds.coords
              else np.arange(nc, dtype=np.int64))
-    races = _race_codes(run_ds, nc)
+    races = race_codes(run_ds, nc)
     step_ok = (np.asarray(run_ds["converged"].values).astype(bool) if "converged" in run_ds
                else np.ones(nt, bool))
     return _Series(lam=lam, vn=vn, times=np.asarray(run_ds["time"].values, dtype=float),
@@ -385,15 +388,25 @@ def _flores(impulse, v_pre, F_static, K, e_N: float, h: float, v_min: float,
     return out
 
 
-def _stresses(geo: dict, race: np.ndarray, F_max: np.ndarray) -> dict:
-    """Hertz contact of every row at its peak force (NaN where there is none)."""
-    out = {name: np.full(F_max.size, np.nan)
+def race_stresses(geo: dict, race: np.ndarray, force: np.ndarray) -> dict:
+    """Hertz contact of every row at its force: ``{name: array}`` of ``contact_radius``,
+    ``contact_semi_minor``, ``delta_max`` [m] and ``p_max`` [Pa] (NaN where there is none).
+
+    Parameters
+    ----------
+    geo : dict
+        The run's geometry (:func:`run_geometry`); its ``stress`` gives each race's contact.
+    race : numpy.ndarray
+        Race code of each row (:data:`RACE`).
+    force : numpy.ndarray
+        Normal force of each row [N] (NaN: no force).
+    """
+    out = {name: np.full(force.size, np.nan)
            for name in ("contact_radius", "contact_semi_minor", "delta_max", "p_max")}
     for code in (RACE["inner"], RACE["outer"]):
         sel = race == code
         if sel.any():
-            a, b, d, p = geo["stress"](F_max[sel], code)
-            for name, value in zip(out, (a, b, d, p), strict=True):
+            for name, value in zip(out, geo["stress"](force[sel], code), strict=True):
                 out[name][sel] = value
     return out
 
@@ -487,16 +500,16 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
     The stages: read the run's series (:func:`_read_series`), split every contact's impulses
     (:func:`_filter`), find the rows and their kinds (:func:`_classify`), their impulse, static
     force and approach speed (:func:`_impact_loads`), the Flores forces and flags
-    (:func:`_flores`), the Hertz stresses at the peak (:func:`_stresses`), and the table
+    (:func:`_flores`), the Hertz stresses at the peak (:func:`race_stresses`), and the table
     (:func:`_impact_dataset`).
     """
     if "Lambda_N" not in run_ds:
         raise ValueError("run dataset has no variable 'Lambda_N'")
     vname, source = _velocity_source(run_ds)
-    v_min = _positive("v_min", v_min)
-    contact_long_ratio = _positive("contact_long_ratio", contact_long_ratio)
+    v_min = positive("v_min", v_min)
+    contact_long_ratio = positive("contact_long_ratio", contact_long_ratio)
     if groove_conformity is not None:
-        groove_conformity = _positive("groove_conformity", groove_conformity) \
+        groove_conformity = positive("groove_conformity", groove_conformity) \
             if groove_conformity != 0 else None  # 0: off, as in the config
     geo = run_geometry(run_ds, r_eff, groove_conformity)
     e_N = _model_value(run_ds, "e_N")
@@ -524,7 +537,7 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
         "F_static": F_static,
         "K": K**2,
         "F_max": forces["F_max"],
-        **_stresses(geo, race, forces["F_max"]),
+        **race_stresses(geo, race, forces["F_max"]),
         "contact_time": forces["contact_time"],
         "contact_time_steps": forces["contact_time_steps"],
         "v_rebound": forces["v_rebound"],

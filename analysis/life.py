@@ -40,6 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._checks import positive
+
 __all__ = ["LIFE_EXPONENT", "WEIBULL_SLOPE", "RATING_FACTOR", "equivalent_load",
            "revolution_weights", "basic_rating_life", "life_hours", "raceway_capacity",
            "reference_cycles_per_revolution", "bearing_capacity_lp", "RacewayLife",
@@ -50,14 +52,6 @@ WEIBULL_SLOPE = 10.0 / 9.0   # e of the Lundberg-Palmgren survival, ball bearing
 RATING_FACTOR = 1.3          # b_m of ISO 281:2007, radial ball bearings
 LP_CONSTANT = 98.1           # Lundberg-Palmgren raceway constant, point contact [N, mm]
 RACES = ("inner", "outer")
-
-
-def _positive(name, value, allow_zero=False):
-    value = float(value)
-    if not np.isfinite(value) or value < 0.0 or (value == 0.0 and not allow_zero):
-        allowed = ">= 0" if allow_zero else "> 0"
-        raise ValueError(f"{name}: {value!r} is not allowed; allowed: a finite number {allowed}")
-    return value
 
 
 def _race(race):
@@ -122,14 +116,14 @@ def basic_rating_life(C: float, P: float) -> float:
     P : float
         Dynamic equivalent load [N] (0 gives an infinite life).
     """
-    C = _positive("C", C)
-    P = _positive("P", P, allow_zero=True)
+    C = positive("C", C)
+    P = positive("P", P, allow_zero=True)
     return np.inf if P == 0.0 else (C / P) ** LIFE_EXPONENT
 
 
 def life_hours(L10: float, speed: float) -> float:
     """A life in 10^6 revolutions as hours at the relative speed ``speed`` [rad/s]."""
-    speed = _positive("speed", abs(float(speed)))
+    speed = positive("speed", abs(float(speed)))
     return float(L10) * 1e6 / (speed / (2.0 * np.pi)) / 3600.0
 
 
@@ -159,8 +153,8 @@ def raceway_capacity(ball_diameter: float, pitch_diameter: float, conformity: fl
         revolutions when it rotates relative to the load (one stress cycle per ball passing,
         :func:`reference_cycles_per_revolution`).
     """
-    D = _positive("ball_diameter", ball_diameter) * 1e3
-    gamma = D / (_positive("pitch_diameter", pitch_diameter) * 1e3)
+    D = positive("ball_diameter", ball_diameter) * 1e3
+    gamma = D / (positive("pitch_diameter", pitch_diameter) * 1e3)
     f = float(conformity)
     if not 0.5 < f < 1.0:
         raise ValueError(f"conformity: {conformity!r} is not allowed; allowed: in (0.5, 1)")
@@ -170,7 +164,7 @@ def raceway_capacity(ball_diameter: float, pitch_diameter: float, conformity: fl
     if Z < 1:
         raise ValueError(f"n_balls: {n_balls!r} is not allowed; allowed: >= 1")
     s = 1.0 if _race(race) == "inner" else -1.0
-    return (_positive("rating_factor", rating_factor) * LP_CONSTANT
+    return (positive("rating_factor", rating_factor) * LP_CONSTANT
             * (2.0 * f / (2.0 * f - 1.0)) ** 0.41
             * (1.0 - s * gamma) ** 1.39 / (1.0 + s * gamma) ** (1.0 / 3.0)
             * gamma**0.3 * D**1.8 * Z ** (-1.0 / 3.0))
@@ -182,7 +176,7 @@ def reference_cycles_per_revolution(ball_diameter: float, pitch_diameter: float,
     rolling, contact angle 0: Z (1 + gamma)/2 inner race, Z (1 - gamma)/2 outer race [-].
 
     This is the cycle count behind Q_c's factor (1 +- gamma)^(-1/3) Z^(-1/3)."""
-    gamma = _positive("ball_diameter", ball_diameter) / _positive("pitch_diameter",
+    gamma = positive("ball_diameter", ball_diameter) / positive("pitch_diameter",
                                                                   pitch_diameter)
     s = 1.0 if _race(race) == "inner" else -1.0
     return int(n_balls) * (1.0 + s * gamma) / 2.0
@@ -342,9 +336,9 @@ def reference_life_history(ball_load, ball_angle, revolutions: float, Q_c: float
                          "(n >= 2 samples, Z balls)")
     if np.any(Q < 0.0) or not np.all(np.isfinite(Q)) or not np.all(np.isfinite(psi)):
         raise ValueError("ball_load, ball_angle: allowed: finite values, loads >= 0")
-    R_w = _positive("revolutions", revolutions)
-    Q_c = _positive("Q_c", Q_c)
-    u = _positive("cycles_per_revolution", cycles_per_revolution)
+    R_w = positive("revolutions", revolutions)
+    Q_c = positive("Q_c", Q_c)
+    u = positive("cycles_per_revolution", cycles_per_revolution)
     sums, _ = _element_load_sums(Q, psi, int(n_elements))
     damage = sums / (Q_c**3 * u * 1e6)
     e = WEIBULL_SLOPE

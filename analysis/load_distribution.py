@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
+from ._checks import positive
 from .forces import hertz_stiffness
 from .impacts import series_stiffness
 
@@ -75,14 +76,6 @@ class LoadDistribution:
         return int(np.count_nonzero(self.Q > 0.0))
 
 
-def _positive(name, value, allow_zero=False):
-    value = float(value)
-    if not np.isfinite(value) or value < 0.0 or (value == 0.0 and not allow_zero):
-        allowed = ">= 0" if allow_zero else "> 0"
-        raise ValueError(f"{name}: {value!r} is not allowed; allowed: a finite number {allowed}")
-    return value
-
-
 def ring_angles(n_balls: int, phase: float = 0.0) -> np.ndarray:
     """Angles of ``n_balls`` evenly spaced balls, the first at ``phase`` [rad]."""
     n = int(n_balls)
@@ -114,9 +107,9 @@ def ball_stiffness(ball_radius: float, inner_radius: float, clearance: float,
         Inner (convex sphere on sphere), outer (ball inside the race, concave) and the two in
         series (eq. 2 of the module docstring), as the simulation's contact elements use them.
     """
-    r_b = _positive("ball_radius", ball_radius)
-    r_a = _positive("inner_radius", inner_radius)
-    g = _positive("clearance", clearance, allow_zero=True)
+    r_b = positive("ball_radius", ball_radius)
+    r_a = positive("inner_radius", inner_radius)
+    g = positive("clearance", clearance, allow_zero=True)
     r_c = r_a + 2.0 * r_b + g
     E = youngs_modulus
     nu = poisson_ratio
@@ -159,9 +152,9 @@ def ball_loads(F_r: float, ball_angles, clearance: float, K_s: float,
     already carries F_r (c_max = max_j cos(psi_j - psi_L) > 0); Brent's method then converges to
     the relative tolerance of the floating-point numbers.
     """
-    F_r = _positive("F_r", F_r, allow_zero=True)
-    g = _positive("clearance", clearance, allow_zero=True)
-    K_s = _positive("K_s", K_s)
+    F_r = positive("F_r", F_r, allow_zero=True)
+    g = positive("clearance", clearance, allow_zero=True)
+    K_s = positive("K_s", K_s)
     psi = np.atleast_1d(np.asarray(ball_angles, dtype=float))
     if psi.ndim != 1 or psi.size == 0 or not np.all(np.isfinite(psi)):
         raise ValueError("ball_angles: allowed: a non-empty 1-D array of finite angles [rad]")

@@ -48,14 +48,15 @@ def _nonsmooth_table(run_ds: xr.Dataset, settings: dict, timings: dict) -> xr.Da
     extracted = time.perf_counter()
     timings["extract"] = timings.get("extract", 0.0) + extracted - start
     if settings.get("zoom_top", 0) > 0:
-        from .zoom import STEPS_PER_CONTACT, add_zoom_forces
+        from .zoom import STEPS_PER_CONTACT, ZOOM_ADAPTIVE, add_zoom_forces
 
         window = SteadyWindow.of_run(run_ds, float(settings.get("settle", 0.0)))
         impacts = add_zoom_forces(run_ds, impacts, zoom_top=settings["zoom_top"],
                                   steps_per_contact=settings.get("zoom_steps_per_contact",
                                                                  STEPS_PER_CONTACT),
                                   settle_time=window.settle_time,
-                                  method_tol=settings.get("method_tol", 0.2))
+                                  method_tol=settings.get("method_tol", 0.2),
+                                  adaptive=bool(settings.get("zoom_adaptive", ZOOM_ADAPTIVE)))
     timings["zoom"] = timings.get("zoom", 0.0) + time.perf_counter() - extracted
     return impacts
 
@@ -72,7 +73,8 @@ def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = 
     settings : dict
         The validated ``analysis`` section (``zero_tol``, ``zero_floor``, ``r_eff``, ``v_min``,
         and where present ``groove_conformity``, ``contact_long_ratio``, ``zoom_top``,
-        ``zoom_steps_per_contact``, ``method_tol``, ``settle``, ``force_levels``).
+        ``zoom_steps_per_contact``, ``zoom_adaptive``, ``method_tol``, ``settle``,
+        ``force_levels``).
     point : dict
         The run's swept parameters (e.g. ``clearance`` [m], ``mu`` [-], ``omega0`` [rad/s],
         ``e_N`` [-]), stored as scalar coordinates with units.

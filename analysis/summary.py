@@ -455,11 +455,11 @@ def compliant_numbers(run_ds: xr.Dataset, window: SteadyWindow, levels: Sequence
         (:func:`analysis.episodes.episode_peaks`) for ``top3_force`` and the counts.
     """
     from .episodes import compliant_forces, episode_peaks
-    from .impacts import _race_codes
+    from .impacts import race_codes
 
     force = compliant_forces(run_ds)  # (contact, time)
     time = np.asarray(run_ds["time"].values, dtype=float)
-    races = _race_codes(run_ds, force.shape[0]).astype(np.int64)
+    races = race_codes(run_ds, force.shape[0]).astype(np.int64)
     per_race = np.stack([force[races == r].max(axis=0) if np.any(races == r)
                          else np.zeros(time.size) for r in range(len(RACES))])  # (race, time)
     sample_race = np.broadcast_to(np.arange(len(RACES))[:, None], per_race.shape)

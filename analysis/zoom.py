@@ -5,17 +5,18 @@ The zoomed impacts (:func:`zoom_rows`) are the largest Flores forces of the stea
 largest of each race first, ``zoom_top`` in all) and the largest of the start-up: the impacts
 that give the summary's ``peak_force`` and ``startup_peak_force``. For each, the whole mechanism
 is restarted from the run's state just before the impact with compliant (Hertz) contacts and a
-small step (:func:`simcore.zoom`, its step the shortest Hertz contact time it must resolve over
-:data:`STEPS_PER_CONTACT`) for a window of three Flores contact times of the impact (at least
-0.5 ms, at most 20 ms), or until the ball of every impact it serves is free again. The
-impact table gains ``F_max_zoom`` [N], the largest contact force of the impact's ball during
-the impact: over the ball's contact episode that contains the first force of the impact's own
+small step (:func:`simcore.zoom`: adaptive steps of at most the shortest Hertz contact time it
+must resolve over :data:`ADAPTIVE_STEPS_PER_CONTACT`, or with ``adaptive=False`` a fixed step,
+that time over ``steps_per_contact``) for a window of three Flores contact times of the impact
+(at least 0.5 ms, at most 20 ms), or until the ball of every impact it serves is free again. The
+impact table gains ``F_max_zoom`` [N], the largest contact force of the impact's ball during the
+impact: over the ball's contact episode that contains the first force of the impact's own
 contact (for a pinch, the first sample where both contacts of the ball carry force, so that the
 pinch's two rows read the same episode; the ball's force is the larger of its two contacts; NaN
-when that force still rises at the end of the zoom), and
-``contact_time_zoom`` [s], how long the impact's own contact stayed closed in its first contact
-episode (NaN when it was still closed at the end of the zoom: the impact turned into persistent
-contact, as it does for the loaded balls of the bearing).
+when that force still rises at the end of the zoom), and ``contact_time_zoom`` [s], how long the
+impact's own contact stayed closed in its first contact episode (NaN when it was still closed at
+the end of the zoom: the impact turned into persistent contact, as it does for the loaded balls
+of the bearing).
 
 Where the zoom contradicts the paper's force, |F_max / F_max_zoom - 1| > ``analysis.method_tol``,
 the row gets the flag bit ``method_disagrees`` and is no longer ``trusted``.
@@ -29,6 +30,8 @@ does not enter.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import xarray as xr
 
@@ -36,13 +39,26 @@ from .impacts import FLAG, KIND, count_flags
 
 _METHOD_DISAGREES = FLAG["method_disagrees"]
 
-__all__ = ["STEPS_PER_CONTACT", "add_zoom_forces", "zoom_step", "zoom_rows", "method_disagrees"]
+__all__ = ["ADAPTIVE_STEPS_PER_CONTACT", "STEPS_PER_CONTACT", "ZOOM_ADAPTIVE", "add_zoom_forces",
+           "zoom_step", "zoom_rows", "method_disagrees"]
 
 
 #: steps of a zoom per Hertz contact time (dt = t_Hertz / N): doubling N changes F_max_zoom by
 #: less than 1 % on the paper case and on a steady study run at E = 2.1e9 and 2.1e11 Pa
 #: (docs/compliant.md, "Step of a zoom"); the study's setting analysis.zoom_steps_per_contact
 STEPS_PER_CONTACT = 40
+
+#: the study's zooms take adaptive steps (analysis.zoom_adaptive's default)
+ZOOM_ADAPTIVE = True
+
+#: an adaptive zoom's largest step and output interval: the Hertz contact time over this
+#: number. The error control and the onset cutting shorten the steps inside an interval where a
+#: contact needs it; the interval sets how finely the histories are read (a ball's release
+#: shorter than it is not seen, the contact time from the indentation at its ends). At 5 the
+#: zooms of two study points take fewer steps than fixed ones at t_Hertz / 20, F_max_zoom
+#: within 0.6 % of t_Hertz / 80 (docs/compliant.md, "Adaptive zooms"); 5 steps per contact
+#: time is also the compliant step's stability bound (simcore.config.limits)
+ADAPTIVE_STEPS_PER_CONTACT = 5
 
 
 def _first_episode(force: np.ndarray, dt: float) -> float:
@@ -198,7 +214,9 @@ def zoom_rows(impacts_ds: xr.Dataset, zoom_top: int, settle_time: float = -np.in
 
 
 def _zoom_plans(run_ds, table, rows, dt, window, max_window, overrides, steps_per_contact):
-    """One zoom per distinct impact time: {time: (window [s], step [s], rows it serves)}.
+    """One zoom per distinct impact time: {time: (window [s], step [s], rows it serves)}, the
+    step its shortest Hertz contact time over ``steps_per_contact`` (an adaptive zoom's
+    largest step) or ``dt``.
 
     A zoom lasts three Flores contact times of the impacts it serves (a soft contact,
     E = 2.1e9 Pa, lasts milliseconds), at least ``window``, at most ``max_window``."""
@@ -230,8 +248,32 @@ def _zoom_plans(run_ds, table, rows, dt, window, max_window, overrides, steps_pe
     return {time: (windows[time], steps[time], served[time]) for time in windows}
 
 
-def _zoom_numbers(run_ds, table, time, plan, overrides) -> dict:
-    """Run the zoom of one impact time; {row: (F_max_zoom [N], contact_time_zoom [s])}.
+def _at_sample_instants(traj, model, zcfg):
+    """The force and the indentation of an adaptive zoom's contacts as a fixed step's samples
+    read them: (F_N [N], indentation [m]), both zero at an output time where the contact is
+    open (its gap, from the state q, v at that instant, not negative).
+
+    An adaptive zoom's F_N is the largest force of the steps in each output interval, so a
+    ball that leaves a race and strikes it again inside one interval shows no zero there, and
+    two impacts would read as one contact episode; a fixed step's sample is the force at the
+    end of its one step. Masking the interval's largest force where the contact is open at the
+    sample instant gives the episodes the fixed step's meaning and keeps every peak of an
+    interval that ends in contact."""
+    import simcore.kernels as nb
+
+    arrays = model.arrays(zcfg["model"].get("damping_law", "flores"), compliant=True)
+    n_rows, nc = traj.F_N.shape
+    gap = np.empty((n_rows, nc))
+    vn, vt = np.empty(nc), np.empty(nc)
+    for i in range(n_rows):
+        nb.contact_velocities(traj.q[i], traj.v[i], arrays, gap[i], vn, vt)
+    closed = gap < 0.0
+    return np.where(closed, traj.F_N, 0.0), np.where(closed, -gap, 0.0)
+
+
+def _zoom_numbers(run_ds, table, time, plan, overrides, adaptive=False):
+    """Run the zoom of one impact time; ({row: (F_max_zoom [N], contact_time_zoom [s],
+    zoom_flagged)}, steps the zoom took, its smallest step [s]).
 
     The zoom watches, for every impact it serves, the contacts of the impact's ball (onset: the
     impact's own contact) and stops once all those episodes have ended."""
@@ -247,20 +289,35 @@ def _zoom_numbers(run_ds, table, time, plan, overrides) -> dict:
     for g, row in enumerate(rows):
         groups[g] = ball_of_contact == int(balls[row])
         onset[g, int(contacts[row])] = True
-    # (the zoom's arrays: its dataset would be built for three of them)
-    traj, _, _, zcfg = zoom_trajectory(run_ds, time, window=window, dt=step,
-                                       overrides=overrides, watch_contacts=groups,
-                                       watch_onset=onset)
-    F_N = traj.F_N
+    # (the zoom's arrays: its dataset would be built for three of them) a zoom's flagged step
+    # (not converged, energy created, an integrity check such as an indentation beyond Hertz's
+    # range) flags its impacts (zoom_flagged) instead of stopping the study
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        traj, model, _, zcfg = zoom_trajectory(
+            run_ds, time, window=window, dt=step,
+            overrides=[*overrides, "solver.on_nonconvergence=warn"], watch_contacts=groups,
+            watch_onset=onset, adaptive=adaptive)
+    F_N, indentation = traj.F_N, None
+    if adaptive:
+        F_N, indentation = _at_sample_instants(traj, model, zcfg)
+    flagged = int(not np.all(traj.converged))
     output_dt = float(zcfg["solver"]["dt"]) * output_every(zcfg)
     kinds = np.asarray(table["kind"].values) if "kind" in table else np.full(len(balls), -1)
     out = {}
     for g, row in enumerate(rows):
         F_contact = _struck(F_N[:, int(contacts[row])])
-        F_ball = F_N[:, groups[g]].max(axis=1)
-        onset = _pinch_onset(F_N[:, groups[g]]) if kinds[row] == KIND["pinch"] else F_contact
-        out[row] = (_episode_peak(F_ball, onset), _first_episode(F_contact, output_dt))
-    return out
+        ball = np.flatnonzero(groups[g])  # (the run's ball contacts come first, guards after)
+        F_ball = F_N[:, ball].max(axis=1)
+        onset = _pinch_onset(F_N[:, ball]) if kinds[row] == KIND["pinch"] else F_contact
+        # (the contact time from the indentation at the samples: F^(2/3) of a fixed step)
+        pulse = (F_contact if indentation is None
+                 else _struck(indentation[:, int(contacts[row])] ** 1.5))
+        out[row] = (_episode_peak(F_ball, onset), _first_episode(pulse, output_dt), flagged)
+    records = traj.extras.get("adaptive")
+    if records is None:
+        return out, (traj.time.size - 1) * output_every(zcfg), float(zcfg["solver"]["dt"])
+    return out, records["n_steps_accepted"], records["dt_smallest_s"]
 
 
 def method_disagrees(F_max, F_max_zoom, method_tol: float) -> np.ndarray:
@@ -276,7 +333,8 @@ def method_disagrees(F_max, F_max_zoom, method_tol: float) -> np.ndarray:
 def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 5,
                     dt: float | None = None, window: float = 5e-4, overrides=(),
                     max_window: float = 2e-2, steps_per_contact: int = STEPS_PER_CONTACT,
-                    settle_time: float = -np.inf, method_tol: float = 0.2) -> xr.Dataset:
+                    settle_time: float = -np.inf, method_tol: float = 0.2,
+                    adaptive: bool = ZOOM_ADAPTIVE) -> xr.Dataset:
     """Impact table with ``F_max_zoom`` and ``contact_time_zoom`` for the impacts the summary
     reads (:func:`zoom_rows`), and the flag ``method_disagrees`` where they contradict F_max.
 
@@ -301,20 +359,30 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
     max_window : float
         Longest window of a zoom [s].
     steps_per_contact : int
-        Steps per Hertz contact time when ``dt`` is None [-].
+        Steps per Hertz contact time of a fixed-step zoom when ``dt`` is None [-].
     settle_time : float
         End of the start-up [s]; -inf (default): the whole run is steady.
     method_tol : float
         A zoomed row whose |F_max / F_max_zoom - 1| exceeds it gets the flag bit
         ``method_disagrees`` and ``trusted`` = 0 [-] (``analysis.method_tol``).
+    adaptive : bool
+        Adaptive steps (``analysis.zoom_adaptive``): each zoom's steps chosen by the error
+        control and cut at contact onsets, at most its Hertz contact time over
+        :data:`ADAPTIVE_STEPS_PER_CONTACT` (or ``dt``), which is also its output interval; the
+        contact episodes and contact times are read at the output instants from the gaps
+        (:func:`_at_sample_instants`). False: the fixed step ``dt`` or t_Hertz /
+        ``steps_per_contact``.
 
     Returns
     -------
     xarray.Dataset
         A copy of ``impacts_ds`` with ``F_max_zoom`` [N], ``contact_time_zoom`` [s] and
         ``dt_zoom`` [s] (NaN where not zoomed), the flags and counts updated, and attributes
-        ``zoom_top``, ``zoom_steps_per_contact`` (0 for a fixed ``dt``), ``zoom_window``,
-        ``zoom_max_window``, ``method_tol``, ``n_zoomed``, ``n_method_disagrees``.
+        ``zoom_top``, ``zoom_steps_per_contact`` (the steps per contact time used, 0 for a
+        given ``dt``), ``zoom_adaptive`` (0/1), ``zoom_window``, ``zoom_max_window``,
+        ``method_tol``, ``n_zoomed``, ``n_zoom_steps`` (steps of all the zooms: accepted
+        adaptive steps, or fixed steps), ``n_method_disagrees``; column ``dt_zoom_smallest``
+        [s], the smallest step each zoom took.
     """
     zoom_top = int(zoom_top)
     if zoom_top < 0:
@@ -327,15 +395,22 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
     out = impacts_ds.copy()
     n = out.sizes.get("impact", 0)
     F_zoom, t_zoom, dt_zoom = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+    zoom_flagged = np.zeros(n, dtype=np.int8)
+    dt_smallest = np.full(n, np.nan)
+    n_steps = 0
     rows = zoom_rows(out, zoom_top, settle_time)
     if rows.size:
         plans = _zoom_plans(run_ds, out, rows, dt, window, max_window, overrides,
-                            steps_per_contact)
+                            ADAPTIVE_STEPS_PER_CONTACT if adaptive else steps_per_contact)
         for time, plan in plans.items():
-            for row, (force, duration) in _zoom_numbers(run_ds, out, time, plan,
-                                                        overrides).items():
+            numbers, steps, smallest = _zoom_numbers(run_ds, out, time, plan, overrides,
+                                                     adaptive)
+            n_steps += steps
+            for row, (force, duration, flag) in numbers.items():
                 F_zoom[row], t_zoom[row], dt_zoom[row] = force, duration, plan[1]
-    _zoom_columns(out, F_zoom, t_zoom, dt_zoom)
+                dt_smallest[row] = smallest
+                zoom_flagged[row] = flag
+    _zoom_columns(out, F_zoom, t_zoom, (dt_zoom, dt_smallest), zoom_flagged, adaptive)
     disagree = method_disagrees(out["F_max"].values, F_zoom, method_tol)
     if "flags" in out:
         flags = np.asarray(out["flags"].values).copy()
@@ -345,15 +420,20 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
         out["trusted"] = out["trusted"].copy(data=trusted.astype(np.int8))
         count_flags(out)
     out.attrs.update({"zoom_top": zoom_top,
-                      "zoom_steps_per_contact": int(steps_per_contact) if dt is None else 0,
+                      "zoom_steps_per_contact": 0 if dt is not None else int(
+                          ADAPTIVE_STEPS_PER_CONTACT if adaptive else steps_per_contact),
                       "zoom_window": float(window), "zoom_max_window": float(max_window),
                       "zoom_settle_time": float(settle_time), "method_tol": float(method_tol),
-                      "n_zoomed": int(rows.size),
+                      "n_zoomed": int(rows.size), "zoom_adaptive": int(bool(adaptive)),
+                      "n_zoom_steps": int(n_steps),
                       "n_method_disagrees": int(np.count_nonzero(disagree))})
     return out
 
 
-def _zoom_columns(out: xr.Dataset, F_zoom, t_zoom, dt_zoom) -> None:
+def _zoom_columns(out: xr.Dataset, F_zoom, t_zoom, steps, zoom_flagged, adaptive) -> None:
+    """The zoom columns of the impact table, each with its units and meaning; ``steps``: the
+    zooms' (largest) steps and their smallest steps taken [s]."""
+    dt_zoom, dt_smallest = steps
     out["F_max_zoom"] = ("impact", F_zoom, {
         "units": "N", "long_name": "largest contact force of the impact's ball during the "
         "impact (the ball's contact episode that contains the impact contact's first closing) "
@@ -362,7 +442,18 @@ def _zoom_columns(out: xr.Dataset, F_zoom, t_zoom, dt_zoom) -> None:
     out["contact_time_zoom"] = ("impact", t_zoom, {
         "units": "s", "long_name": "duration of the impact's contact in the compliant zoom "
         "(first contact episode; NaN: not zoomed, or still closed at the end of the zoom)"})
+    step = ("largest step allowed to the adaptive steps of the compliant zoom of the impact, "
+            "also its output interval" if adaptive else
+            "time step of the compliant zoom of the impact")
     out["dt_zoom"] = ("impact", dt_zoom, {
-        "units": "s", "long_name": "time step of the compliant zoom of the impact (its shortest "
-        "Hertz contact time over zoom_steps_per_contact, at most the run's step; NaN: not "
-        "zoomed)"})
+        "units": "s", "long_name": f"{step} (its shortest Hertz contact time over the table's "
+        "zoom_steps_per_contact, at most the run's step; NaN: not zoomed)"})
+    out["dt_zoom_smallest"] = ("impact", dt_smallest, {
+        "units": "s", "long_name": "smallest time step the compliant zoom of the impact took "
+        "(adaptive: chosen by the error control and at contact onsets; fixed: dt_zoom; NaN: "
+        "not zoomed)"})
+    out["zoom_flagged"] = ("impact", zoom_flagged, {
+        "units": "1", "long_name": "1 where the compliant zoom of the impact flagged a step "
+        "(not converged, energy created, or an integrity check such as an indentation beyond "
+        "solver.max_indentation, Hertz's range)", "flag_values": np.array([0, 1], np.int8),
+        "flag_meanings": "no yes"})

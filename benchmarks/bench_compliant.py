@@ -23,6 +23,7 @@ import statistics
 import time
 
 import numpy as np
+from _common import steady_run_largest_impact, timed_repeats
 
 
 def main() -> None:
@@ -45,15 +46,10 @@ def main() -> None:
     dt = 1e-6
     fast = dict(contact_model="compliant", output_every=10)
     model.simulate(SolverSettings(dt, 20 * dt, **fast))  # load kernels
-    walls, cpus = [], []
-    for _ in range(args.repeats):
-        c0 = time.process_time()
-        traj = model.simulate(SolverSettings(dt, args.t_end, **fast))
-        cpus.append(time.process_time() - c0)
-        walls.append(traj.wall_time_s)
+    timing = timed_repeats(lambda: model.simulate(SolverSettings(dt, args.t_end, **fast)),
+                           args.repeats, lambda traj: traj.wall_time_s)
+    traj, med, cmed = timing.result, timing.wall, timing.cpu
     n_steps = round(args.t_end / dt)
-    med = statistics.median(walls)
-    cmed = statistics.median(cpus)
     print(f"compliant paper case (E = 2.1e11 Pa, dt = 1e-6 s, {n_steps} steps, 1 thread), "
           f"median of {args.repeats}: wall {med:.3f} s -> {n_steps / med:,.0f} steps/s; "
           f"CPU time {cmed:.3f} s -> {n_steps / cmed:,.0f} steps/s, "
@@ -70,6 +66,7 @@ def main() -> None:
     from numba import njit
 
     from simcore.kernels.compliant_step import (
+        JointRows,
         chord_apply,
         chord_operator,
         compliant_work,
@@ -78,7 +75,13 @@ def main() -> None:
         projection_work,
     )
     from simcore.kernels.generalized_alpha import smooth_work
-    from simcore.kernels.hertz import contact_forces_into, elastic_energy_into, hertz_work
+    from simcore.kernels.hertz import (
+        RECORD_ROWS,
+        ContactLaw,
+        contact_forces_into,
+        elastic_energy_into,
+        hertz_work,
+    )
     from simcore.kernels.linalg import copy_vector
 
     hw = hertz_work()
@@ -87,12 +90,12 @@ def main() -> None:
     def loop_forces(q, v, ma, v_pre, hw, tangent, reps):
         n, nc = q.shape[0], ma.ct_type.shape[0]
         f, K, C, Ks = np.zeros(n), np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
-        w = np.zeros((11, nc))
+        w = np.zeros((RECORD_ROWS, nc))
         skip = np.zeros(nc, dtype=np.bool_)
+        law = ContactLaw(v_pre, 1e-4)
         for _ in range(reps):
             nb.smooth_forces(q, v, ma, f, K, C, Ks, tangent)
-            contact_forces_into(q, v, ma, v_pre, 1e-4, f, K, C, tangent, w[0], w[1], w[2],
-                                w[3], w[4], w[5:11], hw, None, skip)
+            contact_forces_into(q, v, ma, law, f, K, C, tangent, w, hw, None, skip)
         return K, C
 
     @njit
@@ -116,7 +119,8 @@ def main() -> None:
         g, G, dgdt = np.zeros(m), np.zeros((m, q.shape[0])), np.zeros(m)
         nb.bilateral(q, v, 0.0, ma, g, G, np.zeros(m), dgdt)
         for _ in range(reps):
-            project_joints_into(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1, pw, None, g, G, dgdt)
+            project_joints_into(q, v, 0.0, 1e-6, 1e-5, 50, ma, q1, v1, pw, None,
+                                JointRows(g, G, dgdt))
 
     @njit
     def loop_energy(q, v, ma, hw, reps):
@@ -154,38 +158,28 @@ def main() -> None:
     lam = run["Lambda_N"].values
     k = np.unravel_index(int(np.argmax(lam)), lam.shape)
     t_imp = float(run.time[k[0]])
-    simcore.zoom(run, t_imp, window=1e-5)  # load
+    simcore.zoom(run, t_imp, window=1e-5, adaptive=False)  # load
     zooms = []
     for _ in range(3):
         start = time.perf_counter()
-        simcore.zoom(run, t_imp, window=5e-4, dt=1e-6)
+        simcore.zoom(run, t_imp, window=5e-4, dt=1e-6, adaptive=False)
         zooms.append(time.perf_counter() - start)
     print(f"one zoom (0.5 ms at dt = 1e-6 s, 500 steps, incl. model build and Dataset): "
           f"{statistics.median(zooms):.3f} s median of 3")
 
     # the study's setting: a zoom of a steady run (default study config, clearance 1e-4 m,
     # omega0 = 50 rad/s) on its largest impact, where the loaded balls stay in contact
-    from analysis.impacts import extract_impacts
-
-    cfg = load_config("config/config.yaml", overrides=["model.clearance=1e-4",
-                                                       "model.omega0=50.0"])
-    run = simcore.run(cfg)
-    a = cfg["analysis"]
-    imp = extract_impacts(run, zero_tol=a["zero_tol"], zero_floor=a["zero_floor"],
-                          r_eff=a["r_eff"], v_min=a["v_min"])
-    t_imp = float(imp["time"].values[int(np.argmax(imp["impulse"].values))])
+    run, t_imp = steady_run_largest_impact()
     dt_zoom, n_zoom = 3.128e-6, 2000  # the study's zoom step at this point
-    walls, cpus = [], []
-    for _ in range(args.repeats):
-        c0 = time.process_time()
-        z = simcore.zoom(run, t_imp, window=n_zoom * dt_zoom, dt=dt_zoom, until_released=False)
-        cpus.append(time.process_time() - c0)
-        walls.append(z.attrs["wall_time_s"])
-    closed = int((z["F_N"].values[-1] > 0.0).sum())
+    timing = timed_repeats(
+        lambda: simcore.zoom(run, t_imp, window=n_zoom * dt_zoom, dt=dt_zoom,
+                             until_released=False, adaptive=False),
+        args.repeats, lambda z: z.attrs["wall_time_s"])
+    closed = int((timing.result["F_N"].values[-1] > 0.0).sum())
     print(f"study zoom (steady run, {closed} contacts loaded, {n_zoom} steps of "
-          f"{dt_zoom:.4g} s), median of {args.repeats}: integration {statistics.median(walls):.3f}"
-          f" s wall -> {1e6 * statistics.median(walls) / n_zoom:.1f} us/step; whole zoom "
-          f"{statistics.median(cpus):.3f} s CPU")
+          f"{dt_zoom:.4g} s), median of {args.repeats}: integration {timing.wall:.3f}"
+          f" s wall -> {1e6 * timing.wall / n_zoom:.1f} us/step; whole zoom "
+          f"{timing.cpu:.3f} s CPU")
 
 
 if __name__ == "__main__":

@@ -37,6 +37,7 @@ import tempfile
 import time
 
 import numpy as np
+from _common import timed_repeats
 
 ONE_STEP = (
     "import time; t0 = time.perf_counter(); import simcore; "
@@ -212,8 +213,7 @@ def _profile_kernel():
         for k in range(n_steps):
             t1 = (k + 1) * h
             c0 = clock()
-            smooth_step(q, v, acc, vdot, state.lam_s, t1, h, coef, tol, max_iter, ma, q_t,
-                        v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, sw)
+            smooth_step(q, v, acc, vdot, state.lam_s, t1, h, coef, st, ma, work.step, sw)
             c1 = clock()
             position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, pwk)
             c2 = clock()
@@ -309,17 +309,12 @@ def main() -> None:
     model, _ = crank_slider(cfg["model"])
     s = cfg["solver"]
     model.simulate(SolverSettings(s["dt"], 10 * s["dt"]))  # load the kernels
-    walls, cpus = [], []
-    for _ in range(args.repeats):
-        c0 = time.process_time()
-        traj = model.simulate(SolverSettings.from_config(cfg))
-        cpus.append(time.process_time() - c0)
-        walls.append(traj.wall_time_s)
+    timing = timed_repeats(lambda: model.simulate(SolverSettings.from_config(cfg)),
+                           args.repeats, lambda traj: traj.wall_time_s)
+    traj, med, cpu = timing.result, timing.wall, timing.cpu
     n_steps = traj.time.size - 1
-    med = statistics.median(walls)
-    cpu = statistics.median(cpus)
     print(f"paper case, warm, 1 thread: {n_steps} steps, wall {med:.3f} s median of "
-          f"{args.repeats} (min {min(walls):.3f}, max {max(walls):.3f}), "
+          f"{args.repeats} (min {min(timing.walls):.3f}, max {max(timing.walls):.3f}), "
           f"{n_steps / med:,.0f} steps/s, {1e6 * med / n_steps:.1f} us a step; "
           f"CPU time {cpu:.3f} s median ({n_steps / cpu:,.0f} steps/s)")
     it = traj.iterations[1:]

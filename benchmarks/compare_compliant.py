@@ -39,11 +39,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 # runs inside a subprocess whose sys.path starts with the tree under test
 CHILD = r"""
-import json, sys
+import sys
 import numpy as np
 import numba
 numba.set_num_threads(1)
-import simcore
 from simcore.config import load_config
 from simcore.model import SolverSettings
 from simcore.model.mechanism import crank_slider
@@ -64,14 +63,9 @@ if case in ("paper", "steady"):
                                          output_every=every), q0=q0, v0=v0)
     time, F = traj.time, traj.F_N
 else:
-    from analysis.impacts import extract_impacts
-    cfg = load_config("config/config.yaml", overrides=["model.clearance=1e-4",
-                                                       "model.omega0=50.0"])
-    run = simcore.run(cfg)
-    a = cfg["analysis"]
-    imp = extract_impacts(run, zero_tol=a["zero_tol"], zero_floor=a["zero_floor"],
-                          r_eff=a["r_eff"], v_min=a["v_min"])
-    t_imp = float(imp["time"].values[int(np.argmax(imp["impulse"].values))])
+    sys.path.append(sys.argv[4])  # this tree's benchmarks/, after the tree under test
+    from _common import steady_run_largest_impact
+    run, t_imp = steady_run_largest_impact()
     from simcore.study.zoom import zoom_trajectory
     traj = zoom_trajectory(run, t_imp, window=2000 * 3.128e-6, dt=3.128e-6,
                            until_released=False)[0]
@@ -82,8 +76,8 @@ np.savez(out, time=time, F_N=F)
 
 def run_case(tree: Path, case: str, perturb: float, out: Path) -> dict:
     env = dict(os.environ, PYTHONPATH=str(tree))
-    subprocess.run([sys.executable, "-c", CHILD, case, repr(perturb), str(out)], cwd=tree,
-                   env=env, check=True)
+    subprocess.run([sys.executable, "-c", CHILD, case, repr(perturb), str(out),
+                    str(ROOT / "benchmarks")], cwd=tree, env=env, check=True)
     d = np.load(out)
     return {"time": d["time"], "F_N": d["F_N"]}
 

@@ -39,23 +39,15 @@ import time
 import warnings
 
 import numpy as np
+from _common import as_overrides, draw_model, log_uniform
 
 
 def draw(rng, t_end):
     """One random configuration (overrides for simcore.load_config)."""
-    def lu(a, b):
-        return float(np.exp(rng.uniform(np.log(a), np.log(b))))
-
-    model = dict(clearance=lu(1e-6, 2e-3), mu=float(rng.uniform(0, 0.5)),
-                 omega0=float(rng.uniform(1, 400)), e_N=float(rng.uniform(0, 1)),
-                 e_T=float(rng.uniform(0, 1)), n_balls=int(rng.integers(3, 23)),
-                 cage_stiffness=lu(1e3, 1e7),
-                 cage_damping=0.0 if rng.uniform() < 0.25 else lu(1.0, 1e4),
-                 drive=str(rng.choice(["free", "constant"])))
-    solver = dict(dt=lu(1e-5, 5e-4), rho_inf=float(rng.uniform(0, 1)), t_end=t_end,
+    model = draw_model(rng)
+    solver = dict(dt=log_uniform(rng, 1e-5, 5e-4), rho_inf=float(rng.uniform(0, 1)), t_end=t_end,
                   on_nonconvergence="warn")
-    return ([f"model.{k}={v}" for k, v in model.items()]
-            + [f"solver.{k}={v}" for k, v in solver.items()])
+    return as_overrides(model, solver)
 
 
 def draw_hard(rng, t_end):

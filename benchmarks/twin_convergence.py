@@ -1,17 +1,20 @@
-"""Convergence of the compliant twin in its step: steady peak force per race against the
-number of steps per Hertz contact time (``analysis.zoom_steps_per_contact``, the twin's N).
+"""Convergence of the compliant twin: steady peak force per race with its error-controlled
+steps (``solver.adaptive_tol``) against fixed steps of N per Hertz contact time.
 
-    python benchmarks/twin_convergence.py                 N = 10, 20, 40, 80 on two points
-    python benchmarks/twin_convergence.py --n 20 40       other N
+    python benchmarks/twin_convergence.py                       tol 1e-8, 1e-9, 1e-10 m;
+                                                                fixed N = 20, 40, 80
+    python benchmarks/twin_convergence.py --tols 1e-9 --n 40    others
+    python benchmarks/twin_convergence.py --zooms               also the zooms' N
 
 For each point (steel, constant drive, the default study's settings; clearance, mu, omega0,
-e_N given below) the twin of :func:`simcore.study.plan.twin_config` runs 1 + ``--revolutions``
-crank revolutions; printed per N: the twin's step, the largest ``F_N`` per race after the
-first revolution (the steady window of the study, ``analysis.settle`` = 1) and its change
-against the finest N, the median over revolutions of each revolution's largest force, and the
-run's integration time; then, for the same N, the compliant zooms of the nonsmooth run
-(``analysis.zoom_top`` largest impacts, the same key sets their step): their ``F_max_zoom``
-against the finest N.
+e_N given below) the twin of :func:`simcore.study.plan.twin_config` (adaptive steps, at most
+the output step) runs 1 + ``--revolutions`` crank revolutions at each tolerance, and the same
+twin with fixed steps (:func:`simcore.study.plan.twin_step`: the Hertz contact time over N).
+Printed per run: the steps taken, the largest ``F_N`` per race after the first revolution (the
+study's steady window, ``analysis.settle`` = 1) and its change against the finest fixed N, the
+median over revolutions of each revolution's largest force, and the run's integration time.
+With ``--zooms``, the compliant zooms of the nonsmooth run (``analysis.zoom_top`` largest
+impacts) at each N: their ``F_max_zoom`` against the finest N.
 """
 
 from __future__ import annotations
@@ -49,47 +52,73 @@ def steady_peaks(ds, settle: float = 1.0):
     return out_max, out_med
 
 
+def twin_runs(cfg, tols, ns):
+    """{label: (steps, peak per race, median per race, integration time)} of the point's twin
+    with adaptive steps at each tolerance and fixed steps at each N."""
+    out = {}
+    twin = [r for r in plan.plan_runs(cfg) if r.model == "compliant"][0].config
+    out_dt = twin["solver"]["output_dt"]
+    for tol in tols:
+        twin["solver"].update(adaptive=True, adaptive_tol=tol, dt=out_dt)
+        ds = simcore.run(twin)
+        out[f"adaptive tol={tol:.0e} m"] = (int(ds.attrs["n_steps_accepted"]), *steady_peaks(ds),
+                                           ds.attrs["wall_time_s"])
+    for n in sorted(ns):
+        analysis = dict(twin["analysis"], zoom_steps_per_contact=n)
+        dt = plan.twin_step(twin["model"], analysis, out_dt)
+        twin["solver"].update(adaptive=False, dt=dt)
+        ds = simcore.run(twin)
+        steps = int(round(twin["solver"]["t_end"] / dt))
+        out[f"fixed N={n} (dt={dt:.3g} s)"] = (steps, *steady_peaks(ds), ds.attrs["wall_time_s"])
+    return out
+
+
+def zoom_forces(cfg, ns):
+    """{N: F_max_zoom of the zoomed rows} of the point's nonsmooth run."""
+    from analysis import extract_impacts
+    from analysis.zoom import add_zoom_forces
+
+    ns_run = [r for r in plan.plan_runs(cfg) if r.model == "nonsmooth"][0]
+    run = simcore.run(ns_run.config)
+    table = extract_impacts(run, zero_tol=cfg["analysis"]["zero_tol"])
+    zooms = {}
+    for n in sorted(ns):
+        zoomed = add_zoom_forces(run, table, zoom_top=cfg["analysis"]["zoom_top"],
+                                 steps_per_contact=n, adaptive=False)
+        f = np.asarray(zoomed["F_max_zoom"].values, dtype=float)
+        zooms[n] = f[np.isfinite(f)]
+    return zooms
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--n", type=int, nargs="+", default=[10, 20, 40, 80])
+    parser.add_argument("--tols", type=float, nargs="*", default=[1e-8, 1e-9, 1e-10])
+    parser.add_argument("--n", type=int, nargs="+", default=[20, 40, 80])
     parser.add_argument("--revolutions", type=float, default=2.0)
+    parser.add_argument("--zooms", action="store_true")
     args = parser.parse_args()
     for clearance, mu, omega0, e_N in POINTS:
         cfg = simcore.load_config("config/config.yaml", overrides=[
             f"study.revolutions={args.revolutions}", f"sweep.clearance=[{clearance}]",
             f"sweep.mu=[{mu}]", f"sweep.omega0=[{omega0}]", f"sweep.e_N=[{e_N}]"])
-        results = {}
-        for n in sorted(args.n):
-            cfg["analysis"]["zoom_steps_per_contact"] = n
-            twin = [r for r in plan.plan_runs(cfg) if r.model == "compliant"][0]
-            ds = simcore.run(twin.config)
-            results[n] = (twin.config["solver"]["dt"], *steady_peaks(ds), ds.attrs["wall_time_s"])
-        ns = [r for r in plan.plan_runs(cfg) if r.model == "nonsmooth"][0]
-        run = simcore.run(ns.config)
-        zooms = {}
-        for n in sorted(args.n):
-            from analysis import extract_impacts
-            from analysis.zoom import add_zoom_forces
-
-            table = extract_impacts(run, zero_tol=cfg["analysis"]["zero_tol"])
-            table = add_zoom_forces(run, table, zoom_top=cfg["analysis"]["zoom_top"],
-                                    steps_per_contact=n)
-            f = np.asarray(table["F_max_zoom"].values, dtype=float)
-            zooms[n] = f[np.isfinite(f)]
-        finest = results[max(results)]
+        results = twin_runs(cfg, args.tols, args.n)
+        finest = list(results.values())[-1]
         print(f"point clearance={clearance} m, mu={mu}, omega0={omega0} rad/s, e_N={e_N}, "
               f"E={cfg['model']['youngs_modulus']:.3g} Pa:")
-        for n, (dt, peak, median, wall) in results.items():
+        for label, (steps, peak, median, wall) in results.items():
             change = [p / f - 1.0 for p, f in zip(peak, finest[1], strict=True)]
-            print(f"  N={n:4d} dt={dt:.3e} s  peak inner/outer {peak[0]:9.1f} {peak[1]:9.1f} N "
-                  f"({100 * change[0]:+.2f} %, {100 * change[1]:+.2f} % vs N={max(results)}); "
-                  f"median per rev {median[0]:9.1f} {median[1]:9.1f} N; {wall:.1f} s", flush=True)
-        best = zooms[max(zooms)]
-        for n, f in zooms.items():
-            if f.size == best.size and f.size:
-                change = np.max(np.abs(f / best - 1.0))
-                print(f"  zooms N={n:4d}: F_max_zoom " + " ".join(f"{x:.0f}" for x in f)
-                      + f" N (largest change {100 * change:.2f} % vs N={max(zooms)})")
+            print(f"  {label:28s} {steps:9d} steps  peak inner/outer {peak[0]:8.1f} "
+                  f"{peak[1]:8.1f} N ({100 * change[0]:+.2f} %, {100 * change[1]:+.2f} % vs "
+                  f"N={max(args.n)}); median per rev {median[0]:8.1f} {median[1]:8.1f} N; "
+                  f"{wall:.1f} s", flush=True)
+        if args.zooms:
+            zooms = zoom_forces(cfg, args.n)
+            best = zooms[max(zooms)]
+            for n, f in zooms.items():
+                if f.size == best.size and f.size:
+                    change = np.max(np.abs(f / best - 1.0))
+                    print(f"  zooms N={n:4d}: F_max_zoom " + " ".join(f"{x:.0f}" for x in f)
+                          + f" N (largest change {100 * change:.2f} % vs N={max(zooms)})")
 
 
 if __name__ == "__main__":

@@ -55,7 +55,8 @@ def main(argv=None) -> int:
         rows = np.sort(rows[np.argsort(-force[rows], kind="stable")][: args.top])
         if not rows.size:
             continue
-        table = add_zoom_forces(run, imp.isel(impact=rows), zoom_top=rows.size, method_tol=tol)
+        table = add_zoom_forces(run, imp.isel(impact=rows), zoom_top=rows.size, method_tol=tol,
+                                adaptive=False)
         for i in range(rows.size):
             f, z = float(table["F_max"][i]), float(table["F_max_zoom"][i])
             ratio = f / z if np.isfinite(z) and z > 0 else np.nan

@@ -36,7 +36,8 @@ def table(run_ds, youngs_modulus: float, top: int, kind: str | None = None):
     # the table of the ``top`` largest by impulse, all of them zoomed
     imp = imp.isel(impact=np.sort(np.argsort(-imp["impulse"].values, kind="stable")[:top]))
     return add_zoom_forces(
-        ds, imp, zoom_top=top, overrides=[f"model.youngs_modulus={youngs_modulus}"])
+        ds, imp, zoom_top=top, overrides=[f"model.youngs_modulus={youngs_modulus}"],
+        adaptive=False)
 
 
 def main(argv=None) -> int:

@@ -53,7 +53,7 @@ def write_netcdf(ds, path, complevel=4, keep=None):
 
 def zoom(run_ds, time, window=2e-3, dt=1e-6, overrides=(), output_dt=None,
          until_released=True, progress=False, watch_contacts=None, watch_onset=None,
-         adaptive=False):
+         adaptive=True):
     """Compliant zoom on a run; see :func:`simcore.study.zoom.zoom`."""
     from .study.zoom import zoom as _zoom
 

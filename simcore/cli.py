@@ -29,7 +29,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="time of interest [s]; the zoom starts from the run's sample before it")
     z.add_argument("--window", type=float, default=2e-3, help="longest zoom duration [s]")
     z.add_argument("--dt", type=float, default=1e-6,
-                   help="step of the zoom [s] (its largest with --set solver.adaptive=true)")
+                   help="largest step of the zoom and its output interval [s] (adaptive steps; "
+                        "a fixed step with --set solver.adaptive=false)")
     z.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a setting of the zoom, e.g. --set model.youngs_modulus=2.1e11")
     z.add_argument("--out", required=True, help="output netCDF file")
@@ -57,7 +58,7 @@ def summary_lines(ds) -> list[str]:
         lines.append(f"  {stage:<10}                 {it[:, j].max():4d}  {it[:, j].mean():4.2f}"
                      f"   ({paper_max[stage]} / {paper_mean[stage]})")
     lines.append(f"unconverged steps: {int((ds['converged'].values[1:] == 0).sum())}"
-                 " (a step creating energy counts as unconverged)")
+                 " (a step creating energy or breaking an integrity check counts as unconverged)")
     if "n_retried_steps" in ds.attrs and ds.attrs.get("contact_model") != "compliant":
         lines.append(f"retried steps (taken again as substeps): {ds.attrs['n_retried_steps']}")
     if "energy_max_gain_J" in ds.attrs:
@@ -69,6 +70,7 @@ def summary_lines(ds) -> list[str]:
                  f"contact {int(ds.contact[k[1]])} (ball {int(ds.ball[k[1]])}, "
                  f"{ds.race.values[k[1]]} race)")
     lines.append(f"min gap_N: {float(ds['gap_N'].min()):.3g} m")
+    lines.append(bearing_line(ds))
     if "F_N" in ds:
         F = ds["F_N"]
         k = np.unravel_index(int(np.argmax(F.values)), F.shape)
@@ -76,6 +78,20 @@ def summary_lines(ds) -> list[str]:
                      f"contact {int(ds.contact[k[1]])} (ball {int(ds.ball[k[1]])}, "
                      f"{ds.race.values[k[1]]} race)")
     return lines
+
+
+def bearing_line(ds) -> str:
+    """The bearing of a run, its guard contacts and its integrity checks, in one line."""
+    a = ds.attrs
+    clearance_class = a.get("model.clearance_class")
+    line = (f"bearing: {a.get('model.bearing', '?')}, clearance {a['model.clearance']:.4g} m"
+            + (f" (class {clearance_class})" if clearance_class else ""))
+    if "guard" in ds.coords:
+        line += (f"; guard contacts closed on {a['guard_ball_ball_closed_samples']} samples "
+                 f"(ball against ball), {a['guard_rings_closed_samples']} (the rings' lands)")
+    else:
+        line += "; no guard contacts (model.guard_contacts = false)"
+    return line + f"; integrity checks: {a.get('integrity_violations', 'none')}"
 
 
 def _zoom_main(args) -> int:
@@ -92,7 +108,8 @@ def _zoom_main(args) -> int:
         with xr.open_dataset(args.run) as run_ds:
             run_ds = run_ds.load()
     except (OSError, ValueError) as exc:
-        print(f"error: RUN: cannot read {args.run}: {exc}", file=sys.stderr)
+        print(f"error: RUN: cannot read {args.run}: {str(exc).splitlines()[0]}",
+              file=sys.stderr)
         return 2
     from .io import write_netcdf
     from .study.zoom import start_index, zoom, zoom_config
@@ -102,7 +119,9 @@ def _zoom_main(args) -> int:
         start_index(run_ds, args.time)
     except ConfigError as exc:
         msg = str(exc)
-        if msg.startswith("time:"):
+        if msg.startswith("run:"):
+            msg = f"RUN: {args.run}:" + msg[len("run:"):]
+        elif msg.startswith("time:"):
             msg = "--time:" + msg[len("time:"):]
         elif msg.startswith("solver.t_end:"):
             msg = "--window:" + msg[len("solver.t_end:"):]
@@ -136,33 +155,116 @@ def _zoom_main(args) -> int:
     return 0
 
 
-def check_out(out: str) -> str | None:
-    """Why ``--out`` cannot be written (one line), or None: checked before the simulation."""
-    import os
-    from pathlib import Path
+#: characters the atomic writer adds to a file name for its temporary file (``.NAME.`` +
+#: eight random characters + ``.tmp``) and the check below for its probe (``.probe``)
+TEMP_NAME_EXTRA = 16
 
-    path = Path(out)
-    if path.is_dir():
-        return f"--out: {out} is a directory; allowed: a file name ending in .nc"
-    if path.suffix != ".nc":
-        return f"--out: {out} is not allowed; allowed: a file name ending in .nc"
-    if path.exists() and not path.is_file():
-        return f"--out: {out} exists and is not a regular file"
-    folder = path.resolve().parent
-    if not folder.is_dir():
-        return f"--out: folder {folder} does not exist"
-    if not os.access(folder, os.W_OK | os.X_OK):
-        return f"--out: folder {folder} is not writable"
-    # root passes os.access everywhere: try what the writer will do, create a file there
-    import tempfile
+
+def _name_max(folder) -> int:
+    """Longest file name [bytes] in ``folder`` (its file system's NAME_MAX; 255 when unknown)."""
+    import os
 
     try:
-        fd, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=folder)
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (OSError, ValueError, AttributeError):
+        return 255
+
+
+def _writable_folder(folder, option: str) -> str | None:
+    """Why no file can be created in the existing ``folder`` (one line), or None."""
+    import os
+    import tempfile
+
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return f"{option}: folder {folder} is not writable"
+    # root passes os.access everywhere: try what the writer will do, create a file there
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".", suffix=".probe", dir=folder)
     except OSError as exc:
-        return f"--out: folder {folder} is not writable ({exc.strerror})"
+        return f"{option}: folder {folder} is not writable ({exc.strerror})"
     os.close(fd)
     os.unlink(probe)
     return None
+
+
+def _name_problem(path, option: str, extra: int) -> str | None:
+    """Why the names of ``path`` are too long for its file system (one line), or None."""
+    import os
+
+    try:
+        name_max = _name_max(path.parent if path.parent.is_dir() else ".")
+    except OSError:  # the folder's own name is too long to look at
+        name_max = _name_max(".")
+    for i, part in enumerate(path.parts):
+        size = len(os.fsencode(part))
+        limit = name_max - (extra if i == len(path.parts) - 1 else 0)
+        if size > limit:
+            return (f"{option}: a name of {size} bytes ({part[:24]}...) is not allowed; "
+                    f"allowed: at most {limit} bytes (the file system's limit"
+                    + (f", less {extra} for the temporary file written first)"
+                       if limit < name_max else ")"))
+    if len(os.fsencode(str(path.resolve()))) > 4000:
+        return f"{option}: a path of more than 4000 bytes is not allowed"
+    return None
+
+
+def check_out(out: str, option: str = "--out", suffix: str = ".nc") -> str | None:
+    """Why ``out`` cannot be written as a result file (one line), or None: checked before any
+    work, the same rules for every command (``python -m simcore run|zoom``, ``python -m
+    analysis``): a name ending in ``suffix``, not a directory, short enough for the file
+    system with the temporary name of the atomic writer, in an existing writable folder.
+
+    Parameters
+    ----------
+    out : str
+        The path given.
+    option : str
+        The option's name in the message.
+    suffix : str
+        Required file name ending.
+    """
+    from pathlib import Path
+
+    path = Path(out)
+    problem = _name_problem(path, option, TEMP_NAME_EXTRA)
+    if problem:
+        return problem
+    try:
+        if path.is_dir():
+            return f"{option}: {out} is a directory; allowed: a file name ending in {suffix}"
+        if path.suffix != suffix:
+            return f"{option}: {out} is not allowed; allowed: a file name ending in {suffix}"
+        if path.exists() and not path.is_file():
+            return f"{option}: {out} exists and is not a regular file"
+        folder = path.resolve().parent
+        if not folder.is_dir():
+            return f"{option}: folder {folder} does not exist"
+    except OSError as exc:
+        return f"{option}: {out} cannot be used ({exc.strerror})"
+    return _writable_folder(folder, option)
+
+
+def check_outdir(outdir: str, option: str = "--outdir") -> str | None:
+    """Why files cannot be written into the folder ``outdir`` (one line), or None: it is a
+    writable directory, or it does not exist and its nearest existing parent is one (the
+    command creates it); names short enough for the file system."""
+    from pathlib import Path
+
+    path = Path(outdir)
+    problem = _name_problem(path, option, 0)
+    if problem:
+        return problem
+    try:
+        if path.exists() and not path.is_dir():
+            return f"{option}: {outdir} exists and is not a directory; allowed: a folder"
+        existing = path.resolve()
+        while not existing.exists():
+            existing = existing.parent
+        if not existing.is_dir():
+            return f"{option}: {existing} is not a directory"
+    except OSError as exc:
+        return f"{option}: {outdir} cannot be used ({exc.strerror})"
+    return _writable_folder(existing, option)
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):

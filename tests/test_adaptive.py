@@ -306,10 +306,11 @@ def test_adaptive_zoom_matches_the_fixed_zoom():
     run = simcore.run(load_config(overrides=["solver.t_end=0.004"]))
     lam = run["Lambda_N"].values
     t = float(run.time[np.unravel_index(int(np.argmax(lam)), lam.shape)[0]])
-    fixed = simcore.zoom(run, t, window=5e-4, dt=1e-6, until_released=False)
-    adaptive = simcore.zoom(run, t, window=5e-4, dt=1e-5, output_dt=1e-5, adaptive=True,
-                            until_released=False)
+    fixed = simcore.zoom(run, t, window=5e-4, dt=1e-6, until_released=False, adaptive=False)
+    adaptive = simcore.zoom(run, t, window=5e-4, dt=1e-5, output_dt=1e-5,
+                            until_released=False)  # (adaptive: the default)
     assert adaptive.attrs["solver.adaptive"] in (1, True)
+    assert fixed.attrs["solver.adaptive"] in (0, False)
     ref = float(fixed["F_N"].max())
     assert ref > 100.0
     assert float(adaptive["F_N"].max()) == pytest.approx(ref, rel=1e-2)

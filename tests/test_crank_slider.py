@@ -42,14 +42,22 @@ def test_initial_state_matches_ideal_kinematics(paper_short):
     assert float(v0.sel(body="rod", dof="phi")) == pytest.approx(-w0 * L1 / L2)
     assert float(v0.sel(body="slider", dof="x")) == 0.0
     # no slip at either race at t = 0, as the element measures it
-    model, _ = crank_slider(simcore.load_config()["model"])
+    model, layout = crank_slider(simcore.load_config()["model"])
     arr = model.arrays()
     q0, vel0 = model.initial_state()
     nc = arr.ct_type.size
     gap, vn, vt = np.zeros(nc), np.zeros(nc), np.zeros(nc)
     nb.contact_velocities(q0, vel0, arr, gap, vn, vt)
-    np.testing.assert_allclose(vt, 0.0, atol=1e-12)
-    np.testing.assert_allclose(gap, 0.0002, rtol=1e-9)  # centred: half the clearance each side
+    race = slice(0, layout.n_race_contacts)
+    np.testing.assert_allclose(vt[race], 0.0, atol=1e-12)
+    np.testing.assert_allclose(gap[race], 0.0002, rtol=1e-9)  # centred: half the clearance
+    # the guard contacts: neighbours a chord apart, the rings' lands a land gap apart
+    rB, rA, g = 0.0055, 0.033745, 4e-4
+    chord = 2 * (rA + rB + g / 2) * np.sin(np.pi / 8)
+    assert layout.guards == tuple(f"ball{k}-ball{(k + 1) % 8}" for k in range(8)) + ("rings",)
+    np.testing.assert_allclose(gap[16:24], chord - 2 * rB, rtol=1e-12)
+    land = g + 2 * rB * (1 - 2 * 0.2)  # two shoulders of 0.2 ball diameters
+    assert gap[24] == pytest.approx(land, rel=1e-12) == layout.land_gap
     assert float(ds["journal_x"][0]) == pytest.approx(0.0, abs=1e-15)
     assert float(ds["journal_y"][0]) == pytest.approx(0.0, abs=1e-15)
 

@@ -367,7 +367,7 @@ def test_cli(run, tmp_path, capsys):
     bad = tmp_path / "bad.nc"
     assert main(["impacts", str(rpath), "--out", str(bad), "--groove-conformity", "0.3"]) == 2
     assert not bad.exists()
-    assert "groove_conformity" in capsys.readouterr().err
+    assert "--groove-conformity" in capsys.readouterr().err  # checked before any work
 
 
 def test_zero_restitution_run_keeps_its_impacts_without_forces():

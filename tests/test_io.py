@@ -16,7 +16,7 @@ from simcore.model import SolverSettings
 from simcore.model.mechanism import crank_slider
 
 ROOT = Path(__file__).resolve().parents[1]
-LABELS = ("race", "body", "axis", "stage")
+LABELS = ("race", "body", "axis", "stage", "guard")
 
 
 def _cfg(**model):
@@ -139,13 +139,15 @@ def test_keep_setting_drops_and_keeps_variables(short_paper_case, tmp_path):
     assert tuple(cfg["study"]["keep"]) == DEFAULT_KEEP
     assert set(ds.data_vars) <= set(RUN_VARIABLES)
     for keep, expected in ((["Lambda_N", "converged"], {"Lambda_N", "converged"}),
-                           (cfg["study"]["keep"], set(DEFAULT_KEEP) - {"F_N"}),  # nonsmooth
+                           (cfg["study"]["keep"], set(DEFAULT_KEEP) - {"F_N", "guard_F_N"}),
+                           # (nonsmooth: no forces)
                            (None, set(ds.data_vars))):
         path = write_netcdf(ds, tmp_path / "k.nc", keep=keep)
         with xr.open_dataset(path) as back:
             assert set(back.data_vars) == expected
             assert set(back.coords) == set(ds.coords)
-    assert set(ds.data_vars) > set(DEFAULT_KEEP) - {"F_N"}  # the dataset in memory keeps all
+    # the dataset in memory keeps all
+    assert set(ds.data_vars) > set(DEFAULT_KEEP) - {"F_N", "guard_F_N"}
 
 
 def test_stored_types_are_those_of_the_storage_table(short_paper_case, tmp_path):

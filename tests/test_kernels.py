@@ -12,6 +12,7 @@ from simcore.kernels.contact import (
     contact_rows_cached,
     contact_velocities_into,
 )
+from simcore.kernels.hertz import FN_ROW, FT_ROW, VT_ROW, contact_records
 from simcore.kernels.joints import bilateral_cached
 from simcore.kernels.springs import smooth_forces_into, spring_damping_into
 from simcore.model import SolverSettings
@@ -75,15 +76,18 @@ def test_contact_rows_match_finite_differences(bearing):
     wN, wT = np.zeros(6), np.zeros(6)
     eps = 1e-8
     for k in range(arr.ct_type.size):
-        g = nb.contact_rows(q, k, arr.ct_type, arr.ct_body, arr.ct_geom, wN, wT)
+        nb.contact_rows(q, k, arr.ct_type, arr.ct_body, arr.ct_geom, wN, wT)
         row = np.zeros(q.size)
         nb.scatter_row(row, wN, arr.ct_body[k, 0], arr.ct_body[k, 1])
         fd = np.zeros(q.size)
-        for i in range(q.size):
-            dq = q.copy()
-            dq[i] += eps
-            fd[i] = (nb.contact_rows(dq, k, arr.ct_type, arr.ct_body, arr.ct_geom,
-                                     np.zeros(6), np.zeros(6)) - g) / eps
+        for i in range(q.size):  # central: the rings' guard has centres 1e-4 m apart
+            gaps = []
+            for step in (eps, -eps):
+                dq = q.copy()
+                dq[i] += step
+                gaps.append(nb.contact_rows(dq, k, arr.ct_type, arr.ct_body, arr.ct_geom,
+                                            np.zeros(6), np.zeros(6)))
+            fd[i] = (gaps[0] - gaps[1]) / (2 * eps)
         np.testing.assert_allclose(fd, row, atol=1e-6)
         assert nb.row_dot(wN, arr.ct_body[k, 0], arr.ct_body[k, 1], v) == pytest.approx(
             row @ v)
@@ -277,10 +281,9 @@ def _pressed_bearing(mu):
 def _forces(arr, q, v, v_pre, v_reg, tangent=False):
     n, nc = q.size, arr.ct_type.size
     f, K, C = np.zeros(n), np.zeros((n, n)), np.zeros((n, n))
-    FN, FT, gap, vn, vt = (np.zeros(nc) for _ in range(5))
-    nb.contact_forces(q, v, arr, v_pre, v_reg, f, K, C, tangent, FN, FT, gap, vn, vt,
-                      np.zeros((6, nc)))
-    return f, K, C, FN, FT, vt
+    rec = contact_records(nc)
+    nb.contact_forces(q, v, arr, v_pre, v_reg, f, K, C, tangent, rec)
+    return f, K, C, rec[FN_ROW], rec[FT_ROW], rec[VT_ROW]
 
 
 def test_hertz_normal_force_and_its_derivatives():
@@ -334,8 +337,9 @@ def test_compliant_tangents_match_finite_differences():
 
 def test_contact_elastic_energy_is_the_potential_of_the_undamped_force():
     model, arr, q, v = _pressed_bearing(mu=0.0)
-    arr = arr._replace(ct_hertz=np.column_stack([arr.ct_hertz[:, 0], np.zeros(16)]))
-    v_pre = np.full(16, 0.3)
+    nc = arr.ct_type.size
+    arr = arr._replace(ct_hertz=np.column_stack([arr.ct_hertz[:, 0], np.zeros(nc)]))
+    v_pre = np.full(nc, 0.3)
     f = _forces(arr, q, v, v_pre, 1e-4)[0]
     f_gravity = np.zeros(q.size)
     nb.smooth_forces(q, v, arr._replace(sp_body=np.zeros((0, 2), np.int64),
@@ -443,6 +447,7 @@ def _loaded_compliant_step():
     v_t, K_t-free outputs...), as a dict."""
     import simcore
     from simcore.io import generalized
+    from simcore.kernels.bundles import StepSettings
     from simcore.kernels.compliant_step import compliant_smooth_step
     from simcore.kernels.generalized_alpha import alpha_coefficients
     from simcore.model.mechanism import crank_slider
@@ -466,14 +471,14 @@ def _loaded_compliant_step():
         lam = st.lam_s.copy()
         q, v, acc, vdot, v_pre = (st.q.copy(), st.v.copy(), st.acc.copy(), st.vdot.copy(),
                                   cs.v_pre.copy())
-        q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, _, _ = w.step
-        its, ok = compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, arr,
-                                        q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, w.smooth,
-                                        v_pre, v_reg, w.contacts, w.hertz, w.branches, 1.0,
-                                        1e-3)
+        state = st._replace(q=q, v=v, acc=acc, vdot=vdot, lam_s=lam)
+        settings = StepSettings(h=h, rho_inf=0.0, tol=tol, max_iter=max_iter, eta=1.0,
+                                drive_row=-1, t0=0.0015, v_reg=v_reg, v_pre_min=1e-3)
+        q_t, v_t, acc1, vdot1 = w.step.q_t, w.step.v_t, w.step.acc1, w.step.vdot1
+        its, ok = compliant_smooth_step(state, acc, t1, h, 1.0, coef, settings, arr, v_pre, w)
         return dict(its=its, ok=ok, q=q, v=v, acc=acc, vdot=vdot, v_pre=v_pre, lam=lam,
                     q_t=q_t.copy(), v_t=v_t.copy(), acc1=acc1.copy(), vdot1=vdot1.copy(),
-                    FN=w.contacts[0].copy())
+                    FN=w.contacts[FN_ROW].copy())
 
     return step, arr, h, coef, v_reg, t1, (st.q.size, st.lam_s.size, cs.gap.size)
 
@@ -497,9 +502,9 @@ def _stage_residuals(r, arr, h, coef, v_reg, t1, n, m, nc):
     f = np.zeros(n)
     M = np.zeros((n, n))
     smooth_forces(q_t, v_t, arr, f, M, M, M, False)
-    FN, FT, gap, vn, vt = (np.zeros(nc) for _ in range(5))
-    contact_forces(q_t, v_t, arr, r["v_pre"], v_reg, f, M, M, False, FN, FT, gap, vn, vt,
-                   np.zeros((6, nc)))
+    rec = contact_records(nc)
+    contact_forces(q_t, v_t, arr, r["v_pre"], v_reg, f, M, M, False, rec)
+    FN = rec[FN_ROW]
     assert (FN > 0.0).sum() >= 2
     np.testing.assert_allclose(r["FN"], FN, rtol=1e-12, atol=1e-9 * FN.max())
     gj, G, gm, dgdt = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)

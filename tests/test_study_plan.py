@@ -291,5 +291,33 @@ def test_the_twin_takes_error_controlled_steps_at_most_the_output_step():
     assert twin["solver"]["dt"] == twin["solver"]["output_dt"] == run["solver"]["dt"]
     fixed = plan.twin_step(twin["model"], twin["analysis"], run["solver"]["dt"])
     steps = run["solver"]["t_end"] / fixed
+    cost = plan.COST
     assert plan.estimate_seconds(twin) == pytest.approx(
-        plan.work_seconds("compliant", steps), rel=1e-12)
+        cost.per_run + cost.adaptive_share * steps * cost.compliant_step, rel=1e-12)
+    # the point's estimate before its runs are planned is the sum of its runs' estimates
+    point = plan.plan_runs(_study())[0].point
+    assert plan.point_seconds(_study(), point, ["nonsmooth", "compliant"]) == pytest.approx(
+        plan.estimate_seconds(run) + plan.estimate_seconds(twin), rel=1e-12)
+
+
+def test_a_swept_clearance_class_replaces_the_clearance_axis_even_beside_a_clearance_list():
+    """The default study's clearance list (merged under a smaller file) is not an axis beside a
+    swept class; each run's clearance is its class's (half the ISO 5753-1 middle for the bore)."""
+    from simcore.model.bearing import resolve_model
+
+    cfg = _study("model.bearing=6012", sweep={"model.clearance_class": ["CN", "C3", "C4"]})
+    assert len(cfg["sweep"]["clearance"]) > 1  # the default study's list is still there
+    axes = plan.study_axes(cfg)
+    assert "model.clearance" not in axes and axes["model.clearance_class"] == ["CN", "C3", "C4"]
+    runs = [run for run in plan.plan_runs(cfg) if run.model == "nonsmooth"]
+    assert len(runs) == 3 * math.prod(len(v) for k, v in axes.items()
+                                      if k != "model.clearance_class")
+    by_class = {}
+    for run in runs:
+        model = run.config["model"]
+        by_class.setdefault(model["clearance_class"], set()).add(model["clearance"])
+    for name, clearances in by_class.items():
+        alone = dict(cfg["model"], clearance_class=name)
+        assert clearances == {resolve_model(alone, alone.keys())["clearance"]}
+    (cn,), (c3,), (c4,) = by_class["CN"], by_class["C3"], by_class["C4"]
+    assert cn < c3 < c4

@@ -1,6 +1,8 @@
 """Compliant zoom on a nonsmooth run: restart from the run's state, force histories, the CLI
 verb, and the impact table's F_max_zoom."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -182,6 +184,39 @@ def test_a_zoom_that_contradicts_the_paper_flags_the_impact_and_an_isolated_one_
     assert not np.any(loose["flags"].values & bit)
 
 
+def test_adaptive_zoom_of_an_impact_matches_the_fine_fixed_zoom(steel_run):
+    """The study's adaptive zoom (largest step and output interval t_Hertz / 5) of an isolated
+    single-ball impact and of a pinch gives F_max_zoom within 1 % of a fixed zoom at t_Hertz /
+    160, and records what it did: the largest step allowed (dt_zoom, 32 times the fine step), a
+    smaller step taken where the contact needed it, its steps and the setting."""
+    from analysis import KIND
+    from analysis.zoom import ADAPTIVE_STEPS_PER_CONTACT
+
+    imp = analysis.extract_impacts(steel_run)
+    kind, F = imp["kind"].values, imp["F_max"].values
+    m_ball = float(steel_run.attrs["model.ball_mass"])
+    isolated = np.flatnonzero((kind == KIND["simple"]) & np.isfinite(F)
+                              & (imp["m_eff"].values < 2 * m_ball))
+    pinch = np.flatnonzero((kind == KIND["pinch"]) & np.isfinite(F))
+    chosen = imp.isel(impact=[int(isolated[np.argmax(F[isolated])]),
+                              int(pinch[np.argmax(F[pinch])])])
+    adaptive = add_zoom_forces(steel_run, chosen, zoom_top=2, adaptive=True)
+    fine = add_zoom_forces(steel_run, chosen, zoom_top=2, steps_per_contact=160,
+                           adaptive=False)
+    F_adaptive, F_fine = adaptive["F_max_zoom"].values, fine["F_max_zoom"].values
+    assert np.all(np.isfinite(F_adaptive)) and np.all(F_fine > 0.0)
+    np.testing.assert_allclose(F_adaptive, F_fine, rtol=0.01)
+    np.testing.assert_allclose(adaptive["dt_zoom"].values, fine["dt_zoom"].values * 160
+                               / ADAPTIVE_STEPS_PER_CONTACT, rtol=1e-12)
+    assert np.all(adaptive["dt_zoom_smallest"].values < adaptive["dt_zoom"].values)
+    np.testing.assert_array_equal(fine["dt_zoom_smallest"].values, fine["dt_zoom"].values)
+    assert adaptive.attrs["zoom_adaptive"] == 1 and fine.attrs["zoom_adaptive"] == 0
+    assert adaptive.attrs["zoom_steps_per_contact"] == ADAPTIVE_STEPS_PER_CONTACT
+    assert 0 < adaptive.attrs["n_zoom_steps"] < fine.attrs["n_zoom_steps"]
+    assert adaptive["dt_zoom"].attrs["long_name"].startswith("largest step allowed")
+    assert int(adaptive["zoom_flagged"].max()) == 0
+
+
 def test_simulation_stops_once_the_contacts_have_opened_again():
     """ReleaseStop: a ball thrown at a plane (no gravity) stops the run soon after it
     leaves the plane, long before the requested end."""
@@ -234,11 +269,11 @@ def test_zoom_step_follows_the_hertz_contact_time(run_ds):
 
 
 def test_impact_table_records_the_zoom_step(run_ds):
-    from analysis.zoom import STEPS_PER_CONTACT
+    from analysis.zoom import ADAPTIVE_STEPS_PER_CONTACT, STEPS_PER_CONTACT
     from simcore.config.limits import hertz_contact_time
 
     imp = analysis.extract_impacts(run_ds)
-    table = add_zoom_forces(run_ds, imp, zoom_top=1)
+    table = add_zoom_forces(run_ds, imp, zoom_top=1, adaptive=False)
     zoomed = np.isfinite(table["F_max_zoom"].values)
     t_hertz = hertz_contact_time(simcore.validate_config(
         {"model": {k.split(".", 1)[1]: v for k, v in run_ds.attrs.items()
@@ -247,6 +282,12 @@ def test_impact_table_records_the_zoom_step(run_ds):
     np.testing.assert_allclose(table["dt_zoom"].values[zoomed], t_hertz / STEPS_PER_CONTACT)
     assert np.all(np.isnan(table["dt_zoom"].values[~zoomed]))
     assert table.attrs["zoom_steps_per_contact"] == STEPS_PER_CONTACT
+    assert table.attrs["zoom_adaptive"] == 0
+    # adaptive (the default): the largest step allowed, a fifth of the contact time
+    adaptive = add_zoom_forces(run_ds, imp, zoom_top=1)
+    assert adaptive.attrs["zoom_adaptive"] == 1
+    np.testing.assert_allclose(adaptive["dt_zoom"].values[zoomed],
+                               t_hertz / ADAPTIVE_STEPS_PER_CONTACT)
 
 
 def _ball_episode_peak(F_ball, F_contact):
@@ -290,12 +331,16 @@ def test_episode_peak_takes_the_impact_of_the_ball_only():
     np.testing.assert_array_equal(_struck(held), held)
 
 
-def test_zoom_stops_when_the_balls_are_free_and_reports_the_full_window_numbers(run_ds,
-                                                                                monkeypatch):
+@pytest.mark.parametrize("adaptive", [False, True])
+def test_zoom_stops_when_the_balls_are_free_and_reports_the_full_window_numbers(
+        run_ds, monkeypatch, adaptive):
     """The early stop on the impacts' balls: each number of the table equals the one read
     from a zoom over the whole window (until_released=False), by the independent walk above,
-    and the stopped zooms are shorter."""
-    from analysis.zoom import _first_episode
+    and the stopped zooms are shorter. An adaptive zoom's samples are read at the output
+    instants (its force masked where the contact is open there, its contact time from the
+    indentation), as the table reads them."""
+    import simcore.study.zoom
+    from analysis.zoom import _at_sample_instants, _first_episode
 
     imp = analysis.extract_impacts(run_ds)
     calls = []
@@ -307,26 +352,33 @@ def test_zoom_stops_when_the_balls_are_free_and_reports_the_full_window_numbers(
         return out
 
     monkeypatch.setattr(simcore.study.zoom, "zoom_trajectory", recording)
-    table = add_zoom_forces(run_ds, imp, zoom_top=3)
+    table = add_zoom_forces(run_ds, imp, zoom_top=3, adaptive=adaptive)
     monkeypatch.undo()
     stopped = 0
     for time, kw, n_rows in calls:
-        full = simcore.zoom(run_ds, time, window=kw["window"], dt=kw["dt"],
-                            until_released=False)
-        stopped += n_rows < full.sizes["time"]
-        F = full["F_N"].values
+        with warnings.catch_warnings():  # (the zooms of the table flag what they find)
+            warnings.simplefilter("ignore", RuntimeWarning)
+            traj, model, _, zcfg = simcore.study.zoom.zoom_trajectory(
+                run_ds, time, window=kw["window"], dt=kw["dt"], until_released=False,
+                overrides=kw["overrides"], adaptive=adaptive)
+        stopped += n_rows < traj.time.size
+        F, pulses = traj.F_N, traj.F_N
+        if adaptive:
+            F, indentation = _at_sample_instants(traj, model, zcfg)
+            pulses = indentation ** 1.5
         for row in np.flatnonzero(np.isclose(table["time"].values, time, rtol=0, atol=0)):
             if not np.isfinite(table["dt_zoom"].values[row]):
                 continue
             contact = int(table["contact"].values[row])
-            ball = full["ball"].values == int(table["ball"].values[row])
+            ball = run_ds["ball"].values == int(table["ball"].values[row])
+            ball = np.concatenate([ball, np.zeros(F.shape[1] - ball.size, dtype=bool)])
             expected = _ball_episode_peak(F[:, ball].max(axis=1), F[:, contact])
             got = float(table["F_max_zoom"].values[row])
             assert got == expected or (np.isnan(got) and np.isnan(expected))
-            Fc = F[:, contact].copy()
+            Fc = pulses[:, contact].copy()
             if Fc[0] > 0.0 and Fc[1] == 0.0:
                 Fc[0] = 0.0
-            t_full = _first_episode(Fc, float(full.attrs["solver.output_dt"]))
+            t_full = _first_episode(Fc, kw["dt"])
             got = float(table["contact_time_zoom"].values[row])
             assert got == t_full or (np.isnan(got) and np.isnan(t_full))
     assert stopped >= 1

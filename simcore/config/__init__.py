@@ -25,6 +25,12 @@ MAX_DEPTH = 8                # nesting of mappings and lists (the schema needs 3
 MAX_SCALAR_CHARS = 1000      # length of one value (a number, a name, a path)
 MAX_ITEMS = 10_000           # entries of one mapping or list
 
+# Magnitudes of the model's numbers (SI units): a nonzero value outside these bounds is refused
+# in one line, before products such as m L^2, k / m or E sqrt(R) can overflow or underflow in
+# the model's construction (a ball of 1e-300 kg, a rod of 1e308 m).
+MIN_MAGNITUDE = 1e-30
+MAX_MAGNITUDE = 1e30
+
 
 class ConfigError(ValueError):
     """A configuration value is missing, unknown or out of range; the message names the key."""
@@ -213,7 +219,9 @@ def _format_error(error, root: Mapping[str, Any]) -> str:
     path = ".".join(str(p) for p in error.absolute_path) or "<config>"
     if error.validator == "additionalProperties":
         allowed = sorted(error.schema.get("properties", {}))
-        extra = sorted(set(error.instance) - set(allowed))
+        # keys of any type (a YAML mapping may have numbers as keys): compared as given,
+        # sorted by their text
+        extra = sorted((k for k in error.instance if k not in allowed), key=str)
         where = path + "." if path != "<config>" else ""
         if path == "sweep":
             return (f"sweep.{extra[0]}: unknown key; allowed: a numeric, boolean or enumerated "
@@ -250,14 +258,72 @@ def validate_config(config: Mapping[str, Any]) -> dict:
     if not isinstance(config, Mapping):
         raise ConfigError("<config>: the configuration must be a mapping of sections")
     cfg = copy.deepcopy(dict(config))
+    given = cfg.get("model")
+    explicit = set(given) if isinstance(given, Mapping) else set()  # (before the defaults)
     _fill_defaults(cfg, schema)
+    _coerce_scalars(cfg, schema)
     _check_finite(cfg, "")
     validator = jsonschema.Draft7Validator(schema)
     errors = sorted(validator.iter_errors(cfg), key=lambda e: (len(e.absolute_path), str(e.path)))
     if errors:
         raise ConfigError(_format_error(errors[0], schema))
+    _resolve_bearing(cfg, explicit)
+    _check_magnitudes(cfg)
     _check_consistency(cfg)
     return cfg
+
+
+def _resolve_bearing(cfg: dict, explicit: set) -> None:
+    """The catalogue entry ``model.bearing`` and ``model.clearance_class`` applied to the
+    ``model`` section (:func:`simcore.model.bearing.resolve_model`); ``explicit``: the model
+    keys the configuration gave."""
+    from ..model.bearing import resolve_model
+
+    try:
+        cfg["model"] = resolve_model(cfg["model"], explicit)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+
+
+def _coerce_scalars(cfg: dict, schema: Mapping[str, Any]) -> None:
+    """0 and 1 as false and true for the boolean keys of the sections (a run file's netCDF
+    attributes store the booleans of its configuration as integers), and a whole number as
+    its text for the keys that take a name only (YAML reads the catalogue name 6012 as a
+    number)."""
+    for section, node in schema.get("properties", {}).items():
+        values = cfg.get(section)
+        if not isinstance(values, dict):
+            continue
+        for key, sub in node.get("properties", {}).items():
+            value = values.get(key)
+            if isinstance(value, bool) or not isinstance(value, int):
+                continue
+            if sub.get("type") == "boolean" and value in (0, 1):
+                values[key] = bool(value)
+            elif sub.get("type") == "string" and "enum" not in sub:
+                values[key] = str(value)
+
+
+def _check_magnitudes(cfg: Mapping[str, Any]) -> None:
+    """Refuse a nonzero number of a model key without an upper bound in the schema (masses,
+    inertias, lengths, radii, stiffnesses, the modulus), or of a sweep over such a key, whose
+    magnitude is outside [MIN_MAGNITUDE, MAX_MAGNITUDE]."""
+    unbounded = {key for key, node in load_schema()["properties"]["model"]["properties"].items()
+                 if node.get("type") == "number" and "maximum" not in node
+                 and "exclusiveMaximum" not in node}
+    items = [(f"model.{key}", cfg["model"][key]) for key in sorted(unbounded)
+             if key in cfg["model"]]
+    for key, values in cfg.get("sweep", {}).items():
+        if key.removeprefix("model.") in unbounded and isinstance(values, list):
+            items += [(f"sweep.{key}", value) for value in values]
+    for key, value in items:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or value == 0:
+            continue
+        if not MIN_MAGNITUDE <= abs(value) <= MAX_MAGNITUDE:
+            raise ConfigError(f"{key}: {value!r} is not allowed; allowed: a magnitude between "
+                              f"{MIN_MAGNITUDE:g} and {MAX_MAGNITUDE:g} in SI units (beyond, "
+                              "the model's products such as m L^2 or k / m overflow), or 0 "
+                              "where the key's range has it")
 
 
 def _check_finite(node: Any, path: str) -> None:
@@ -325,16 +391,16 @@ def _check_consistency(cfg: Mapping[str, Any]) -> None:
                               "the compliant model (chi = 8 (1 - e) / (5 e) is infinite); "
                               "allowed: (0, 1], or damping_law hunt_crossley or "
                               "lankarani_nikravesh")
+    from ..model.bearing import BearingGeometry
+
     clearances = _swept(cfg, "clearance") + [model["clearance"]]
     for g in clearances:
-        pitch = model["inner_radius"] + model["ball_radius"] + 0.5 * g
-        chord = 2.0 * pitch * math.sin(math.pi / model["n_balls"])
-        if chord <= 2.0 * model["ball_radius"]:
-            n_max = int(math.pi / math.asin(min(1.0, model["ball_radius"] / pitch)))
+        geometry = BearingGeometry.from_model({**model, "clearance": g})
+        if not geometry.balls_fit():
             raise ConfigError(
                 f"model.n_balls: {model['n_balls']!r} is not allowed; allowed: balls must fit "
-                f"on the pitch circle, at most {n_max} for ball_radius={model['ball_radius']} "
-                f"and inner_radius={model['inner_radius']}")
+                f"on the pitch circle, at most {geometry.max_balls()} for ball_radius="
+                f"{model['ball_radius']} and inner_radius={model['inner_radius']}")
 
 
 def output_every(cfg: Mapping[str, Any]) -> int:

@@ -53,6 +53,15 @@ from . import ConfigError
 #: largest omega * dt of an oscillating spring/mass mode (see the module docstring)
 OMEGA_DT_MAX = 2.0
 
+#: shortest step [s] a cage must be resolvable with: a cage mode that needs less is refused
+#: naming the cage's keys (a run of 0.3 s at 1e-9 s would be 3e8 steps, beyond any memory)
+MIN_RESOLVABLE_DT = 1e-9
+
+#: largest c h / m of a cage damper on a ball: the step's Newton matrix holds M / h + c, and
+#: the masses vanish from it in double precision near c h / m = 1e13 (the paper's case fails
+#: from cage_damping = 1e12 N s/m at dt = 1e-4 s, c h / m = 3.7e13; runs at 1e11, 3.7e12)
+MAX_DAMPING_RATIO = 1e9
+
 
 @dataclass
 class SpringScales:
@@ -96,14 +105,16 @@ def spring_scales(model) -> SpringScales:
     mass = np.asarray(model.mass, dtype=float)
     stiff = np.zeros(mass.size)
     damp = np.zeros(mass.size)
-    for bi, bj, geom in model.springs:
-        k, c = float(geom[4]), float(geom[5])
-        for a, b in ((bi, bj), (bj, bi)):
-            if a < 0:
-                continue
-            w = 1.0 / mass[a] + (1.0 / math.sqrt(mass[a] * mass[b]) if b >= 0 else 0.0)
-            stiff[a] += k * w
-            damp[a] += c * w
+    with np.errstate(over="ignore", divide="ignore"):  # extreme inputs give inf, not an error
+        for bi, bj, geom in model.springs:
+            k, c = float(geom[4]), float(geom[5])
+            for a, b in ((bi, bj), (bj, bi)):
+                if a < 0:
+                    continue
+                w = np.float64(1.0) / mass[a] + (
+                    np.float64(1.0) / np.sqrt(mass[a]) / np.sqrt(mass[b]) if b >= 0 else 0.0)
+                stiff[a] += k * w
+                damp[a] += c * w
     if mass.size == 0:
         return SpringScales(0.0, 0.0)
     return SpringScales(math.sqrt(float(stiff.max())), float(damp.max()))
@@ -137,16 +148,64 @@ def check_step_size(model, dt: float, policy: str = "error", key: str = "solver.
     scales = spring_scales(model)
     if dt <= scales.dt_limit:
         return None
+    if not scales.dt_limit >= MIN_RESOLVABLE_DT:
+        _refuse_cage(model, scales)
     why = (f"<= {scales.dt_limit:.3g} s, to resolve the fastest spring/mass mode (omega = "
            f"{scales.omega_damped:.4g} rad/s, damping ratio {scales.zeta:.3g}; omega * dt <= "
            f"{OMEGA_DT_MAX:g})")
     if policy == "error":
-        raise ConfigError(f"{key}: {dt!r} is not allowed; allowed: {why}; lower {key}, "
-                          "or set solver.on_unresolved_dt=warn")
+        raise ConfigError(f"{key}: {dt!r} is not allowed; allowed: {why}; lower {key} (or "
+                          "model.cage_stiffness, or raise model.cage_damping), or set "
+                          "solver.on_unresolved_dt=warn")
     msg = (f"{key}: {dt!r} is above the limit {why}; running anyway "
            "(solver.on_unresolved_dt=warn), the energy audit watches every step")
     warnings.warn(msg, RuntimeWarning, stacklevel=2)
     return msg
+
+
+def _ball_cage(model) -> tuple[float, float, float]:
+    """(stiffness [N/m], damping [N s/m], ball mass [kg]) of the stiffest cage spring of the
+    crank-slider (its springs are the cage's, between balls)."""
+    bi, bj, geom = max(model.springs, key=lambda s: float(s[2][4]))
+    return float(geom[4]), float(geom[5]), float(model.mass[bi])
+
+
+def _refuse_cage(model, scales: SpringScales) -> None:
+    """The cage's fastest mode needs a step below :data:`MIN_RESOLVABLE_DT`: refused naming
+    the cage's keys, not the step."""
+    k, _, m = _ball_cage(model)
+    k_max = m * (OMEGA_DT_MAX / MIN_RESOLVABLE_DT) ** 2 / 4.0
+    raise ConfigError(
+        f"model.cage_stiffness: {k!r} is not allowed with model.ball_mass = {m!r}: the cage's "
+        f"fastest spring/mass mode (omega = {scales.omega_damped:.3g} rad/s) needs a step "
+        f"below {MIN_RESOLVABLE_DT:g} s; allowed: cage_stiffness <= {k_max:.3g} N/m for this "
+        "ball mass (4 k / m_ball <= (2 / 1e-9 s)^2), or a cage damping that makes the mode "
+        "overdamped, cage_damping >= sqrt(cage_stiffness x ball_mass)")
+
+
+def check_cage_damping(model, dt: float) -> None:
+    """Refuse a cage damper that the step's Newton matrix cannot hold beside the balls' masses:
+    c dt / m_ball above :data:`MAX_DAMPING_RATIO`.
+
+    Raises
+    ------
+    ConfigError
+        One line naming ``model.cage_damping``, the ratio and the largest damping allowed.
+    """
+    if not model.springs:
+        return
+    ratios = [float(geom[5]) * dt / min(float(model.mass[b]) for b in (bi, bj) if b >= 0)
+              for bi, bj, geom in model.springs]
+    if not max(ratios) > MAX_DAMPING_RATIO:
+        return
+    _, c, m = max(((float(g[4]), float(g[5]), float(model.mass[bi])) for bi, _, g in
+                   model.springs), key=lambda t: t[1])
+    raise ConfigError(
+        f"model.cage_damping: {c!r} is not allowed with solver.dt = {dt!r} s and "
+        f"model.ball_mass = {m!r} kg; allowed: cage_damping x solver.dt / ball_mass <= "
+        f"{MAX_DAMPING_RATIO:g}, here cage_damping <= {MAX_DAMPING_RATIO * m / dt:.3g} N s/m (a "
+        "damper that much stronger than a ball's inertia leaves the step's Newton matrix "
+        "singular in double precision)")
 
 
 def values_per_step(model=None, n_bodies=None, n_contacts=None) -> int:
@@ -161,18 +220,21 @@ def values_per_step(model=None, n_bodies=None, n_contacts=None) -> int:
     return 2 * ndof + 6 * n_contacts + 5 + 3 + 1
 
 
-def memory_estimate(model, dt: float, t_end: float) -> int:
-    """Bytes of the arrays of a run: (steps + 1) x values per step x 8 [B]."""
-    n_steps = int(round(t_end / dt))
-    return (n_steps + 1) * values_per_step(model) * 8
+def memory_estimate(model, dt: float, t_end: float) -> float:
+    """Bytes of the arrays of a run: (steps + 1) x values per step x 8 [B] (a float: inf
+    for a step too small to count the steps)."""
+    with np.errstate(over="ignore"):
+        n_steps = np.round(np.float64(t_end) / np.float64(dt))
+    return float((n_steps + 1.0) * values_per_step(model) * 8.0)
 
 
 def check_memory_of_config(cfg: dict) -> int:
     """:func:`check_memory` for the crank-slider of a validated configuration, without building
     the model: 3 + n_balls bodies, 2 n_balls contacts."""
     n = int(cfg["model"]["n_balls"])
-    return check_memory(_Counts(3 + n, 2 * n), cfg["solver"]["dt"], cfg["solver"]["t_end"],
-                        cfg["solver"]["max_memory_gb"])
+    guards = n + 1 if cfg["model"].get("guard_contacts", True) else 0
+    return check_memory(_Counts(3 + n, 2 * n + guards), cfg["solver"]["dt"],
+                        cfg["solver"]["t_end"], cfg["solver"]["max_memory_gb"])
 
 
 class _Counts:
@@ -200,8 +262,10 @@ def check_run_of_config(cfg: dict) -> list[str]:
     """:func:`check_run` for the crank-slider of a validated configuration without building
     the model, for a command line that answers at once."""
     check_memory_of_config(cfg)
+    cage = _CageRing(cfg["model"])
+    check_cage_damping(cage, cfg["solver"]["dt"])  # c h / m is largest at the largest step
     dt, key = limiting_step(cfg)
-    msgs = [check_step_size(_CageRing(cfg["model"]), dt, cfg["solver"]["on_unresolved_dt"], key),
+    msgs = [check_step_size(cage, dt, cfg["solver"]["on_unresolved_dt"], key),
             check_contact_step(cfg)]
     return [m for m in msgs if m]
 
@@ -230,12 +294,12 @@ def check_memory(model, dt: float, t_end: float, max_gb: float) -> int:
         One line naming ``solver.t_end`` / ``solver.dt``, the estimate and the limit.
     """
     need = memory_estimate(model, dt, t_end)
-    if need > max_gb * 1e9:
-        n_steps = int(round(t_end / dt))
+    if not need <= max_gb * 1e9:
+        n_steps = need / (8.0 * values_per_step(model)) - 1
         raise ConfigError(
-            f"solver.t_end: {t_end!r} with solver.dt = {dt!r} is not allowed: {n_steps} steps x "
-            f"{values_per_step(model)} values x 8 B = {need / 1e9:.3g} GB of arrays; allowed: "
-            f"at most solver.max_memory_gb = {max_gb:g} GB (shorten solver.t_end, raise "
+            f"solver.t_end: {t_end!r} with solver.dt = {dt!r} is not allowed: {n_steps:.4g} "
+            f"steps x {values_per_step(model)} values x 8 B = {need / 1e9:.3g} GB of arrays; "
+            f"allowed: at most solver.max_memory_gb = {max_gb:g} GB (shorten solver.t_end, raise "
             "solver.dt or solver.max_memory_gb)")
     return need
 
@@ -267,6 +331,7 @@ def check_run(cfg: dict, model=None) -> list[str]:
         model = crank_slider(cfg["model"])[0]
     solver = cfg["solver"]
     check_memory(model, solver["dt"], solver["t_end"], solver["max_memory_gb"])
+    check_cage_damping(model, solver["dt"])
     dt, key = limiting_step(cfg)
     msgs = [check_step_size(model, dt, solver["on_unresolved_dt"], key),
             check_contact_step(cfg)]
@@ -295,12 +360,14 @@ def hertz_contact_time(model: dict, speed: float | None = None) -> float:
         Impact speed [m/s] to use instead of the crank pin's (e.g. an impact's approach speed,
         for the step of a compliant zoom on it); floored at 1e-3 m/s.
     """
+    from ..model.bearing import BearingGeometry
+    from ..model.hertz import hertz_stiffness
+
     E, nu = float(model["youngs_modulus"]), float(model["poisson_ratio"])
-    e_star = E / (2.0 * (1.0 - nu * nu))
-    r_a, r_b = float(model["inner_radius"]), float(model["ball_radius"])
-    r_c = r_a + 2.0 * r_b + float(model["clearance"])
-    radius = max(r_a * r_b / (r_a + r_b), r_b * r_c / (r_c - r_b))
-    stiffness = 4.0 / 3.0 * e_star * math.sqrt(radius)
+    geometry = BearingGeometry.from_model(model)
+    r_a, r_b, r_c = geometry.inner_radius, geometry.ball_radius, geometry.outer_radius
+    stiffness = max(hertz_stiffness("outside", r_a, r_b, E, nu),
+                    hertz_stiffness("inside", r_c, r_b, E, nu))
     if speed is None:
         speed = max(abs(float(model["omega0"])) * float(model["crank_length"]), 1.0)
     speed = max(float(speed), 1e-3)

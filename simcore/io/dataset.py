@@ -18,6 +18,7 @@ from ..startup.patches import dataset_of_arrays
 from .variables import (
     CONVENTIONS,
     COORDINATES,
+    GUARD_COORDINATE,
     STAGES,
     STORAGE,
     VARIABLES,
@@ -49,6 +50,9 @@ def trajectory_dataset(traj, model, layout, cfg: dict, compile_time_s: float = 0
     """
     compliant = getattr(traj, "contact_model", "nonsmooth") == "compliant"
     nbody = len(model.body_names)
+    # the ball-race contacts along `contact`, the guard contacts apart (their own variables)
+    guards = traj.contact_columns(slice(layout.n_race_contacts, None))
+    traj = traj.contact_columns(slice(0, layout.n_race_contacts))
     q = traj.q.reshape(traj.q.shape[0], nbody, 3)
     v = traj.v.reshape(traj.v.shape[0], nbody, 3)
     values = contact_series(traj)
@@ -57,6 +61,8 @@ def trajectory_dataset(traj, model, layout, cfg: dict, compile_time_s: float = 0
     values.update(solver_records(traj))
     if compliant:
         values.update(F_N=traj.F_N, F_T=traj.F_T)
+    if layout.guards:
+        values.update(guard_series(guards, compliant))
     audit = traj.extras.get("energy_audit")
     if audit is not None:
         values["energy_error"] = audit.error
@@ -66,7 +72,11 @@ def trajectory_dataset(traj, model, layout, cfg: dict, compile_time_s: float = 0
             for name, value in values.items()}
     coords = run_coordinates(traj.time, int(cfg["model"]["n_balls"]), model.body_names)
     coords.update(parameter_coords(base_parameters(cfg["model"])))
+    if layout.guards:
+        coords["guard"] = (GUARD_COORDINATE.dim, np.array(layout.guards),
+                           GUARD_COORDINATE.attrs())
     attrs = run_attributes(traj, layout, cfg, compile_time_s, compliant)
+    attrs.update(guard_attributes(guards, layout))
     ds = dataset_of_arrays(data, coords, attrs)
     for name in data:
         ds[name].encoding["dtype"] = np.dtype(storage[name])
@@ -78,6 +88,30 @@ def contact_series(traj) -> dict:
     return {"Lambda_N": traj.lambda_N, "Lambda_T": traj.lambda_T, "nu_N": traj.nu_N,
             "gap_N": traj.gap_N, "vn_pre": traj.vn_pre, "vn_post": traj.vn_post,
             "vn_free": traj.vn_free}
+
+
+def guard_series(guards, compliant: bool) -> dict:
+    """Series (time, guard) of the guard contacts, from the trajectory's guard columns."""
+    values = {"guard_Lambda_N": guards.lambda_N, "guard_gap_N": guards.gap_N}
+    if compliant:
+        values["guard_F_N"] = guards.F_N
+    return values
+
+
+def guard_attributes(guards, layout) -> dict:
+    """What the guard contacts and the integrity checks did: ``guard_ball_ball_closed_samples``
+    and ``guard_rings_closed_samples`` (output samples where a guard of that kind carries a
+    load; absent without guards) and ``integrity_violations`` (flagged samples per integrity
+    check, or ``none``)."""
+    counts = guards.extras.get("integrity", {})
+    attrs = {"integrity_violations": "; ".join(f"{name}: {n} samples"
+                                               for name, n in counts.items()) or "none"}
+    if layout.guards:
+        loaded = guards.lambda_N > 0.0
+        rings = np.array([name == "rings" for name in layout.guards])
+        attrs["guard_ball_ball_closed_samples"] = int(loaded[:, ~rings].any(axis=1).sum())
+        attrs["guard_rings_closed_samples"] = int(loaded[:, rings].any(axis=1).sum())
+    return attrs
 
 
 def body_states(q: np.ndarray, v: np.ndarray) -> dict:

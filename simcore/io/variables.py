@@ -29,6 +29,7 @@ from ..config.parameters import BASE_AXES, registry
 CONVENTIONS = "CF-1.10"
 
 TIME_CONTACT = ("time", "contact")
+TIME_GUARD = ("time", "guard")
 TIME_BODY_AXIS = ("time", "body", "axis")
 TIME_BODY = ("time", "body")
 TIME = ("time",)
@@ -134,8 +135,8 @@ VARIABLES: dict[str, RunVariable] = {
         "generalized-alpha step with contact forces, position: joint projection, "
         "velocity: 0)"),
     "converged": RunVariable(
-        TIME, "1", "1 where every sub-problem of the step converged and the step created no "
-        "energy (energy audit)", "int8",
+        TIME, "1", "1 where every sub-problem of the step converged, the step created no "
+        "energy (energy audit) and broke no integrity check of the bearing", "int8",
         "0 marks a step the impact table flags as untrusted.",
         extra=(("flag_values", np.array([0, 1], dtype=np.int8)), ("flag_meanings", "no yes"))),
     "halvings": RunVariable(
@@ -155,6 +156,22 @@ VARIABLES: dict[str, RunVariable] = {
     "F_T": RunVariable(
         TIME_CONTACT, "N", "friction force along t = e_z x n at the instant of the largest "
         "normal force of the interval", "float32", "Compliant runs only."),
+    "guard_Lambda_N": RunVariable(
+        TIME_GUARD, "N s",
+        "normal impulse of the guard contact in the velocity jump of the step ending at time",
+        "float64",
+        "The contacts that keep the bearing together (ball against ball, the rings' lands; "
+        "docs/model.md, Guard contacts); with model.guard_contacts only.",
+        "normal impulse of the guard contact over the output interval ending at time"),
+    "guard_gap_N": RunVariable(
+        TIME_GUARD, "m", "normal gap of the guard contact after the step", "float32",
+        "Gap of a guard contact (the rings': the land gap less the journal offset).",
+        "smallest normal gap of the guard contact in the output interval (negative: "
+        "indentation)"),
+    "guard_F_N": RunVariable(
+        TIME_GUARD, "N",
+        "largest normal force of the guard contact in the output interval ending at time",
+        "float32", "Compliant runs with guard contacts only."),
 }
 
 #: Stored type of every run variable.
@@ -166,10 +183,11 @@ RUN_VARIABLES = tuple(VARIABLES)
 #: Default of ``study.keep``: what the impact analysis (``Lambda_N``, ``vn_free``,
 #: ``converged``), the compliant zoom (the restart state), the summary (``iterations``,
 #: ``crank_angle``), the figures (``slider_x``, ``journal_x``, ``journal_y``) and the README's
-#: examples read; which steps were retried (``halvings``); ``F_N`` for compliant runs.
+#: examples read; which steps were retried (``halvings``); ``F_N`` for compliant runs; the
+#: guard contacts' load.
 DEFAULT_KEEP = ("Lambda_N", "vn_free", "position", "angle", "velocity", "angular_velocity",
                 "crank_angle", "slider_x", "journal_x", "journal_y", "iterations", "converged",
-                "halvings", "F_N")
+                "halvings", "F_N", "guard_Lambda_N", "guard_F_N")
 
 
 class RunCoordinate(NamedTuple):
@@ -197,6 +215,10 @@ COORDINATES: dict[str, RunCoordinate] = {
     "axis": RunCoordinate("axis", None, "axis of the plane (x along the slider, y across)"),
     "stage": RunCoordinate("stage", None, "sub-problem of the nonsmooth generalized-alpha step"),
 }
+
+#: The coordinate of the guard contacts (names: ``ball0-ball1`` ..., ``rings``), in runs with them.
+GUARD_COORDINATE = RunCoordinate(
+    "guard", None, "guard contact: ball k against ball k+1, or the rings' lands")
 
 #: The sub-problems of a step, the labels of coordinate ``stage``.
 STAGES = ("smooth", "position", "velocity")

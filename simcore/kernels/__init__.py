@@ -78,7 +78,14 @@ from .generalized_alpha import (  # noqa: E402
     smooth_step,
     smooth_work,
 )
-from .hertz import contact_forces, elastic_energy, normal_force  # noqa: E402
+from .hertz import (  # noqa: E402
+    FN_ROW,
+    FT_ROW,
+    contact_forces,
+    contact_records,
+    elastic_energy,
+    normal_force,
+)
 from .joints import (  # noqa: E402
     JOINT_ANGLE,
     JOINT_PRISMATIC,
@@ -122,5 +129,6 @@ __all__ = [
     "unit_direction", "velocity_step", "contact_forces", "elastic_energy", "normal_force",
     "compliant_work", "integrate_compliant_chunk", "project_joints", "AdaptiveSettings",
     "AdaptiveState", "integrate_compliant_adaptive", "ACCEPTED", "BELOW_DT_MIN",
-    "REJECTED_ERROR", "REJECTED_NEWTON", "REJECTED_ONSET",
+    "REJECTED_ERROR", "REJECTED_NEWTON", "REJECTED_ONSET", "contact_records", "FN_ROW",
+    "FT_ROW",
 ]

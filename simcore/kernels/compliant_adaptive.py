@@ -71,12 +71,14 @@ HERTZ_TIME = 2.94
 #: a step is redone at most this many times for the onset speeds of its closing contacts
 MAX_ONSET_REDOS = 3
 
-#: ``counts`` entries of :data:`~.bundles.AdaptiveState`
-ACCEPTED = 0
-REJECTED_ERROR = 1
-REJECTED_ONSET = 2
-REJECTED_NEWTON = 3
-BELOW_DT_MIN = 4
+#: ``counts`` entries of :data:`~.bundles.AdaptiveState`. NumPy integers, not Python ones:
+#: Numba types a Python constant argument as a literal and compiles a specialisation of the
+#: callee (:func:`_reject`) per value.
+ACCEPTED = np.int64(0)
+REJECTED_ERROR = np.int64(1)
+REJECTED_ONSET = np.int64(2)
+REJECTED_NEWTON = np.int64(3)
+BELOW_DT_MIN = np.int64(4)
 
 
 @step_kernel
@@ -221,9 +223,8 @@ def _attempt(t, h, coef, st, ma, state, cs, work, aw):
     for r in range(state.lam_s.shape[0]):
         aw.lam_save[r] = state.lam_s[r]
     aw.reuse_save[0] = work.branches.reuse[1]  # (whether the last step converged)
-    it_s, ok_s, it_p, ok_p = compliant_step_into(state.q, state.v, aw.acc_c, state.vdot,
-                                                 state.lam_s, t + h, h, ratio, coef, st, ma,
-                                                 cs, work, True)
+    it_s, ok_s, it_p, ok_p = compliant_step_into(state, aw.acc_c, t + h, h, ratio, coef, st,
+                                                 ma, cs, work, True)
     return it_s, it_p, ok_s and ok_p
 
 
@@ -236,6 +237,33 @@ def _undo(state, work, aw):
     for i in range(state.q.shape[0]):
         work.branches.vdot_old[i] = aw.vdot_old_save[i]
     work.branches.reuse[1] = aw.reuse_save[0]
+
+
+@step_kernel
+def _accept(t, h, its, flagged, st, state, cs, work, aw):
+    """Take the step of :func:`_attempt` from time ``t`` [s], of size ``h`` [s] and
+    (smooth, projection) iterations ``its`` (:func:`~.compliant_step.commit_step`), counted
+    as accepted and, where ``flagged`` (it needed less than dt_min), as such with its end
+    time the first flagged one's if none was before."""
+    if flagged:
+        aw.counts[BELOW_DT_MIN] += 1
+        if aw.t_flag[0] < 0.0:
+            aw.t_flag[0] = t + h
+    commit_step(h, state, cs, work, its[0], its[1], not flagged, st.drive_row, True)
+    aw.counts[ACCEPTED] += 1
+    aw.h_min[0] = min(aw.h_min[0], h)
+    aw.h[1] = h
+
+
+@step_kernel
+def _reject(reason, h_next, ad, state, work, aw):
+    """Reject the step of :func:`_attempt` for ``reason`` (a ``counts`` entry of
+    :data:`~.bundles.AdaptiveState`): undo it (:func:`_undo`), forget its onset speeds and
+    plan the next attempt at ``h_next`` [s], no shorter than ``ad.dt_min``."""
+    aw.counts[reason] += 1
+    _undo(state, work, aw)
+    _clear(work.onset)
+    aw.h[0] = max(h_next, ad.dt_min)
 
 
 @step_kernel
@@ -309,25 +337,16 @@ def integrate_compliant_adaptive(row0, row1, st, ad, ma, state, cs, out, work, a
             err = error_ratio(aw.acc_c, work.step[2], h, c_e, aw.weight, ad.err_tol)
             floor = h <= ad.dt_min * (1.0 + 1e-9)
             if not ok and not floor:
-                aw.counts[REJECTED_NEWTON] += 1
-                _undo(state, work, aw)
-                _clear(work.onset)
-                aw.h[0] = max(FAILED_SHRINK * h, ad.dt_min)
+                _reject(REJECTED_NEWTON, FAILED_SHRINK * h, ad, state, work, aw)
                 continue
             if ok and not err <= 1.0 and not floor:
-                aw.counts[REJECTED_ERROR] += 1
-                _undo(state, work, aw)
-                _clear(work.onset)
                 shrink = SAFETY * err ** (-1.0 / 3.0) if np.isfinite(err) else SHRINK_MIN
-                aw.h[0] = max(max(shrink, SHRINK_MIN) * h, ad.dt_min)
+                _reject(REJECTED_ERROR, max(shrink, SHRINK_MIN) * h, ad, state, work, aw)
                 continue
             retry = onset_retry(h, state.q, cs, work.contacts, ma, ad.onset_steps, work.hertz,
                                 trig)
             if retry > 0.0 and not floor:
-                aw.counts[REJECTED_ONSET] += 1
-                _undo(state, work, aw)
-                _clear(work.onset)
-                aw.h[0] = max(retry, ad.dt_min)
+                _reject(REJECTED_ONSET, retry, ad, state, work, aw)
                 continue
             if redos < MAX_ONSET_REDOS and not settle_onset_speeds(h, cs, work.contacts,
                                                                    work.onset, st.v_pre_min):
@@ -337,16 +356,9 @@ def integrate_compliant_adaptive(row0, row1, st, ad, ma, state, cs, out, work, a
                 continue  # the same step, with the onset speeds at the crossings
             redos = 0
             _clear(work.onset)
-            flagged = not ok or not err <= 1.0
-            if flagged:  # needed less than dt_min: taken at dt_min, flagged
-                aw.counts[BELOW_DT_MIN] += 1
-                if aw.t_flag[0] < 0.0:
-                    aw.t_flag[0] = t + h
-            commit_step(h, state, cs, work, it_s, it_p, not flagged, st.drive_row, True)
-            aw.counts[ACCEPTED] += 1
+            flagged = not ok or not err <= 1.0  # (needed less than dt_min: taken at dt_min)
+            _accept(t, h, (it_s, it_p), flagged, st, state, cs, work, aw)
             steps += 1
-            aw.h_min[0] = min(aw.h_min[0], h)
-            aw.h[1] = h
             aw.h[0] = _next_size(h, h_plan, err, h < h_cap, ad, st.h)
             t = t_stop if last else t + h
             if flagged and first_bad < 0:

@@ -16,16 +16,27 @@ from collections import namedtuple
 
 import numpy as np
 
-from .bodies import BLOCKS_NEWTON, clear_pair_blocks, fill_pair_blocks, row_dot
+from .bodies import clear_pair_blocks, row_dot
 from .contact import CONTACT_PLANE, contact_gap_cached, contact_rows_cached
 from .generalized_alpha import (
+    WITH_CONTACT_BLOCKS,
     alpha_coefficients,
     alpha_predict,
+    apply_update,
+    newton_matrix_into,
     smooth_work,
     step_work,
 )
 from .hertz import (
+    FN_ROW,
+    FT_ROW,
+    GAP_ROW,
+    VN_ROW,
+    VT_ROW,
+    WT_ROW,
+    ContactLaw,
     contact_forces_into,
+    contact_records,
     elastic_energy_into,
     hertz_work,
     open_contact_velocities_into,
@@ -34,6 +45,7 @@ from .jit import inline_kernel, kernel, loop_kernel, step_kernel
 from .joints import bilateral_cached, joint_row_count, joint_support
 from .linalg import (
     GENERAL,
+    add_transposed_product,
     block_factor,
     block_solve,
     cholesky_solve,
@@ -45,13 +57,13 @@ from .linalg import (
 from .springs import WITH_TANGENTS, smooth_forces_into, total_energy
 
 #: Work arrays of :func:`integrate_compliant_chunk` (:func:`compliant_work`): the step's
-#: (:func:`~.generalized_alpha.step_work`), the smooth stage's (:func:`~.generalized_alpha.
-#: smooth_work`), the contacts' (11, nc) rows of FN, FT, gap, vn, vt and tangential Jacobian
-#: entries, the Hertz law's (:func:`~.hertz.hertz_work`), the joint projection's
-#: (:data:`ProjectionWork`) and the friction branches' (:data:`BranchWork`); ``onset`` (nc) an
-#: onset speed to use for a contact that closes in the step instead of the approach speed of
-#: the last state (NaN: none; the adaptive step's, see
-#: :func:`~.compliant_adaptive.settle_onset_speeds`).
+#: (:func:`~.generalized_alpha.step_work`), the smooth stage's
+#: (:func:`~.generalized_alpha.smooth_work`), the contacts' records
+#: (:func:`~.hertz.contact_records`: FN, FT, gap, vn, vt and tangential Jacobian entries), the
+#: Hertz law's (:func:`~.hertz.hertz_work`), the joint projection's (:data:`ProjectionWork`)
+#: and the friction branches' (:data:`BranchWork`); ``onset`` (nc) an onset speed to use for
+#: a contact that closes in the step instead of the approach speed of the last state (NaN:
+#: none; the adaptive step's, see :func:`~.compliant_adaptive.settle_onset_speeds`).
 CompliantWork = namedtuple("CompliantWork", ["step", "smooth", "contacts", "hertz",
                                              "projection", "branches", "onset"])
 
@@ -90,6 +102,11 @@ BranchWork = namedtuple("BranchWork", ["J2", "r2", "current", "assumed", "r0", "
                                        "skip", "lever", "stale", "ready"])
 
 
+#: Joint rows g [m, rad], G (m x n) and dg/dt [m/s, rad/s] at the state a joint projection
+#: starts from (:func:`project_joints_into`).
+JointRows = namedtuple("JointRows", ["g", "G", "dgdt"])
+
+
 def projection_work(n, m):
     """:data:`ProjectionWork` for n coordinates and m joint rows."""
     return ProjectionWork(g=np.zeros(m), G=np.zeros((m, n)), gm=np.zeros(m), dgdt=np.zeros(m),
@@ -102,7 +119,7 @@ def compliant_work(n, nbil, nc):
     """Every work array of :func:`integrate_compliant_chunk` for n coordinates, nbil joint
     rows and nc contacts, made once per run in Python."""
     return CompliantWork(step=step_work(n), smooth=smooth_work(n, nbil),
-                         contacts=np.zeros((11, nc)), hertz=hertz_work(),
+                         contacts=contact_records(nc), hertz=hertz_work(),
                          projection=projection_work(n, nbil), onset=np.full(nc, np.nan),
                          branches=BranchWork(J2=np.zeros((n, n)), r2=np.zeros(n + nbil),
                                              current=np.zeros(nc, dtype=np.int64),
@@ -151,17 +168,17 @@ def project_joints(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1):
                         np.zeros((m, 6), dtype=np.int64), np.zeros(m, dtype=np.int64),
                         np.zeros((m, m)), np.zeros(m), np.zeros(m, dtype=np.int64))
     bilateral_cached(q_t, v_t, t1, ma, pw.g, pw.G, pw.gm, pw.dgdt, None)
-    return project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw, None, pw.g,
-                               pw.G, pw.dgdt)
+    return project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw, None,
+                               JointRows(pw.g, pw.G, pw.dgdt))
 
 
 @step_kernel
-def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw, trig, g0, G0, dgdt0):
+def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw, trig, rows0):
     """Remove the joints' drift: q1 = q_t + M^-1 G^T nu with g(q1) = 0 (Newton, |g|/h <= tol;
     no iteration when the drift is already within it), then v1 = v_t + M^-1 G^T mu with
     G(q1) v1 + dg/dt = 0. ``pw``: :data:`ProjectionWork`; ``trig``: the bodies' sines and
-    cosines (:func:`~.bodies.body_point_cached`, or None); ``g0``, ``G0``, ``dgdt0``: the joint
-    rows at (q_t, v_t, t1) (the smooth stage's last evaluation). Each S = G M^-1 G^T is
+    cosines (:func:`~.bodies.body_point_cached`, or None); ``rows0``: :data:`JointRows`, the
+    joint rows at (q_t, v_t, t1) (the smooth stage's last evaluation). Each S = G M^-1 G^T is
     factorised once (LU), the last one serves the velocities too. Returns (iterations,
     converged)."""
     n = q_t.shape[0]
@@ -171,9 +188,9 @@ def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw, trig, g0
         v1[i] = v_t[i]
     if m == 0:
         return 0, True
-    g = g0
-    G = G0
-    dgdt = dgdt0
+    g = rows0.g
+    G = rows0.G
+    dgdt = rows0.dgdt
     cols = pw.cols
     ncols = pw.ncols
     S = pw.S
@@ -314,10 +331,10 @@ def finish_contacts(q_t, v_t, ma, cwork, bw, hw, trig, velocities):
     these are left out, their contacts become ``bw.stale``, see :func:`commit_step`)."""
     for k in range(ma.ct_type.shape[0]):
         if bw.skip[k]:
-            cwork[2, k] = contact_gap_cached(q_t, k, ma.ct_type, ma.ct_body, ma.ct_geom, trig)
+            cwork[GAP_ROW, k] = contact_gap_cached(q_t, k, ma.ct_type, ma.ct_body, ma.ct_geom,
+                                                   trig)
     if velocities:
-        open_contact_velocities_into(q_t, v_t, ma, cwork[2], cwork[3], cwork[4], cwork[5:11],
-                                     hw, trig)
+        open_contact_velocities_into(q_t, v_t, ma, cwork, hw, trig)
 
 
 @inline_kernel
@@ -358,71 +375,69 @@ def _branch(x):
 
 
 @inline_kernel
-def _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, cwork, hw,
-              skip):
-    """Forces (and with ``tangent`` their tangents) and joint rows at (q_t, v_t); of the
-    open contacts only their gaps, none of those marked in ``skip``
-    (:func:`~.hertz.contact_forces_into`)."""
+def _evaluate(t1, ma, law, tangent, work):
+    """Forces (and with ``tangent`` their tangents) and joint rows at the iterate (q_t, v_t) of
+    ``work.step``; of the open contacts only their gaps, none of those marked in
+    ``work.branches.skip`` (:func:`~.hertz.contact_forces_into`; ``law``:
+    :data:`~.hertz.ContactLaw`)."""
+    q_t, v_t, _, _, f_t, K_t, C_t, Ks_t, _, _ = work.step
+    sw = work.smooth
     if tangent:
         # the contacts' tangents are added in their body pairs' blocks: clear those first
         # (smooth_forces_into clears the springs' own)
         clear_pair_blocks(K_t, ma.ct_body)
         clear_pair_blocks(C_t, ma.ct_body)
     smooth_forces_into(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, tangent, sw.fw, sw.iw)
-    contact_forces_into(q_t, v_t, ma, v_pre, v_reg, f_t, K_t, C_t, tangent, cwork[0],
-                        cwork[1], cwork[2], cwork[3], cwork[4], cwork[5:11], hw, sw.trig, skip)
+    contact_forces_into(q_t, v_t, ma, law, f_t, K_t, C_t, tangent, work.contacts, work.hertz,
+                        sw.trig, work.branches.skip)
     bilateral_cached(q_t, v_t, t1, ma, sw.g, sw.G, sw.gm, sw.dgdt, sw.trig)
 
 
+@inline_kernel
+def _evaluate_iterate(it, t1, ma, law, tangent, v_pre_min, work):
+    """:func:`_evaluate` at iterate ``it`` of a step, with the open contacts that cannot have
+    closed since the last step's result (or, for a first step, since this one's first
+    iterate, which then becomes the reference) left out (:func:`_skip_far_open`) and the
+    onset speeds of those that closed with their velocities left out
+    (:func:`_lazy_onset_speeds`)."""
+    q_t = work.step.q_t
+    bw = work.branches
+    first = it == 0 and bw.ready[1] == 0
+    if first:
+        for k in range(bw.skip.shape[0]):
+            bw.skip[k] = False
+    else:
+        _skip_far_open(q_t, ma, bw)
+    _lazy_onset_speeds(q_t, ma, law.v_pre, v_pre_min, bw, work.hertz, work.smooth.trig)
+    _evaluate(t1, ma, law, tangent, work)
+    if first:
+        copy_vector(bw.q_ref, q_t, q_t.shape[0])
+        copy_vector(bw.g_ref, work.contacts[GAP_ROW], bw.g_ref.shape[0])
+
+
+@inline_kernel
+def _stage_residual(ma, lam, work):
+    """:func:`_residual` of the iterate (``work.step``: vdot1, f_t, v_t; ``lam``) into
+    ``work.smooth.rhs``: (largest force entry, largest constraint entry, force scale).
+    Contact forces and the loads they balance cancel in f_t: the force scale of the residual
+    is at least that of the largest contact force."""
+    sw = work.smooth
+    bw = work.branches
+    scale = 1e-300
+    for k in range(work.contacts.shape[1]):
+        scale = max(scale, work.contacts[FN_ROW, k])
+    return _residual(ma.mdiag, work.step.vdot1, work.step.f_t, sw.G, lam, sw.dgdt,
+                     work.step.v_t, sw.rhs, scale, bw.jcols, bw.jncols, bw.react)
+
+
 @step_kernel
-def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t,
-                          acc1, vdot1, f_t, K_t, C_t, Ks_t, sw, v_pre, v_reg, cwork, hw, bw,
-                          ratio, v_pre_min):
-    """The generalized-alpha stage of a compliant step: Newton on ``vdot1`` with the springs'
-    and the Hertz contacts' forces and their exact tangents, joints at velocity level. The
-    scheme of :func:`~.generalized_alpha.smooth_step` (the nonsmooth model's) with the contact
-    forces in it, written for the time loop: no array allocated (``sw``, ``hw``, ``bw``: work
-    arrays), the tangents evaluated only where a Newton step needs them (an iterate that
-    converges, the last of almost every step, gets its forces alone), the Newton step and its
-    friction-branch re-solves by the block solver of :mod:`.linalg`.
-
-    Friction is piecewise linear in the slip (slope mu F / v_reg inside the band
-    |v_T| < v_reg, flat outside): each Newton step is solved with each contact's branch chosen
-    consistently with the slip the step predicts (:func:`_friction_branches`). The normal force
-    is clipped at zero where the damping term would pull: a step that does not reduce the
-    scaled residual is halved back towards the previous iterate. ``cwork`` (11, nc) receives
-    FN, FT, gap, vn, vt and the tangential Jacobian entries at the last (q_t, v_t).
-
-    Reused factors (a chord iteration): a step after a converged one first iterates with the
-    factors of the last Newton matrix (``sw.fac``, ``sw.S``, ``sw.piv``, made with the joint
-    rows ``bw.G_f``), without tangents or a factorisation, as products with their explicit
-    inverse (:func:`chord_operator`, :func:`chord_apply`). At the zooms' steps (tens per
-    Hertz contact time) the Newton matrix is the mass matrix to a few per mille, and changes by
-    less from one step to the next, so these iterates contract by about a hundred each. Their
-    iterate counts as converged only within :data:`CHORD_TIGHTENING` of the tolerance (a
-    Newton iterate, quadratic, lands there after its step); an update that would change a
-    friction branch, or a contraction weaker than :data:`CHORD_CONTRACTION`, hands over to
-    Newton, whose factors then serve the next steps. Factors made at another step size serve
-    too (adaptive steps), with the joints' rows of the residual scaled to theirs; the
-    contraction test says when they no longer fit.
-
-    The first iterate is the accelerations extrapolated linearly from the last two steps
-    (``bw.vdot_old``), over ``ratio`` = h over the last step's size (1 for a fixed step).
-    Returns (iterations, converged)."""
-    am, af, gam, beta = coef
-    mdiag = ma.mdiag
-    n = q.shape[0]
-    m = lam.shape[0]
-    ca = (1.0 - af) / (1.0 - am)
-    G = sw.G
-    dgdt = sw.dgdt
-    J = sw.J
-    rhs = sw.rhs
-    sol = sw.sol
-    # first iterate: the accelerations extrapolated linearly from the last two steps (where
-    # the last step converged; else the last step's)
+def _first_iterate(vdot, vdot1, ratio, bw):
+    """The first iterate of a step's accelerations ``vdot1``: those of the last step ``vdot``
+    extrapolated linearly from the step before (``bw.vdot_old``, where the last step
+    converged; else ``vdot`` itself) over ``ratio`` = h over the last step's size (1 for a
+    fixed step); ``vdot`` becomes ``bw.vdot_old``."""
     extrapolate = bw.reuse[1] == 1
-    for i in range(n):
+    for i in range(vdot.shape[0]):
         if not extrapolate:
             vdot1[i] = vdot[i]
         elif ratio == 1.0:
@@ -430,110 +445,161 @@ def compliant_smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, 
         else:  # a step of another size than the last one (adaptive steps)
             vdot1[i] = vdot[i] + ratio * (vdot[i] - bw.vdot_old[i])
         bw.vdot_old[i] = vdot[i]
+
+
+@inline_kernel
+def _save_iterate(vdot1, lam, sw):
+    """Keep the iterate (``vdot1``, ``lam``) as the previous one (``sw.vdot_prev``,
+    ``sw.lam_prev``), that a later iterate may go back to."""
+    copy_vector(sw.vdot_prev, vdot1, vdot1.shape[0])
+    copy_vector(sw.lam_prev, lam, lam.shape[0])
+
+
+@inline_kernel
+def _halve_back(vdot1, lam, sw):
+    """Halve the iterate (``vdot1``, ``lam``) back towards the previous one (``sw.vdot_prev``,
+    ``sw.lam_prev``)."""
+    for i in range(vdot1.shape[0]):
+        vdot1[i] = 0.5 * (vdot1[i] + sw.vdot_prev[i])
+    for r in range(lam.shape[0]):
+        lam[r] = 0.5 * (lam[r] + sw.lam_prev[r])
+
+
+@inline_kernel
+def _chord_iterate(cv, ma, v_reg, work, lam, vdot1):
+    """An update of the iterate (``vdot1``, ``lam``) with reused factors (a chord iteration):
+    the factors of the last Newton matrix (``sw.fac``, ``sw.S``, ``sw.piv``, made with the
+    joint rows ``bw.G_f`` and the coefficient ``bw.c_f``), without tangents or a
+    factorisation, as products with their explicit inverse (:func:`chord_operator`, made when
+    first needed; :func:`chord_apply`), the joints' rows of the residual scaled by the ratio of
+    that coefficient to this step's ``cv`` (factors made at another step size serve too).
+    Returns False, the iterate left as it is, where the update would change a friction branch
+    (:func:`_branches_hold`).
+
+    At the zooms' steps (tens per Hertz contact time) the Newton matrix is the mass matrix to
+    a few per mille and changes by less from one step to the next, so these iterates contract
+    by about a hundred each; converging only linearly, their iterate must be well inside the
+    tolerance (:data:`CHORD_TIGHTENING`), where a Newton iterate, quadratic, lands after its
+    step."""
+    sw = work.smooth
+    bw = work.branches
+    sol = sw.sol
+    copy_vector(sol, sw.rhs, sol.shape[0])
+    if bw.reuse[2] == 0:
+        chord_operator(sw.fac, bw.G_f, bw.c_f[0], sw.S, sw.piv, bw)
+        bw.reuse[2] = 1
+    chord_apply(sw.fac, bw.G_f, bw.c_f[0], bw.c_f[0] / cv, bw, sol)
+    bw.stats[1] += 1
+    if not _branches_hold(sol, cv, ma, v_reg, work.contacts):
+        return False
+    apply_update(sol, lam, vdot1)
+    return True
+
+
+@step_kernel
+def _newton_iterate(h, coef, cv, ma, v_reg, work, lam, vdot1):
+    """A Newton update of the iterate (``vdot1``, ``lam``) on [J, -G^T; cv G, 0] with the
+    tangents at the iterate (``work.step``): J is diagonal but for the bodies joined by
+    springs and loaded contacts (their body-pair blocks). Friction is piecewise linear in the
+    slip (slope mu F / v_reg inside the band |v_T| < v_reg, flat outside): the step is solved
+    with each contact's branch chosen consistently with the slip it predicts
+    (:func:`_friction_branches`). Its factors stay in ``sw.fac``, ``sw.S``, ``sw.piv`` (those
+    of the last solve, with the friction branches it settled on) for the next chord
+    iterates, with the joint rows and the coefficient they were made with."""
+    sw = work.smooth
+    bw = work.branches
+    J = sw.J
+    G = sw.G
+    sol = sw.sol
+    n = vdot1.shape[0]
+    m = lam.shape[0]
+    newton_matrix_into(J, work.step.K_t, work.step.C_t, h, coef, ma, WITH_CONTACT_BLOCKS)
+    copy_vector(sol, sw.rhs, n + m)
+    newton_solve(J, G, cv, sol, sw.fac, sw.S, sw.piv, bw)
+    bw.stats[0] += 1
+    _friction_branches(J, sw.rhs, G, cv, sol, ma, v_reg, work.contacts, sw, bw)
+    copy_matrix(bw.G_f, G, m, n)
+    bw.c_f[0] = cv
+    bw.reuse[0] = 1
+    bw.reuse[2] = 0  # (their explicit inverse is made when a chord iterate needs it)
+    apply_update(sol, lam, vdot1)
+
+
+@step_kernel
+def compliant_smooth_step(state, acc, t1, h, ratio, coef, st, ma, v_pre, work):
+    """The generalized-alpha stage of a compliant step of size ``h`` [s] ending at ``t1`` [s]
+    from ``state`` (StepState: q, v, vdot, and lam_s, updated in place) with the start
+    accelerations ``acc``: Newton on ``work.step.vdot1`` with the springs' and the Hertz
+    contacts' forces and their exact tangents (onset speeds ``v_pre`` [m/s], updated where a
+    contact closes), joints at velocity level; ``st``: StepSettings (tol, max_iter, v_reg,
+    v_pre_min). The scheme of :func:`~.generalized_alpha.smooth_step` with the contact forces
+    in it, written for the time loop: no array allocated (``work``: :data:`CompliantWork`),
+    the tangents evaluated only where a Newton step needs them (an iterate that converges, the
+    last of almost every step, gets its forces alone). The normal force is clipped at zero
+    where the damping term would pull: a step that does not reduce the scaled residual is
+    halved back towards the previous iterate. ``work.contacts`` receives the contacts' records
+    (:func:`~.hertz.contact_records`) at the last (q_t, v_t).
+
+    A step after a converged one first iterates with the last Newton factors
+    (:func:`_chord_iterate`), its iterate converged only within :data:`CHORD_TIGHTENING` of
+    the tolerance; a friction branch that would change, or a contraction weaker than
+    :data:`CHORD_CONTRACTION`, hands over to Newton (:func:`_newton_iterate`). The first
+    iterate is extrapolated from the last two steps (:func:`_first_iterate`). Returns
+    (iterations, converged)."""
+    am, af, gam, beta = coef
+    lam = state.lam_s
+    vdot1 = work.step.vdot1
+    sw = work.smooth
+    bw = work.branches
+    law = ContactLaw(v_pre, st.v_reg)
+    tol = st.tol
+    _first_iterate(state.vdot, vdot1, ratio, bw)
     iters = 0
     converged = False
     merit_prev = np.inf
-    vdot_prev = sw.vdot_prev
-    lam_prev = sw.lam_prev
-    copy_vector(vdot_prev, vdot1, n)
-    copy_vector(lam_prev, lam, m)
+    _save_iterate(vdot1, lam, sw)
     halvings = 0
-    cv = h * gam * ca
+    cv = h * gam * ((1.0 - af) / (1.0 - am))
     _prepare(ma, bw)
-    # the updates may use the last step's Newton factors (see the docstring)
-    chord = bw.reuse[0] == 1
-    for it in range(max_iter + 1):
-        alpha_predict(q, v, acc, vdot, vdot1, h, coef, acc1, q_t, v_t)
+    chord = bw.reuse[0] == 1  # the updates may use the last step's Newton factors
+    for it in range(st.max_iter + 1):
+        alpha_predict(state.q, state.v, acc, state.vdot, vdot1, h, coef, work.step.acc1,
+                      work.step.q_t, work.step.v_t)
         # the predictor (it = 0) practically never satisfies the tolerance: its tangents are
         # evaluated with it, unless its update reuses the last factors; a later iterate first
         # gets its forces alone
         tangent = it == 0 and not chord
-        # the open contacts that cannot have closed since the last step's result (or, for a
-        # first step, since this one's first iterate) are not evaluated (_skip_far_open)
-        first = it == 0 and bw.ready[1] == 0
-        if first:
-            for k in range(bw.skip.shape[0]):
-                bw.skip[k] = False
-        else:
-            _skip_far_open(q_t, ma, bw)
-        _lazy_onset_speeds(q_t, ma, v_pre, v_pre_min, bw, hw, sw.trig)
-        _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, tangent, sw, cwork, hw,
-                  bw.skip)
-        if first:
-            copy_vector(bw.q_ref, q_t, n)
-            copy_vector(bw.g_ref, cwork[2], bw.g_ref.shape[0])
-        # contact forces and the loads they balance cancel in f_t: the force scale of the
-        # residual is that of the largest contact force
-        scale = 1e-300
-        for k in range(cwork.shape[1]):
-            scale = max(scale, cwork[0, k])
-        res_f, res_c, scale = _residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale,
-                                        bw.jcols, bw.jncols, bw.react)
-        # an iterate of the reused factors converges only linearly: it must be well inside
-        # the tolerance, where a Newton iterate (quadratic) lands after its step
+        _evaluate_iterate(it, t1, ma, law, tangent, st.v_pre_min, work)
+        res_f, res_c, scale = _stage_residual(ma, lam, work)
         limit = CHORD_TIGHTENING if chord and it > 0 else 1.0
         if res_f <= limit * tol * scale and res_c <= limit * tol:
             converged = True
             break
-        if it == max_iter:
+        if it == st.max_iter:
             break
         iters += 1
         merit = max(res_f / (tol * scale), res_c / tol)
         if chord and it > 0 and merit > CHORD_CONTRACTION * merit_prev:
             chord = False  # the old factors no longer fit: Newton from here ...
             if merit > merit_prev:  # ... or, where their update made it worse, from before it
-                copy_vector(vdot1, vdot_prev, n)
-                copy_vector(lam, lam_prev, m)
+                copy_vector(vdot1, sw.vdot_prev, vdot1.shape[0])
+                copy_vector(lam, sw.lam_prev, lam.shape[0])
                 merit_prev = np.inf
                 continue
         if merit > (1.0 - 1e-4) * merit_prev and halvings < 10:
             halvings += 1
-            for i in range(n):
-                vdot1[i] = 0.5 * (vdot1[i] + vdot_prev[i])
-            for r in range(m):
-                lam[r] = 0.5 * (lam[r] + lam_prev[r])
+            _halve_back(vdot1, lam, sw)
             continue
         halvings = 0
         merit_prev = merit
-        copy_vector(vdot_prev, vdot1, n)
-        copy_vector(lam_prev, lam, m)
+        _save_iterate(vdot1, lam, sw)
         if chord:
-            copy_vector(sol, rhs, n + m)
-            if bw.reuse[2] == 0:
-                chord_operator(sw.fac, bw.G_f, bw.c_f[0], sw.S, sw.piv, bw)
-                bw.reuse[2] = 1
-            chord_apply(sw.fac, bw.G_f, bw.c_f[0], bw.c_f[0] / cv, bw, sol)
-            bw.stats[1] += 1
-            if _branches_hold(sol, cv, ma, v_reg, cwork):
-                for r in range(m):
-                    lam[r] += sol[n + r]
-                for i in range(n):
-                    vdot1[i] += sol[i]
+            if _chord_iterate(cv, ma, st.v_reg, work, lam, vdot1):
                 continue
             chord = False
         if not tangent:  # the same forces again, now with their tangents
-            _evaluate(q_t, v_t, t1, ma, v_pre, v_reg, f_t, K_t, C_t, Ks_t, WITH_TANGENTS, sw, cwork,
-                      hw, bw.skip)
-        # Newton step on [J, -G^T; c G, 0]: J is diagonal but for the bodies joined by
-        # springs and loaded contacts (their body-pair blocks)
-        fill_pair_blocks(J, C_t, K_t, h, gam, beta, ca, ma.sp_body, BLOCKS_NEWTON)
-        fill_pair_blocks(J, C_t, K_t, h, gam, beta, ca, ma.ct_body, BLOCKS_NEWTON)
-        for i in range(n):
-            J[i, i] = (C_t[i, i] * h * gam + K_t[i, i] * h * h * beta) * ca + mdiag[i]
-        copy_vector(sol, rhs, n + m)
-        newton_solve(J, G, cv, sol, sw.fac, sw.S, sw.piv, bw)
-        bw.stats[0] += 1
-        _friction_branches(J, rhs, G, cv, sol, ma, v_reg, cwork, sw, bw)
-        # the factors now in sw.fac, sw.S, sw.piv (those of the last solve, with the friction
-        # branches it settled on) and the joint rows they were made with
-        copy_matrix(bw.G_f, G, m, n)
-        bw.c_f[0] = cv
-        bw.reuse[0] = 1
-        bw.reuse[2] = 0  # (their explicit inverse is made when a chord iterate needs it)
-        for r in range(m):
-            lam[r] += sol[n + r]
-        for i in range(n):
-            vdot1[i] += sol[i]
+            _evaluate(t1, ma, law, WITH_TANGENTS, work)
+        _newton_iterate(h, coef, cv, ma, st.v_reg, work, lam, vdot1)
     if not converged:  # a failed step's factors serve no other
         bw.reuse[0] = 0
     bw.reuse[1] = 1 if converged else 0
@@ -647,11 +713,7 @@ def chord_solve(fac, G, c, S, piv, rhs, r0):
             gx += G[a, i] * x[i]
         y[a] -= c * gx
     lu_solve(S, m, piv, y)
-    for i in range(n):
-        s = r0[i]
-        for a in range(m):
-            s += G[a, i] * y[a]
-        x[i] = s
+    add_transposed_product(x, r0, G, y)  # x = r + G^T y
     block_solve(fac, n, x)
 
 
@@ -744,16 +806,16 @@ def chord_apply(fac, G, c, c_ratio, bw, rhs):
 @step_kernel
 def _predicted_branch(k, sol, cv, ma, v_reg, cwork):
     """Friction branch of contact k at the slip a Newton step ``sol`` predicts: v_T + cv dv_T
-    (``cwork``: its slip and tangential Jacobian entries at the iterate)."""
+    (``cwork``: the contacts' records, :func:`~.hertz.contact_records`, at the iterate)."""
     ia = ma.ct_body[k, 0]
     ib = ma.ct_body[k, 1]
     dvt = 0.0
     for a in range(3):
         if ia >= 0:
-            dvt += cwork[5 + a, k] * sol[3 * ia + a]
+            dvt += cwork[WT_ROW + a, k] * sol[3 * ia + a]
         if ib >= 0:
-            dvt += cwork[8 + a, k] * sol[3 * ib + a]
-    return _branch((cwork[4, k] + cv * dvt) / v_reg)
+            dvt += cwork[WT_ROW + 3 + a, k] * sol[3 * ib + a]
+    return _branch((cwork[VT_ROW, k] + cv * dvt) / v_reg)
 
 
 @step_kernel
@@ -761,9 +823,9 @@ def _branches_hold(sol, cv, ma, v_reg, cwork):
     """Whether every loaded contact with friction stays on its friction branch over the step
     ``sol`` (then the friction law is linear along it, as a Newton matrix assumes)."""
     for k in range(ma.ct_type.shape[0]):
-        if cwork[0, k] <= 0.0 or ma.ct_law[k, 0] <= 0.0:
+        if cwork[FN_ROW, k] <= 0.0 or ma.ct_law[k, 0] <= 0.0:
             continue
-        if _predicted_branch(k, sol, cv, ma, v_reg, cwork) != _branch(cwork[4, k] / v_reg):
+        if _predicted_branch(k, sol, cv, ma, v_reg, cwork) != _branch(cwork[VT_ROW, k] / v_reg):
             return False
     return True
 
@@ -778,9 +840,9 @@ def _friction_branches(J, rhs, G, cv, sol, ma, v_reg, cwork, sw, bw):
     n = J.shape[0]
     m = G.shape[0]
     nc = ma.ct_type.shape[0]
-    FN = cwork[0]
-    FT = cwork[1]
-    vt = cwork[4]
+    FN = cwork[FN_ROW]
+    FT = cwork[FT_ROW]
+    vt = cwork[VT_ROW]
     current = bw.current
     assumed = bw.assumed
     J2 = bw.J2
@@ -818,32 +880,29 @@ def _friction_branches(J, rhs, G, cv, sol, ma, v_reg, cwork, sw, bw):
                 if ba < 0:
                     continue
                 ra = 3 * ba + a % 3
-                r2[ra] += (ft_model - FT[k]) * cwork[5 + a, k]
+                r2[ra] += (ft_model - FT[k]) * cwork[WT_ROW + a, k]
                 for c in range(6):
                     bc = ia if c < 3 else ib
                     if bc < 0:
                         continue
-                    J2[ra, 3 * bc + c % 3] += coeff * cwork[5 + a, k] * cwork[5 + c, k]
+                    J2[ra, 3 * bc + c % 3] += (coeff * cwork[WT_ROW + a, k]
+                                               * cwork[WT_ROW + c, k])
         copy_vector(sol, r2, n + m)
         newton_solve(J2, G, cv, sol, sw.fac, sw.S, sw.piv, bw)
 
 
 @step_kernel
-def compliant_step_into(q, v, acc, vdot, lam_s, t1, h, ratio, coef, st, ma, cs, work,
-                        velocities):
-    """One compliant step of size ``h`` [s] ending at ``t1`` [s] from the state (q, v, acc,
-    vdot, lam_s): onset speeds of the open contacts (the approach speed of the last state, or
-    where ``work.onset`` holds one, that), the smooth stage
-    (:func:`compliant_smooth_step`, its first iterate extrapolated over ``ratio`` = h over the
-    last step), the contacts at its result (:func:`finish_contacts`; the open ones'
-    velocities only with ``velocities``) and the joint projection. The step's end state is
-    left in ``work.step`` (q1, v1, acc1, vdot1; ``lam_s`` is updated in place), its contact
-    quantities in ``work.contacts``. Returns (smooth iterations, converged, projection
-    iterations, converged)."""
-    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
-    cwork = work.contacts
+def compliant_step_into(state, acc, t1, h, ratio, coef, st, ma, cs, work, velocities):
+    """One compliant step of size ``h`` [s] ending at ``t1`` [s] from ``state`` (StepState: q,
+    v, vdot, lam_s) with the start accelerations ``acc``: onset speeds of the open contacts
+    (the approach speed of the last state, or where ``work.onset`` holds one, that), the
+    smooth stage (:func:`compliant_smooth_step`, its first iterate extrapolated over
+    ``ratio`` = h over the last step), the contacts at its result (:func:`finish_contacts`;
+    the open ones' velocities only with ``velocities``) and the joint projection. The step's
+    end state is left in ``work.step`` (q1, v1, acc1, vdot1; ``state.lam_s`` is updated in
+    place), its contact quantities in ``work.contacts``. Returns (smooth iterations,
+    converged, projection iterations, converged)."""
     sw = work.smooth
-    hw = work.hertz
     bw = work.branches
     # onset speeds of the contacts open at the start of the step (of those whose velocities the
     # last step left out, when they close: _lazy_onset_speeds)
@@ -853,13 +912,13 @@ def compliant_step_into(q, v, acc, vdot, lam_s, t1, h, ratio, coef, st, ma, cs, 
                 cs.v_pre[j] = work.onset[j]
             elif not bw.stale[j]:
                 cs.v_pre[j] = max(-cs.vn[j], st.v_pre_min)
-    it_s, ok_s = compliant_smooth_step(q, v, acc, vdot, lam_s, t1, h, coef, st.tol,
-                                       st.max_iter, ma, q_t, v_t, acc1, vdot1, f_t, K_t, C_t,
-                                       Ks_t, sw, cs.v_pre, st.v_reg, cwork, hw, bw, ratio,
-                                       st.v_pre_min)
-    finish_contacts(q_t, v_t, ma, cwork, bw, hw, sw.trig, velocities)
-    it_p, ok_p = project_joints_into(q_t, v_t, t1, h, st.tol, st.max_iter, ma, q1, v1,
-                                     work.projection, sw.trig, sw.g, sw.G, sw.dgdt)
+    it_s, ok_s = compliant_smooth_step(state, acc, t1, h, ratio, coef, st, ma, cs.v_pre, work)
+    q_t = work.step.q_t
+    v_t = work.step.v_t
+    finish_contacts(q_t, v_t, ma, work.contacts, bw, work.hertz, sw.trig, velocities)
+    it_p, ok_p = project_joints_into(q_t, v_t, t1, h, st.tol, st.max_iter, ma, work.step.q1,
+                                     work.step.v1, work.projection, sw.trig,
+                                     JointRows(sw.g, sw.G, sw.dgdt))
     return it_s, ok_s, it_p, ok_p
 
 
@@ -873,7 +932,7 @@ def commit_step(h, state, cs, work, it_s, it_p, ok, drive_row, velocities):
     gap, the drive's torque impulse [N m s]) with its iteration counts and convergence. The
     smooth stage's result becomes the reference of the next step's contacts
     (:func:`_skip_far_open`, :func:`_lazy_onset_speeds`)."""
-    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
+    q_t, v_t, acc1, vdot1, _, _, _, _, q1, v1 = work.step
     cwork = work.contacts
     bw = work.branches
     for i in range(q1.shape[0]):
@@ -887,11 +946,11 @@ def commit_step(h, state, cs, work, it_s, it_p, ok, drive_row, velocities):
     for j in range(cs.FN.shape[0]):
         FN_old = cs.FN[j]
         FT_old = cs.FT[j]
-        cs.FN[j] = cwork[0, j]
-        cs.FT[j] = cwork[1, j]
-        cs.gap[j] = cwork[2, j]
-        cs.vn[j] = cwork[3, j]
-        cs.vt[j] = cwork[4, j]
+        cs.FN[j] = cwork[FN_ROW, j]
+        cs.FT[j] = cwork[FT_ROW, j]
+        cs.gap[j] = cwork[GAP_ROW, j]
+        cs.vn[j] = cwork[VN_ROW, j]
+        cs.vt[j] = cwork[VT_ROW, j]
         cs.closed[j] = 1 if cs.gap[j] < 0.0 else 0
         bw.g_ref[j] = cs.gap[j]
         bw.stale[j] = not velocities and cs.closed[j] == 0
@@ -984,9 +1043,8 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
         # the open contacts' velocities are needed at the output rows only (elsewhere an
         # onset speed is computed when its contact closes)
         sample = (k + 1) % every == 0
-        it_s, ok_s, it_p, ok_p = compliant_step_into(state.q, state.v, state.acc, state.vdot,
-                                                     state.lam_s, t1, h, 1.0, coef, st, ma,
-                                                     cs, work, sample)
+        it_s, ok_s, it_p, ok_p = compliant_step_into(state, state.acc, t1, h, 1.0, coef, st,
+                                                     ma, cs, work, sample)
         ok = ok_s and ok_p
         commit_step(h, state, cs, work, it_s, it_p, ok, st.drive_row, sample)
         if not ok and first_bad < 0:

@@ -21,11 +21,33 @@ from .bodies import (
     transverse_form,
     unit_direction,
 )
-from .jit import kernel, step_kernel
+from .jit import inline_kernel, kernel, step_kernel
 
 CONTACT_PLANE = 0
 CONTACT_OUTSIDE = 1
 CONTACT_INSIDE = 2
+
+
+@inline_kernel
+def element_points(q, k, el_body, el_geom):
+    """World positions and lever arms of the two body points of a two-body element ``k``
+    (a contact or a spring: ``el_body`` (., 2) its bodies, -1 the ground; ``el_geom[k, :4]``
+    the points in their bodies' frames [m]): (xa, ya, ax_a, ay_a, xb, yb, ax_b, ay_b)
+    (:func:`~.bodies.body_point`)."""
+    # scalars, not a row view (a view costs two atomic reference-count updates)
+    p0, p1, p2, p3 = el_geom[k, 0], el_geom[k, 1], el_geom[k, 2], el_geom[k, 3]
+    xa, ya, aax, aay = body_point(q, el_body[k, 0], p0, p1)
+    xb, yb, abx, aby = body_point(q, el_body[k, 1], p2, p3)
+    return xa, ya, aax, aay, xb, yb, abx, aby
+
+
+@inline_kernel
+def pair_indices(idx, ia, ib):
+    """The global indices of the 3 + 3 coordinates of bodies ``ia``, ``ib`` into ``idx`` (6
+    integers; a ground body, -1, gets indices its callers skip)."""
+    for a in range(3):
+        idx[a] = 3 * ia + a
+        idx[3 + a] = 3 * ib + a
 
 
 
@@ -147,17 +169,13 @@ def contact_hessian_into(q, k, ma, H, P):
     ground and a sphere centred on its body). ``P`` (2 x 6): work rows."""
     ct_type = ma.ct_type
     ct_body = ma.ct_body
-    ct_geom = ma.ct_geom
     H[:, :] = 0.0
     kind = ct_type[k]
     if kind == CONTACT_PLANE:
         return
     ia = ct_body[k, 0]
     ib = ct_body[k, 1]
-    # scalars, not a row view (a view costs two atomic reference-count updates)
-    p0, p1, p2, p3 = ct_geom[k, 0], ct_geom[k, 1], ct_geom[k, 2], ct_geom[k, 3]
-    cax, cay, aax, aay = body_point(q, ia, p0, p1)
-    cbx, cby, abx, aby = body_point(q, ib, p2, p3)
+    cax, cay, aax, aay, cbx, cby, abx, aby = element_points(q, k, ct_body, ma.ct_geom)
     dist, nx, ny = unit_direction(cbx - cax, cby - cay)
     if dist <= 1e-300:
         return

@@ -19,6 +19,12 @@ from .linalg import (
 )
 from .springs import FORCES_ONLY, WITH_TANGENTS, smooth_forces_into
 
+#: ``contacts`` flags of :func:`newton_matrix_into`: whether the contacts' body-pair blocks
+#: are written too (the compliant model's stage) or the springs' alone (NumPy booleans, as
+#: :data:`~.springs.WITH_TANGENTS`).
+WITH_CONTACT_BLOCKS = np.bool_(True)
+SPRING_BLOCKS_ONLY = np.bool_(False)
+
 #: Work arrays of :func:`smooth_step` (made by :func:`smooth_work`, once per run):
 #: the joint rows g, G, their velocity terms gm, dgdt, the Newton matrix J and right-hand side
 #: rhs, the factor of J and the Schur-complement arrays JG, S, piv, the spring forces' work
@@ -30,12 +36,19 @@ SmoothWork = namedtuple("SmoothWork", ["g", "G", "gm", "dgdt", "J", "rhs", "fac"
                                        "piv", "vdot_prev", "lam_prev", "sol", "fw", "iw", "trig"])
 
 
+#: Work arrays of a step shared by both time loops (:func:`step_work`): the smooth stage's
+#: predicted q~ [m, rad], v~ [m/s, rad/s], the end-of-step accelerations a, v' (``acc1``,
+#: ``vdot1``), the force f [N, N m] and its Jacobians K = -df/dq, C = -df/dv, K_s (n x n) at
+#: (q~, v~), and the end-of-step q, v.
+StepWork = namedtuple("StepWork", ["q_t", "v_t", "acc1", "vdot1", "f_t", "K_t", "C_t", "Ks_t",
+                                   "q1", "v1"])
+
+
 def step_work(n):
-    """Work arrays of a step shared by both time loops, made once per run in Python: the smooth
-    stage's predicted q~, v~, accelerations a, v', force f and its Jacobians K, C, K_s (n x n),
-    and the end-of-step q, v."""
-    return (np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n),
-            np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n)), np.zeros(n), np.zeros(n))
+    """:data:`StepWork` for n coordinates, made once per run in Python."""
+    return StepWork(np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n),
+                    np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n)), np.zeros(n),
+                    np.zeros(n))
 
 
 def smooth_work(n, m):
@@ -141,35 +154,60 @@ def smooth_residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs, scale):
 
 
 @step_kernel
-def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, acc1, vdot1,
-                f_t, K_t, C_t, Ks_t, sw):
+def newton_matrix_into(J, K_t, C_t, h, coef, ma, contacts):
+    """The smooth stage's Newton matrix J = M + (C h gamma + K h^2 beta) (1 - alpha_f) /
+    (1 - alpha_m) from the tangents ``K_t``, ``C_t`` (``coef``: :func:`alpha_coefficients`).
+    J is diagonal but for the body pairs of the springs and, with ``contacts``
+    (:data:`WITH_CONTACT_BLOCKS`), of the contacts: only those blocks and the diagonal are
+    written (K_t and C_t are zero outside them, and so is J from the start)."""
+    am, af, gam, beta = coef
+    ca = (1.0 - af) / (1.0 - am)
+    mdiag = ma.mdiag
+    fill_pair_blocks(J, C_t, K_t, h, gam, beta, ca, ma.sp_body, BLOCKS_NEWTON)
+    if contacts:
+        fill_pair_blocks(J, C_t, K_t, h, gam, beta, ca, ma.ct_body, BLOCKS_NEWTON)
+    for i in range(J.shape[0]):
+        J[i, i] = (C_t[i, i] * h * gam + K_t[i, i] * h * h * beta) * ca + mdiag[i]
+
+
+@step_kernel
+def apply_update(sol, lam, vdot1):
+    """Add a Newton (or chord) update ``sol`` = [d v'; d lambda] to the iterate (``vdot1``,
+    ``lam``) in place."""
+    n = vdot1.shape[0]
+    for r in range(lam.shape[0]):
+        lam[r] += sol[n + r]
+    for i in range(n):
+        vdot1[i] += sol[i]
+
+
+@step_kernel
+def smooth_step(q, v, acc, vdot, lam, t1, h, coef, st, ma, stw, sw):
     """Generalized-alpha prediction with smooth forces and bilateral joints (velocity level):
     the smooth stage of the nonsmooth model's step (the compliant model's, with the Hertz
     forces in it, is :func:`~.compliant_step.compliant_smooth_step`).
 
-    Newton on ``vdot1``; fills q_t, v_t, acc1, vdot1, lam and the forces/tangents at (q_t, v_t).
-    ``sw``: :func:`smooth_work`. Returns (iterations, converged).
+    Newton on ``stw.vdot1`` from the state (q, v, acc, vdot) of the step's start, with the
+    tolerance ``st.tol`` and at most ``st.max_iter`` iterations (``st``: StepSettings); fills
+    the step work ``stw`` (:data:`StepWork`: q_t, v_t, acc1, vdot1 and the forces/tangents at
+    (q_t, v_t)) and the joint multipliers ``lam``. ``sw``: :func:`smooth_work`. Returns
+    (iterations, converged).
     """
     am, af, gam, beta = coef
-    mdiag = ma.mdiag
-    n = q.shape[0]
-    m = lam.shape[0]
     ca = (1.0 - af) / (1.0 - am)
-    g = sw.g
-    G = sw.G
-    gm = sw.gm
-    dgdt = sw.dgdt
-    J = sw.J
-    rhs = sw.rhs
+    n = q.shape[0]
+    tol = st.tol
+    max_iter = st.max_iter
+    q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, _, _ = stw
     copy_vector(vdot1, vdot, n)
     iters = 0
     converged = False
     for it in range(max_iter + 1):
         alpha_predict(q, v, acc, vdot, vdot1, h, coef, acc1, q_t, v_t)
         smooth_forces_into(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, WITH_TANGENTS, sw.fw, sw.iw)
-        bilateral_cached(q_t, v_t, t1, ma, g, G, gm, dgdt, sw.trig)
-        res_f, res_c, scale = smooth_residual(mdiag, vdot1, f_t, G, lam, dgdt, v_t, rhs,
-                                              1e-300)
+        bilateral_cached(q_t, v_t, t1, ma, sw.g, sw.G, sw.gm, sw.dgdt, sw.trig)
+        res_f, res_c, scale = smooth_residual(ma.mdiag, vdot1, f_t, sw.G, lam, sw.dgdt, v_t,
+                                              sw.rhs, 1e-300)
         if res_f <= tol * scale and res_c <= tol:
             converged = True
             break
@@ -177,15 +215,8 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, tol, max_iter, ma, q_t, v_t, 
             break
         iters += 1
         # Newton step on [J, -G^T; c G, 0] by the Schur complement of the joints: J is
-        # diagonal but for the bodies joined by springs, so only that block is factorised.
-        # K_t and C_t are zero outside the springs' body-pair blocks, and so is J but for its
-        # diagonal, from the start
-        fill_pair_blocks(J, C_t, K_t, h, gam, beta, ca, ma.sp_body, BLOCKS_NEWTON)
-        for i in range(n):
-            J[i, i] = (C_t[i, i] * h * gam + K_t[i, i] * h * h * beta) * ca + mdiag[i]
-        saddle_point_solve_into(J, G, h * gam * ca, rhs, sw.fac, sw.JG, sw.S, sw.piv)
-        for r in range(m):
-            lam[r] += rhs[n + r]
-        for i in range(n):
-            vdot1[i] += rhs[i]
+        # diagonal but for the bodies joined by springs, so only that block is factorised
+        newton_matrix_into(sw.J, K_t, C_t, h, coef, ma, SPRING_BLOCKS_ONLY)
+        saddle_point_solve_into(sw.J, sw.G, h * gam * ca, sw.rhs, sw.fac, sw.JG, sw.S, sw.piv)
+        apply_update(sw.rhs, lam, vdot1)
     return iters, converged

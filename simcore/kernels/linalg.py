@@ -27,7 +27,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .jit import step_kernel
+from .jit import inline_kernel, step_kernel
 
 #: ``symmetric`` flags of :func:`block_factor`. NumPy booleans, not Python ones: Numba types a
 #: Python constant argument as a literal and compiles a specialisation per value.
@@ -273,28 +273,35 @@ def block_gram(fac, G, m, Y, first, D, cols, ncols):
     records it); the uncoupled columns add G_u diag(A_u)^-1 G_u^T over each row's support
     ``cols[r, :ncols[r]]`` (every non-zero of row r is among those columns). ``Y``: work array
     of at least m x k, ``first``: of length m."""
-    k = fac.info[0]
-    idx = fac.idx
-    dinv = fac.dinv
-    chol = fac.info[1] == 0
     for r in range(m):
         first[r] = _substitute_row(fac, G, r, Y, r)
     for a in range(m):
         for b in range(a, m):
-            s = 0.0
-            if chol:
-                for p in range(max(first[a], first[b]), k):
-                    s += Y[a, p] * Y[b, p]
-            else:
-                for p in range(k):
-                    s += G[a, idx[p]] * Y[b, p]
-            for t in range(ncols[a]):  # the uncoupled columns of row a's support
-                i = cols[a, t]
-                s += G[a, i] * dinv[i] * G[b, i]
-            D[a, b] = s
+            D[a, b] = _gram_entry(fac, G, Y, first, cols, ncols, a, b)
     for a in range(m):
         for b in range(a + 1, m):
             D[b, a] = D[a, b]
+
+
+@inline_kernel
+def _gram_entry(fac, G, Y, first, cols, ncols, a, b):
+    """Entry (a, b) of D = G A^-1 G^T (see :func:`block_gram`) from the forward
+    substitutions of rows a and b of G (``Y[a]``, ``Y[b]``, starting at ``first``): the
+    coupled part, then the uncoupled columns of row a's support ``cols[a, :ncols[a]]``."""
+    k = fac.info[0]
+    s = 0.0
+    if fac.info[1] == 0:
+        for p in range(max(first[a], first[b]), k):
+            s += Y[a, p] * Y[b, p]
+    else:
+        idx = fac.idx
+        for p in range(k):
+            s += G[a, idx[p]] * Y[b, p]
+    dinv = fac.dinv
+    for t in range(ncols[a]):  # the uncoupled columns of row a's support
+        i = cols[a, t]
+        s += G[a, i] * dinv[i] * G[b, i]
+    return s
 
 
 @step_kernel
@@ -305,10 +312,6 @@ def block_gram_rows(fac, G, rows, m, Y, first, have, D, cols, ncols):
     (itself included). A caller that grows its row set one row at a time thus pays for the new
     row only. Clear ``have`` whenever A or G change. ``D``: the full G.shape[0]-square cache;
     ``cols``/``ncols``: the rows' supports."""
-    k = fac.info[0]
-    idx = fac.idx
-    dinv = fac.dinv
-    chol = fac.info[1] == 0
     for a in range(m):
         r = rows[a]
         if have[r]:
@@ -318,16 +321,7 @@ def block_gram_rows(fac, G, rows, m, Y, first, have, D, cols, ncols):
         for rb in range(G.shape[0]):
             if not have[rb]:
                 continue
-            s = 0.0
-            if chol:
-                for p in range(max(first[r], first[rb]), k):
-                    s += Y[r, p] * Y[rb, p]
-            else:
-                for p in range(k):
-                    s += G[r, idx[p]] * Y[rb, p]
-            for t in range(ncols[r]):
-                i = cols[r, t]
-                s += G[r, i] * dinv[i] * G[rb, i]
+            s = _gram_entry(fac, G, Y, first, cols, ncols, r, rb)
             D[r, rb] = s
             D[rb, r] = s
 
@@ -388,8 +382,15 @@ def saddle_point_solve_into(J, G, c, rhs, fac, JG, S, piv):
         y[a] -= c * s
     lu_factor(S, m, piv)
     lu_solve(S, m, piv, y)
-    for i in range(n):
-        s = x[i]
-        for r in range(m):
-            s += JG[r, i] * y[r]
+    add_transposed_product(x, x, JG, y)
+
+
+@step_kernel
+def add_transposed_product(x, b, A, y):
+    """x = b + A^T y (``x``, ``b``: n; ``A``: m x n; ``y``: m), each entry summed in the order
+    of A's rows; ``x`` may be ``b``."""
+    for i in range(x.shape[0]):
+        s = b[i]
+        for a in range(A.shape[0]):
+            s += A[a, i] * y[a]
         x[i] = s

@@ -99,8 +99,7 @@ def loop_stage_calls(st, ma, state, work):
     jr, jp = work.velocity.rows, work.velocity.problem
     return {
         "smooth": (smooth_step, (state.q, state.v, state.acc, state.vdot, state.lam_s, t1, h,
-                                 coef, st.tol, st.max_iter, ma, q_t, v_t, acc1, vdot1, f_t,
-                                 K_t, C_t, Ks_t, work.smooth)),
+                                 coef, st, ma, work.step, work.smooth)),
         "position": (position_step, (q_t, t1, h, st, ma, Ks_t, q1, nu_c, gap,
                                      work.position)),
         "velocity": (velocity_step, (q1, v_t, t1, h, st, ma, f_t, nu_c, gap, state, v1,
@@ -308,8 +307,7 @@ def integrate_chunk(k0, k1, st, ma, state, out, work, rs):
             for j in range(n_sub):
                 t1 = (k + 1) * h if j == n_sub - 1 else k * h + (j + 1) * hs
                 it_s, ok_s = smooth_step(state.q, state.v, state.acc, state.vdot, state.lam_s,
-                                         t1, hs, coef, st.tol, st.max_iter, ma, q_t, v_t, acc1,
-                                         vdot1, f_t, K_t, C_t, Ks_t, work.smooth)
+                                         t1, hs, coef, st, ma, work.step, work.smooth)
                 it_p, ok_p = position_step(q_t, t1, hs, st, ma, Ks_t, q1, nu_c, gap, pwk)
                 _normal_velocities_before_jump(v_t, pwk.GN, pwk.metric.cols,
                                                pwk.metric.ncols, nu_b.shape[0], vn_free)

@@ -7,7 +7,6 @@ import numpy as np
 
 from .bodies import (
     body_omega,
-    body_point,
     clear_pair_blocks,
     pair_point_jacobians,
     point_pair_row,
@@ -15,6 +14,7 @@ from .bodies import (
     transverse_form,
     unit_direction,
 )
+from .contact import element_points, pair_indices
 from .jit import inline_kernel, kernel, step_kernel
 
 #: ``tangent`` flags of :func:`smooth_forces_into`. NumPy booleans, not Python ones: Numba types
@@ -28,10 +28,7 @@ def spring_state(q, v, k, sp_body, sp_geom):
     """Length [m], its rate [m/s], unit direction and lever arms of spring ``k``."""
     bi = sp_body[k, 0]
     bj = sp_body[k, 1]
-    # scalars, not a row view (a view costs two atomic reference-count updates)
-    p0, p1, p2, p3 = sp_geom[k, 0], sp_geom[k, 1], sp_geom[k, 2], sp_geom[k, 3]
-    xi, yi, aix, aiy = body_point(q, bi, p0, p1)
-    xj, yj, ajx, ajy = body_point(q, bj, p2, p3)
+    xi, yi, aix, aiy, xj, yj, ajx, ajy = element_points(q, k, sp_body, sp_geom)
     length, nx, ny = unit_direction(xj - xi, yj - yi)
     wi = body_omega(v, bi)
     wj = body_omega(v, bj)
@@ -49,6 +46,18 @@ def spring_state(q, v, k, sp_body, sp_geom):
     dvy = vjy - viy
     rate = nx * dvx + ny * dvy
     return length, rate, nx, ny, aix, aiy, ajx, ajy, dvx, dvy
+
+
+@inline_kernel
+def spring_row(q, v, k, sp_body, sp_geom, w, idx):
+    """:func:`spring_state` of spring ``k``, with its row w = d(length)/d(q_i, q_j) (6) and
+    the global indices of those coordinates (:func:`~.contact.pair_indices`) into ``w`` and
+    ``idx``."""
+    state = spring_state(q, v, k, sp_body, sp_geom)
+    _, _, nx, ny, aix, aiy, ajx, ajy, _, _ = state
+    store6(w, point_pair_row(nx, ny, aix, aiy, ajx, ajy, 1.0))
+    pair_indices(idx, sp_body[k, 0], sp_body[k, 1])
+    return state
 
 
 @kernel
@@ -95,14 +104,9 @@ def smooth_forces_into(q, v, ma, f, K, C, Ks, tangent, fw, iw):
         stiff = sp_geom[k, 4]
         damp = sp_geom[k, 5]
         rest = sp_geom[k, 6]
-        length, rate, nx, ny, aix, aiy, ajx, ajy, dvx, dvy = spring_state(q, v, k, sp_body,
-                                                                          sp_geom)
+        length, rate, nx, ny, aix, aiy, ajx, ajy, dvx, dvy = spring_row(q, v, k, sp_body,
+                                                                        sp_geom, w, idx)
         tension = stiff * (length - rest) + damp * rate
-        # w = d(length)/d(q_i, q_j)
-        store6(w, point_pair_row(nx, ny, aix, aiy, ajx, ajy, 1.0))
-        for a in range(3):
-            idx[a] = 3 * bi + a
-            idx[3 + a] = 3 * bj + a
         for a in range(6):
             body = bi if a < 3 else bj
             if body >= 0:
@@ -159,11 +163,7 @@ def spring_damping_into(q, v, ma, C, fw, iw):
         bi = sp_body[k, 0]
         bj = sp_body[k, 1]
         damp = sp_geom[k, 5]
-        _, _, nx, ny, aix, aiy, ajx, ajy, _, _ = spring_state(q, v, k, sp_body, sp_geom)
-        store6(w, point_pair_row(nx, ny, aix, aiy, ajx, ajy, 1.0))
-        for a in range(3):
-            idx[a] = 3 * bi + a
-            idx[3 + a] = 3 * bj + a
+        spring_row(q, v, k, sp_body, sp_geom, w, idx)
         for a in range(6):
             if (bi if a < 3 else bj) < 0:
                 continue

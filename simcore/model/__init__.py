@@ -6,6 +6,8 @@ scenes built with them (the crank-slider bearing and the validation cases).
 - :mod:`.driver`: :class:`SolverSettings` and the time loop's driver in named stages;
 - :mod:`.audit`: the energy audit of a run; :mod:`.hertz`: the Hertz stiffness and the
   hysteresis damping law;
+- :mod:`.bearing`: the bearing's geometry (radii, pitch circle, lands);
+- :mod:`.integrity`: the invariants of a bearing checked on every step;
 - :mod:`.mechanism`: the crank-slider with its ball bearing, and the validation scenes.
 """
 

@@ -1,15 +1,35 @@
-"""Bearing catalogue and ISO 5753-1 clearance classes: from a catalogue entry to the model's
-radii and masses (docs/life.md, "From a catalogue entry to the model").
+"""The bearing: its geometry from one place (race radii, pitch circle, cage chord, the rings'
+lands), the bearing catalogue and the ISO 5753-1 clearance classes (docs/model.md, "The
+bearing"; docs/life.md, "From a catalogue entry to the model").
 
-Data files (each value with its source): ``simcore/data/bearings.yaml`` and
+Geometry. The model's bearing is planar: balls of radius r_B between an inner race of radius r_A
+(the groove bottom of the inner ring) and an outer race of radius r_C (the groove bottom of the
+outer ring), with the radial clearance g = r_C - r_A - 2 r_B as the input. Every radius the
+model, its limits, its integrity checks and the analysis need is computed by
+:class:`BearingGeometry`.
+
+The **lands** are the cylindrical shoulders of the rings beside the grooves: the inner ring's
+land at r_A + h, the outer ring's at r_C - h, with h the shoulder height (groove depth). When
+the balls bunch on one side (a soft cage) nothing else keeps the inner ring inside the outer
+one; in a real deep-groove bearing the lands then meet. Their radial distance with the rings
+concentric,
+
+    land gap = (r_C - h) - (r_A + h) = g + 2 r_B - 2 h,
+
+is the journal offset at which the ring guard contact of the model closes
+(:func:`simcore.model.mechanism.add_guard_contacts`).
+
+Catalogue. Data files (each value with its source): ``simcore/data/bearings.yaml`` and
 ``simcore/data/clearance_iso5753.yaml``.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
+from typing import Any, Iterable, Mapping
 
 import yaml
 
@@ -119,3 +139,195 @@ def clearance_range(bore: float, clearance_class: str) -> tuple[float, float, fl
 def model_clearance(bore: float, clearance_class: str) -> float:
     """The model's clearance g [m] for a class: half the middle of its ISO range."""
     return 0.5 * clearance_range(bore, clearance_class)[2]
+
+
+#: what each model key the catalogue can fix needs of an entry
+_NEEDS = {"ball_radius": ("D_w",), "n_balls": ("Z",), "inner_radius": ("D_pw", "D_w")}
+
+
+def catalogue_values(name: str, explicit: Mapping[str, Any]) -> dict:
+    """The ``model`` keys that the catalogue entry ``name`` fixes and ``explicit`` does not
+    give (SI units): the mapping of :func:`model_geometry`, the explicit values entering it
+    where they stand for the entry's (an explicit ball radius: the inner race radius
+    D_pw / 2 - r_B puts the ball's centre on the entry's pitch circle, and a steel ball's mass
+    follows from it) and standing in for what the entry lacks.
+
+    Parameters
+    ----------
+    name : str
+        Catalogue entry (``model.bearing``).
+    explicit : mapping
+        The model values given explicitly (they win over the entry's).
+
+    Returns
+    -------
+    dict
+        Values for the keys of ``model_geometry`` not in ``explicit``: the radii and the ball
+        count from D_w, D_pw, Z; the ball's mass and inertia as the entry gives them, else a
+        steel sphere of the ball's diameter (the explicit ``ball_radius`` when given); the
+        race masses and inertias where the entry gives them.
+
+    Raises
+    ------
+    ValueError
+        One line naming ``model.bearing``, the entry's missing value and the keys that can
+        stand in for it.
+    """
+    entry = bearing(name)
+    values: dict[str, Any] = {}
+    for key, needs in _NEEDS.items():
+        if key in explicit:
+            continue
+        missing = [n for n in needs if entry.get(n) is None
+                   and not (n == "D_w" and "ball_radius" in explicit)]
+        if missing:
+            raise ValueError(
+                f"model.bearing: {name!r} has no {missing[0]} ({entry['sources'][missing[0]]}); "
+                f"allowed: an entry with it, or model.{key} given explicitly")
+    # the ball the model gets: an explicit radius wins over the entry's D_w wherever it enters
+    d_w = (2.0 * float(explicit["ball_radius"]) if "ball_radius" in explicit
+           else entry["D_w"] * 1e-3)
+    if "ball_radius" not in explicit:
+        values["ball_radius"] = 0.5 * d_w
+    if "inner_radius" not in explicit:
+        values["inner_radius"] = 0.5 * (entry["D_pw"] * 1e-3 - d_w)
+    if "n_balls" not in explicit:
+        values["n_balls"] = int(entry["Z"])
+    mass = explicit.get("ball_mass", entry.get("ball_mass"))
+    if mass is None:
+        mass = STEEL_DENSITY * math.pi * d_w**3 / 6.0
+    if "ball_mass" not in explicit:
+        values["ball_mass"] = mass
+    if "ball_inertia" not in explicit:
+        inertia = entry.get("ball_inertia")
+        values["ball_inertia"] = mass * d_w**2 / 10.0 if inertia is None else inertia
+    for key in MASS_KEYS[2:]:
+        if key not in explicit and entry.get(key) is not None:
+            values[key] = entry[key]
+    return values
+
+
+def resolve_model(model: Mapping[str, Any], explicit: Iterable[str]) -> dict:
+    """A ``model`` section with its bearing resolved: the catalogue entry ``model.bearing``
+    fixes the radii, ball count and masses not in ``explicit``, and ``model.clearance_class``
+    (when not None) the clearance (half the middle of the class's ISO 5753-1 range for the
+    entry's bore), whatever ``model.clearance`` says.
+
+    This is what :func:`simcore.config.validate_config` applies, the keys of the ``model``
+    section it was given being ``explicit``; a study that sweeps ``model.bearing`` or
+    ``model.clearance_class`` resolves each grid point with it (or validates each point's
+    configuration with only the keys the user gave).
+
+    Parameters
+    ----------
+    model : mapping
+        A complete ``model`` section (defaults filled), with ``bearing`` and
+        ``clearance_class``.
+    explicit : iterable of str
+        The keys of ``model`` the user gave.
+
+    Returns
+    -------
+    dict
+        A new ``model`` section.
+
+    Raises
+    ------
+    ValueError
+        One line naming ``model.bearing`` or ``model.clearance_class``.
+    """
+    from ..config.parameters import tidy
+
+    explicit = set(explicit)
+    out = dict(model)
+    out.update(catalogue_values(out["bearing"], {k: out[k] for k in explicit if k in out}))
+    if out.get("clearance_class") is not None:
+        # (to 10 digits, as a study's grid point has it: simcore.study.plan.resolve_determined)
+        out["clearance"] = tidy(model_clearance(bearing(out["bearing"])["d"],
+                                                out["clearance_class"]))
+    return out
+
+
+# ------------------------------------------------------------------------------------------
+# geometry
+# ------------------------------------------------------------------------------------------
+#: Shoulder height of each ring over the ball diameter [-] (groove depth). Deep-groove rings:
+#: the inner ring of a 6312 (catalogue shoulder diameter d1 = 81.86 mm, pitch diameter
+#: 95 mm, balls of 22.225 mm) has 0.20; docs/model.md gives the reasoning.
+SHOULDER_FRACTION = 0.2
+
+
+@dataclass(frozen=True)
+class BearingGeometry:
+    """Radii of the planar bearing [m].
+
+    Parameters
+    ----------
+    inner_radius : float
+        r_A, inner race (groove bottom) radius [m].
+    ball_radius : float
+        r_B [m].
+    clearance : float
+        Radial clearance g = r_C - r_A - 2 r_B [m].
+    n_balls : int
+        Number of balls.
+    shoulder_fraction : float
+        Shoulder height of each ring over the ball diameter [-] (:data:`SHOULDER_FRACTION`).
+    """
+
+    inner_radius: float
+    ball_radius: float
+    clearance: float
+    n_balls: int
+    shoulder_fraction: float = SHOULDER_FRACTION
+
+    @classmethod
+    def from_model(cls, model: dict) -> BearingGeometry:
+        """The geometry of a ``model`` section (keys ``inner_radius``, ``ball_radius``,
+        ``clearance``, ``n_balls``)."""
+        return cls(float(model["inner_radius"]), float(model["ball_radius"]),
+                   float(model["clearance"]), int(model["n_balls"]))
+
+    @property
+    def outer_radius(self) -> float:
+        """r_C = r_A + 2 r_B + g [m]."""
+        return self.inner_radius + 2.0 * self.ball_radius + self.clearance
+
+    @property
+    def pitch_radius(self) -> float:
+        """Radius of the ball centres with the rings concentric, r_A + r_B + g/2 [m]."""
+        return self.inner_radius + self.ball_radius + 0.5 * self.clearance
+
+    @property
+    def cage_chord(self) -> float:
+        """Distance of neighbouring ball centres evenly spaced on the pitch circle,
+        2 R_p sin(pi / n) [m] (the cage springs' rest length)."""
+        return 2.0 * self.pitch_radius * math.sin(math.pi / self.n_balls)
+
+    @property
+    def shoulder_height(self) -> float:
+        """h, height of each ring's land above its groove bottom [m]."""
+        return self.shoulder_fraction * 2.0 * self.ball_radius
+
+    @property
+    def inner_land_radius(self) -> float:
+        """Radius of the inner ring's land, r_A + h [m]."""
+        return self.inner_radius + self.shoulder_height
+
+    @property
+    def outer_land_radius(self) -> float:
+        """Radius of the outer ring's land, r_C - h [m]."""
+        return self.outer_radius - self.shoulder_height
+
+    @property
+    def land_gap(self) -> float:
+        """Journal offset at which the lands meet, g + 2 r_B - 2 h [m]."""
+        return self.outer_land_radius - self.inner_land_radius
+
+    def balls_fit(self) -> bool:
+        """True when n balls evenly spaced on the pitch circle do not overlap."""
+        return self.cage_chord > 2.0 * self.ball_radius
+
+    def max_balls(self) -> int:
+        """Most balls that fit evenly spaced on the pitch circle without overlapping."""
+        return int(math.pi / math.asin(min(1.0, self.ball_radius / self.pitch_radius)))

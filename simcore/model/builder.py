@@ -66,6 +66,10 @@ class Model:
         self.springs: list[tuple[int, int, tuple]] = []
         self.contacts: list[tuple[int, int, int, tuple, tuple]] = []
         self.contact_names: list[str] = []
+        #: Integrity checks the time loop runs on every chunk of output rows, callables
+        #: ``(trajectory, row0, row1, settings) -> Violation or None``
+        #: (:mod:`simcore.model.integrity`); a scene registers its own.
+        self.checks: list = []
 
     # -- elements ----------------------------------------------------------------------------
     def add_body(self, name, mass, inertia, q0=(0.0, 0.0, 0.0), v0=(0.0, 0.0, 0.0)) -> int:

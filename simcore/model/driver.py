@@ -7,8 +7,8 @@ step. The stages of a run:
 1. :func:`_start` -- the model's arrays, the initial state and its acceleration;
 2. :func:`_allocate` -- the output arrays (one row per output time, t0 included);
 3. :class:`_Loop` -- the kernels integrate a chunk of steps at a time; between chunks the
-   driver checks the chunk (convergence, the energy audit, a finite state), shows progress and
-   decides an early stop;
+   driver checks the chunk (convergence, the energy audit, a finite state, the model's
+   integrity checks), shows progress and decides an early stop;
 4. :func:`_finish` -- the rows of an early stop are trimmed and the run's records attached.
 
 The kernels (:mod:`simcore.kernels`) take and return plain arrays; nothing here imports xarray.
@@ -26,6 +26,7 @@ import numpy as np
 from .. import kernels as nb
 from .audit import ENERGY_FLOOR_J, EnergyAudit, drive_rate
 from .hertz import DAMPING_LAWS
+from .integrity import CheckSettings, run_checks
 
 CONTACT_MODELS = ("nonsmooth", "compliant")
 #: defaults of the adaptive compliant step (docs/compliant.md, "Adaptive steps"): the smallest
@@ -106,6 +107,10 @@ class SolverSettings:
         calls); with adaptive steps, chunk // output_every output intervals per call.
     progress : bool
         Print a progress bar on stderr (when it is a terminal).
+    max_indentation : float
+        Largest indentation of a compliant contact over the ball radius, and the Hertz
+        deflection the model's integrity checks allow (:mod:`simcore.model.integrity`) [-],
+        in (0, 1].
     adaptive : bool
         Compliant: choose each step's size by the local error estimate (docs/compliant.md,
         "Adaptive steps"); ``dt`` is then the largest step and the output interval is
@@ -137,6 +142,7 @@ class SolverSettings:
     max_halvings: int = 4
     chunk: int = 500
     progress: bool = False
+    max_indentation: float = 0.1
     adaptive: bool = False
     dt_min: float = DT_MIN_DEFAULT
     adaptive_tol: float = ADAPTIVE_TOL_DEFAULT
@@ -169,6 +175,11 @@ class SolverSettings:
         object.__setattr__(self, "t_end", t_end)
         object.__setattr__(self, "friction_regularization", v_reg)
         object.__setattr__(self, "output_every", every)
+        indentation = _finite("solver.max_indentation", self.max_indentation, positive=True)
+        if indentation > 1.0:
+            raise ValueError(f"solver.max_indentation: {indentation} is not allowed; allowed: "
+                             "in (0, 1]")
+        object.__setattr__(self, "max_indentation", indentation)
 
     def _check_adaptive(self, dt: float) -> None:
         if not self.compliant:
@@ -197,6 +208,7 @@ class SolverSettings:
                       friction_regularization=model["friction_regularization"],
                       output_every=output_every(cfg), energy_tol=solver["energy_tol"],
                       max_halvings=solver["max_halvings"],
+                      max_indentation=solver["max_indentation"],
                       adaptive=solver["adaptive"], dt_min=solver["dt_min"],
                       adaptive_tol=solver["adaptive_tol"])
         values.update(changes)
@@ -285,6 +297,20 @@ class Trajectory:
                   "vn_post", "vn_free", "energy", "iterations", "converged", "drive_torque",
                   "halvings", "F_N", "F_T")
 
+    #: the per-row arrays with one column per contact
+    CONTACT_FIELDS = ("lambda_N", "lambda_T", "nu_N", "gap_N", "vn_pre", "vn_post", "vn_free",
+                      "F_N", "F_T")
+
+    def contact_columns(self, columns) -> Trajectory:
+        """A copy whose per-contact arrays hold only ``columns`` (a slice or an index array of
+        contacts, e.g. a bearing's ball-race contacts without its guard contacts); the other
+        arrays and ``extras`` are shared."""
+        parts = {name: getattr(self, name) for name in self.__dataclass_fields__}
+        for name in self.CONTACT_FIELDS:
+            if parts[name] is not None:
+                parts[name] = parts[name][:, columns]
+        return Trajectory(**parts)
+
     def keep_rows(self, n_keep: int) -> None:
         """Keep the first ``n_keep`` rows of every per-row array."""
         for name in self.ROW_FIELDS:
@@ -300,10 +326,13 @@ class _ReleaseWatch:
     def __init__(self, groups, onset, nc):
         groups = np.atleast_2d(np.asarray(groups, dtype=bool))
         onset = groups if onset is None else np.atleast_2d(np.asarray(onset, dtype=bool))
-        if groups.shape[1] != nc or onset.shape != groups.shape:
+        if groups.shape[1] > nc or onset.shape != groups.shape:
             raise ValueError(f"watch_contacts: shape {groups.shape} is not allowed; allowed: "
-                             f"(nc,) or (groups, nc) booleans with nc = {nc}, watch_onset the "
-                             "same shape")
+                             f"(nc,) or (groups, nc) booleans with nc = {nc} (or fewer: the "
+                             "first contacts, e.g. a bearing's ball-race contacts without its "
+                             "guard contacts), watch_onset the same shape")
+        pad = ((0, 0), (0, nc - groups.shape[1]))  # contacts left out are not watched
+        groups, onset = np.pad(groups, pad), np.pad(onset, pad)
         self.groups = groups
         self.onset = onset
         self.onset_row = np.full(groups.shape[0], -1)
@@ -384,10 +413,10 @@ def _start(model, settings: SolverSettings, q0, v0, t0, v_pre0=None) -> _Start:
     f_contact = np.zeros(ndof)  # the compliant contact forces at the start
     FN0 = FT0 = None
     if compliant:
-        FN0, FT0 = np.zeros(nc), np.zeros(nc)
+        rec = nb.contact_records(nc)
         nb.contact_forces(q, v, arr, v_pre, settings.friction_regularization, f_contact,
-                          np.zeros((1, 1)), np.zeros((1, 1)), False, FN0, FT0, gap0.copy(),
-                          vn0.copy(), vt0.copy(), np.zeros((6, nc)))
+                          np.zeros((1, 1)), np.zeros((1, 1)), False, rec)
+        FN0, FT0 = rec[nb.FN_ROW].copy(), rec[nb.FT_ROW].copy()
     vdot, lam_s = np.zeros(ndof), np.zeros(nbil)
     try:
         nb.initial_acceleration(q, v, float(t0), arr, f_contact, vdot, lam_s, work.smooth)
@@ -501,6 +530,10 @@ class _Loop:
         self.release = self._release_watch(release, start.gap.size)
         self.audit = EnergyAudit(model, settings.output_dt, out.time.size - 1,
                                  settings.energy_tol, t0=t0)
+        self.checks = list(model.checks)
+        self.check_settings = CheckSettings(settings.max_indentation,
+                                            settings.tol * settings.dt, settings.compliant)
+        self.violations: dict[str, int] = {}  # output rows flagged by each integrity check
 
     def _release_watch(self, release, nc):
         if release is None or not self.settings.compliant:
@@ -524,6 +557,7 @@ class _Loop:
             if not np.all(np.isfinite(self.state.q)):
                 raise SolverError(f"non-finite state at step {k_next} "
                                   f"(t = {self._time(k_next):.6g} s)")
+            self._check_integrity(k // every, k_next // every)
             k_prev, k = k, k_next
             if show:
                 self._show_progress(k)
@@ -557,6 +591,23 @@ class _Loop:
         if bad >= 0 and self.first_bad < 0:
             self.first_bad = int(bad)
             self._fail(self._unconverged_message(bad))
+
+    def _check_integrity(self, row0: int, row1: int) -> None:
+        """The model's integrity checks on rows ``row0 .. row1``: every row that breaks one
+        is flagged in ``converged``; the first failure of the run stops it or is warned about
+        (``on_nonconvergence``), and so is the first failure of each further check."""
+        every = self.settings.output_every
+        for v in run_checks(self.checks, self.out, row0, row1 + 1, self.check_settings):
+            self.out.converged[v.rows] = 0
+            first_of_check = v.check not in self.violations
+            self.violations[v.check] = self.violations.get(v.check, 0) + int(v.rows.size)
+            step = int(v.rows[0]) * every
+            if self.first_bad < 0 or step - 1 < self.first_bad:
+                self.first_bad = step - 1  # (0-based, as the kernels count)
+            elif not first_of_check:
+                continue
+            self._fail(f"integrity check '{v.check}' failed at step {step} "
+                       f"(t = {self._time(step):.6g} s): {v.detail}")
 
     def _unconverged_message(self, bad: int) -> str:
         if self.adaptive is not None:
@@ -609,6 +660,7 @@ def _finish(loop: _Loop, steps_done: int, wall_time_s: float) -> Trajectory:
     out.wall_time_s = wall_time_s
     out.first_unconverged_step = loop.first_bad
     out.extras["energy_audit"] = loop.audit
+    out.extras["integrity"] = loop.violations
     if settings.compliant:  # (a record of the cost: Newton steps and chord iterates)
         out.extras["newton_steps"], out.extras["chord_iterates"] = (
             int(x) for x in loop.work.branches.stats)

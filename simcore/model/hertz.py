@@ -1,12 +1,109 @@
-"""The Hertz contact of two bodies of one material, and the hysteresis damping of the compliant
-law: the one place these formulas are written (the model's contact elements, the stability
-limits and the analysis of impacts all call them)."""
+"""Hertz's law of two elastic spheres, the one source of the contact stiffness used by the
+model, its limits and the analysis; and the hysteresis damping factor of the compliant law.
+
+Two spheres (or a sphere and a plane) of contact modulus E* pressed together by F indent by
+delta with F = K delta^(3/2), K = (4/3) E* sqrt(R_eff):
+
+- contact modulus E* = 1 / ((1 - nu_1^2)/E_1 + (1 - nu_2^2)/E_2), E / (2 (1 - nu^2)) for two
+  bodies of the same material;
+- effective radius of the model's contact elements (:data:`ELEMENT_KINDS`): ``plane``
+  R_eff = r_b (a sphere on a plane), ``outside`` r_a r_b / (r_a + r_b) (sphere on sphere,
+  convex), ``inside`` r_a r_b / (r_a - r_b) (sphere b inside the hollow sphere a, concave).
+
+The Numba kernels receive K per contact in ``ModelArrays.ct_hertz``
+(:meth:`simcore.model.Model.arrays`); ``analysis.hertz_stiffness`` keeps its own signature
+(two materials, a ``concave`` flag) and calls :func:`contact_modulus` and :func:`stiffness`
+here: for one material it gives the model's K to the last digit.
+"""
 
 from __future__ import annotations
 
-import numpy as np
+import math
 
+#: Damping laws of the compliant contact model (:func:`damping_factor`).
 DAMPING_LAWS = ("flores", "hunt_crossley", "lankarani_nikravesh")
+
+#: Contact elements whose effective radius :func:`effective_radius` knows.
+ELEMENT_KINDS = ("plane", "outside", "inside")
+
+
+def contact_modulus(youngs_modulus: float, poisson_ratio: float,
+                    youngs_modulus_2: float | None = None,
+                    poisson_ratio_2: float | None = None) -> float:
+    """Contact modulus E* [Pa] of two bodies.
+
+    Parameters
+    ----------
+    youngs_modulus, poisson_ratio : float
+        E_1 [Pa] and nu_1 [-] of the first body.
+    youngs_modulus_2, poisson_ratio_2 : float, optional
+        E_2 [Pa] and nu_2 [-] of the second body; default: the first body's material, for
+        which E* = E / (2 (1 - nu^2)).
+
+    Returns
+    -------
+    float
+        E* [Pa].
+    """
+    e2 = youngs_modulus if youngs_modulus_2 is None else youngs_modulus_2
+    nu2 = poisson_ratio if poisson_ratio_2 is None else poisson_ratio_2
+    if e2 == youngs_modulus and nu2 == poisson_ratio:  # one material: the model's own digits
+        return youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
+    return 1.0 / ((1.0 - poisson_ratio**2) / youngs_modulus + (1.0 - nu2**2) / e2)
+
+
+def effective_radius(kind: str, radius_a: float, radius_b: float) -> float:
+    """Effective radius of curvature R_eff [m] of a contact element.
+
+    Parameters
+    ----------
+    kind : {"plane", "outside", "inside"}
+        The element (:data:`ELEMENT_KINDS`).
+    radius_a : float
+        Radius of the surface body a [m] (unused for a plane); for ``inside`` the hollow
+        sphere's radius, larger than ``radius_b``.
+    radius_b : float
+        Radius of the sphere b [m].
+    """
+    if kind == "plane":
+        return radius_b
+    if kind == "outside":
+        return radius_a * radius_b / (radius_a + radius_b)
+    if kind == "inside":
+        return radius_a * radius_b / (radius_a - radius_b)
+    raise ValueError(f"contact kind {kind!r} is not allowed; allowed: "
+                     + ", ".join(ELEMENT_KINDS))
+
+
+def stiffness(r_eff: float, e_star: float) -> float:
+    """Hertz stiffness K = (4/3) E* sqrt(R_eff) [N m^-1.5] from the effective radius [m] and
+    the contact modulus [Pa]."""
+    return 4.0 / 3.0 * e_star * math.sqrt(r_eff)
+
+
+def hertz_stiffness(kind: str, radius_a: float, radius_b: float, youngs_modulus: float,
+                    poisson_ratio: float) -> float:
+    """Hertz stiffness K [N m^-1.5] of a contact element, both bodies of the same material.
+
+    Parameters
+    ----------
+    kind : {"plane", "outside", "inside"}
+        The element (see :func:`effective_radius`).
+    radius_a, radius_b : float
+        Radii of body a (surface) and sphere b [m].
+    youngs_modulus : float
+        E [Pa].
+    poisson_ratio : float
+        nu [-].
+    """
+    return stiffness(effective_radius(kind, radius_a, radius_b),
+                     contact_modulus(youngs_modulus, poisson_ratio))
+
+
+def deflection(force: float, stiffness_K: float) -> float:
+    """Indentation delta = (F / K)^(2/3) [m] of a Hertz contact of stiffness K [N m^-1.5]
+    under the force F [N] (0 for F <= 0)."""
+    return (force / stiffness_K) ** (2.0 / 3.0) if force > 0.0 else 0.0
 
 
 def damping_factor(e_N: float, law: str = "flores") -> float:
@@ -27,22 +124,3 @@ def damping_factor(e_N: float, law: str = "flores") -> float:
         return 0.75 * (1.0 - e * e)
     raise ValueError(f"model.damping_law: {law!r} is not allowed; allowed: "
                      + ", ".join(DAMPING_LAWS))
-
-
-def hertz_stiffness(kind: str, radius_a: float, radius_b: float, youngs_modulus: float,
-                    poisson_ratio: float) -> float:
-    """Hertz stiffness K = (4/3) E* sqrt(R_eff) [N m^-1.5] of a contact element, both bodies of
-    the same material: E* = E / (2 (1 - nu^2)); R_eff = r_b on a plane, r_a r_b / (r_a + r_b)
-    for a sphere on a sphere (convex), r_a r_b / (r_a - r_b) for a sphere inside a ring of
-    radius r_a (concave)."""
-    e_star = youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
-    if kind == "plane":
-        r_eff = radius_b
-    elif kind == "outside":
-        r_eff = radius_a * radius_b / (radius_a + radius_b)
-    elif kind == "inside":
-        r_eff = radius_a * radius_b / (radius_a - radius_b)
-    else:
-        raise ValueError(f"contact kind {kind!r} is not allowed; allowed: plane, outside, "
-                         "inside")
-    return 4.0 / 3.0 * e_star * np.sqrt(r_eff)

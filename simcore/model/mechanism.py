@@ -9,12 +9,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .bearing import BearingGeometry
 from .builder import Model
+from .integrity import BearingChecks
 
 
 @dataclass
 class BearingLayout:
-    """Derived geometry and indices of the crank-slider model (all lengths in metres)."""
+    """Derived geometry and indices of the crank-slider model (all lengths in metres).
+
+    The model's contacts are the 2 n ball-race contacts (balls 0..n-1 on the inner race, then
+    on the outer race), then the guard contacts (:func:`add_guard_contacts`), named in
+    ``guards``."""
 
     crank: int
     rod: int
@@ -26,6 +32,13 @@ class BearingLayout:
     pitch_radius: float
     cage_speed: float     # initial cage angular velocity [rad/s]
     ball_spin: float      # initial ball spin [rad/s]
+    guards: tuple = ()    # names of the guard contacts, after the ball-race contacts
+    land_gap: float = 0.0  # journal offset at which the rings' lands meet [m]
+
+    @property
+    def n_race_contacts(self) -> int:
+        """Number of ball-race contacts (the first contacts of the model)."""
+        return 2 * len(self.balls)
 
 
 def _combine(parts):
@@ -65,14 +78,20 @@ class BearingSpec:
         return cls(n_balls=int(model["n_balls"]), **{k: float(model[k]) for k in keys})
 
     @property
+    def geometry(self) -> BearingGeometry:
+        """The bearing's radii (:class:`simcore.model.bearing.BearingGeometry`)."""
+        return BearingGeometry(self.inner_radius, self.ball_radius, self.clearance,
+                               self.n_balls)
+
+    @property
     def outer_radius(self) -> float:
         """r_C = r_A + 2 r_B + g [m]."""
-        return self.inner_radius + 2.0 * self.ball_radius + self.clearance
+        return self.geometry.outer_radius
 
     @property
     def pitch_radius(self) -> float:
         """Radius of the ball centres with the rings concentric, r_A + r_B + g/2 [m]."""
-        return self.inner_radius + self.ball_radius + 0.5 * self.clearance
+        return self.geometry.pitch_radius
 
 
 def add_bearing(m: Model, spec: BearingSpec, inner: tuple, outer: tuple, centre: tuple,
@@ -126,7 +145,7 @@ def add_bearing(m: Model, spec: BearingSpec, inner: tuple, outer: tuple, centre:
     for k, b in enumerate(balls):
         m.add_contact("inside", outer[0], outer[1], spec.outer_radius, b, (0.0, 0.0),
                       spec.ball_radius, name=f"ball{k}-outer", **law)
-    chord = 2.0 * pitch * np.sin(np.pi / n)
+    chord = spec.geometry.cage_chord
     for k in range(n):
         m.add_spring(balls[k], (0.0, 0.0), balls[(k + 1) % n], (0.0, 0.0),
                      spec.cage_stiffness, spec.cage_damping, rest_length=chord)
@@ -188,9 +207,57 @@ def crank_slider(model: dict) -> tuple[Model, BearingLayout]:
     big_end = (-sr, 0.0)
     balls = add_bearing(m, spec, (crank, pin), (rod, big_end), (L1, 0.0),
                         centre_velocity=(0.0, w0 * L1), cage_speed=cage, spin=spin)
+    geometry = spec.geometry
+    guards = ()
+    if model.get("guard_contacts", True):
+        guards = add_guard_contacts(m, geometry, balls, (crank, pin), (rod, big_end),
+                                    dict(mu=spec.mu, e_N=spec.e_N, e_T=spec.e_T))
     layout = BearingLayout(crank, rod, slider, balls, pin, big_end, spec.outer_radius,
-                           spec.pitch_radius, cage, spin)
+                           spec.pitch_radius, cage, spin, guards=guards,
+                           land_gap=geometry.land_gap)
+    m.checks.extend(BearingChecks(crank, rod, slider, tuple(balls), pin, big_end,
+                                  spec.ball_radius, geometry.land_gap, L1, L2).all())
     return m, layout
+
+
+def add_guard_contacts(m: Model, geometry: BearingGeometry, balls, inner: tuple, outer: tuple,
+                       law: dict) -> tuple:
+    """Add the contacts that keep a bearing together to ``m`` (docs/model.md, "Guard
+    contacts"): each ball against its next neighbour (sphere on sphere, ``outside``) and the
+    inner ring inside the outer ring (``inside``, the rings' lands, closing at the journal
+    offset :attr:`~simcore.model.bearing.BearingGeometry.land_gap`).
+
+    Parameters
+    ----------
+    m : Model
+        The model, with the balls and both races' bodies.
+    geometry : BearingGeometry
+        The bearing.
+    balls : sequence of int
+        The balls' body indices, in order around the pitch circle.
+    inner, outer : tuple (body, (x, y))
+        The body carrying each ring and the ring's centre in that body's frame [m].
+    law : dict
+        ``mu``, ``e_N``, ``e_T`` of the guard contacts (the ball-race contacts' own: the same
+        steel on steel, the same lubricant).
+
+    Returns
+    -------
+    tuple of str
+        The names of the contacts added, in order: ``ballk-ballk+1`` for k = 0 .. n-1 (the
+        last ``ball(n-1)-ball0``), then ``rings``.
+    """
+    n = len(balls)
+    names = []
+    for k in range(n):
+        name = f"ball{k}-ball{(k + 1) % n}"
+        m.add_contact("outside", balls[k], (0.0, 0.0), geometry.ball_radius, balls[(k + 1) % n],
+                      (0.0, 0.0), geometry.ball_radius, name=name, **law)
+        names.append(name)
+    m.add_contact("inside", outer[0], outer[1], geometry.outer_land_radius, inner[0], inner[1],
+                  geometry.inner_land_radius, name="rings", **law)
+    names.append("rings")
+    return tuple(names)
 
 
 def bearing_alone(model: dict, load: float, phase: float = 0.0,
@@ -280,8 +347,8 @@ def pinched_balls(n_balls=3, load=50.0, inner_radius=0.033745, ball_radius=0.005
     """
     gravity = 9.81
     m = Model(gravity=gravity)
-    rC = inner_radius + 2.0 * ball_radius
-    pitch = inner_radius + ball_radius
+    geometry = BearingGeometry(inner_radius, ball_radius, 0.0, n_balls)  # zero clearance
+    rC, pitch = geometry.outer_radius, geometry.pitch_radius
     outer = m.add_body("outer", outer_mass + load / gravity, 1e-4, q0=(0.0, 0.0, 0.0))
     m.add_prismatic(outer, (0.0, 0.0), origin=(0.0, 0.0), angle=np.pi / 2, phi=0.0)
     spread = np.radians(20.0)

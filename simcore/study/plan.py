@@ -63,6 +63,8 @@ class Cost:
     per_run: float = 0.12           # run file, impact extraction, table file [s]
     per_zoom: float = 0.05          # one compliant zoom of analysis.zoom_top [s]
     per_job: float = 1.0            # process start, imports, Numba cache load of a job [s]
+    adaptive_share: float = 0.5     # an adaptive twin's integration over the same twin's at
+                                    # the fixed step of twin_step [-]
 
 
 COST = Cost()
@@ -113,9 +115,13 @@ def study_axes(cfg: Mapping[str, Any]) -> dict[str, list]:
     params = registry()
     axes = {}
     for key in params:
+        if DETERMINED.get(key) in swept:
+            # the swept key sets this axis' value per run; a list of it beside (the default
+            # study's, merged under a smaller configuration) is not an axis
+            continue
         if key in swept:
             axes[key] = swept[key]
-        elif key in BASE_AXES and DETERMINED.get(key) not in swept:
+        elif key in BASE_AXES:
             section, name = key.split(".", 1)
             axes[key] = [params[key].plain(cfg[section][name])]
     return axes
@@ -128,11 +134,10 @@ def resolve_determined(model: dict) -> None:
     model_clearance`)."""
     if model.get("clearance_class") is None:
         return
-    from ..model.bearing import bearing, model_clearance
+    from ..model.bearing import resolve_model
 
-    try:
-        bore = bearing(model.get("bearing") or "6012-paper")["d"]
-        model["clearance"] = tidy(model_clearance(bore, model["clearance_class"]))
+    try:  # (every key of the section is given: only the class's clearance is resolved)
+        model["clearance"] = resolve_model(model, model.keys())["clearance"]
     except (KeyError, ValueError) as exc:
         raise ConfigError(str(exc).strip("'\"")) from None
 
@@ -214,25 +219,27 @@ def twin_config(run_cfg: Mapping[str, Any]) -> dict:
     return twin
 
 
-def work_seconds(contact_model: str, steps: float, zoom_top: int = 0,
+def work_seconds(contact_model: str, steps: float, zoom_top: int = 0, adaptive: bool = False,
                  cost: Cost = COST) -> float:
     """Estimated work of one run [s on one core]: its steps times the step cost of its model,
     plus the files and the impact extraction, plus the zooms of a nonsmooth run (at most five
-    distinct impacts, :data:`COST`)."""
+    distinct impacts, :data:`COST`). An adaptive compliant run is given the ``steps`` of the
+    fixed step of :func:`twin_step` and costs ``cost.adaptive_share`` of that run."""
     if contact_model == "compliant":
-        return cost.per_run + steps * cost.compliant_step
+        share = cost.adaptive_share if adaptive else 1.0
+        return cost.per_run + share * steps * cost.compliant_step
     return cost.per_run + steps * cost.nonsmooth_step + min(int(zoom_top), 5) * cost.per_zoom
 
 
 def estimate_seconds(cfg: Mapping[str, Any], cost: Cost = COST) -> float:
-    """:func:`work_seconds` of a run configuration (an adaptive compliant run counted at the
-    fixed step of :func:`twin_step`, until its own cost is measured)."""
+    """:func:`work_seconds` of a run configuration."""
     dt = float(cfg["solver"]["dt"])
-    if cfg["model"]["contact_model"] == "compliant" and cfg["solver"].get("adaptive"):
+    adaptive = cfg["model"]["contact_model"] == "compliant" and cfg["solver"].get("adaptive")
+    if adaptive:
         dt = twin_step(cfg["model"], cfg["analysis"], dt)
     steps = float(cfg["solver"]["t_end"]) / dt
     return work_seconds(cfg["model"]["contact_model"], steps,
-                        cfg["analysis"].get("zoom_top", 0), cost)
+                        cfg["analysis"].get("zoom_top", 0), bool(adaptive), cost)
 
 
 def _view(cfg: Mapping[str, Any], point: Mapping[str, Any]) -> dict:
@@ -255,7 +262,8 @@ def point_seconds(cfg: Mapping[str, Any], point: Mapping[str, Any], models,
     total = 0.0
     for model in models:
         step = dt if model == "nonsmooth" else twin_step(view["model"], view["analysis"], dt)
-        total += work_seconds(model, t_end / step, view["analysis"].get("zoom_top", 0), cost)
+        total += work_seconds(model, t_end / step, view["analysis"].get("zoom_top", 0),
+                              model != "nonsmooth", cost)
     return total
 
 

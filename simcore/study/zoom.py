@@ -13,6 +13,24 @@ DEFAULT_WINDOW = 2e-3   # [s]
 DEFAULT_DT = 1e-6       # [s]
 
 
+def check_run_dataset(run_ds) -> None:
+    """Refuse, in one line naming ``run``, a dataset that is not a run of this tool: a zoom
+    needs its ``time``, its configuration (``model.*`` and ``solver.*`` attributes) and its
+    state."""
+    from ..io import GENERALIZED_PARTS
+
+    if "time" not in run_ds.variables:
+        raise ConfigError("run: the file has no variable 'time'; allowed: a run file of "
+                          "python -m simcore run (or simcore.run)")
+    if not any(str(key).startswith("model.") for key in run_ds.attrs):
+        raise ConfigError("run: the file has no model.* attributes (the configuration of the "
+                          "run); allowed: a run file of python -m simcore run (or simcore.run)")
+    for name, parts in GENERALIZED_PARTS.items():  # a run file has q and v in parts
+        if name not in run_ds and not all(part in run_ds for part in parts):
+            raise ConfigError(f"run: the run file has no variable {name!r} (needed to restart "
+                              "from its state)")
+
+
 def config_of_run(run_ds) -> dict:
     """The model and solver sections of the configuration that made ``run_ds`` (from its
     ``model.*`` / ``solver.*`` attributes)."""
@@ -27,10 +45,11 @@ def config_of_run(run_ds) -> dict:
 
 
 def zoom_config(run_ds, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(),
-                output_dt=None, adaptive=False) -> dict:
+                output_dt=None, adaptive=True) -> dict:
     """Validated configuration of a zoom on ``run_ds``: the run's model with
     ``contact_model = compliant``, step ``dt`` [s] (with ``adaptive``, the largest) for
     ``window`` [s], then ``overrides`` (``section.key=value`` strings)."""
+    check_run_dataset(run_ds)
     cfg = config_of_run(run_ds)
     cfg["model"]["contact_model"] = "compliant"
     cfg["solver"].update({"dt": float(dt), "t_end": float(window), "output_dt": output_dt,
@@ -58,7 +77,7 @@ def start_index(run_ds, time: float) -> int:
 
 def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), output_dt=None,
          until_released=True, progress=False, watch_contacts=None, watch_onset=None,
-         adaptive=False):
+         adaptive=True):
     """Re-simulate the whole mechanism with compliant contacts from the state of ``run_ds``
     just before ``time``.
 
@@ -85,10 +104,11 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
         :meth:`simcore.model.Model.simulate`. :func:`analysis.zoom.add_zoom_forces` watches
         the contacts of the ball of each impact, with the impact's contact as onset.
     adaptive : bool
-        Adaptive steps (``solver.adaptive``, docs/compliant.md): each step's size from the
-        local error estimate, at most ``dt``, the output every ``output_dt`` as with a fixed
-        step (``solver.dt_min`` and ``solver.adaptive_tol`` from the run's settings or
-        ``overrides``).
+        Adaptive steps (``solver.adaptive``, the default; docs/compliant.md): each step's size
+        from the local error estimate and cut where a contact closes, at most ``dt``, the
+        output every ``output_dt`` as with a fixed step (``solver.dt_min`` and
+        ``solver.adaptive_tol`` from the run's settings or ``overrides``); False: every step
+        ``dt``.
 
     Returns
     -------
@@ -120,18 +140,14 @@ def zoom(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(), outpu
 
 def zoom_trajectory(run_ds, time, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(),
                     output_dt=None, until_released=True, progress=False, watch_contacts=None,
-                    watch_onset=None, adaptive=False):
+                    watch_onset=None, adaptive=True):
     """:func:`zoom` as plain arrays: (trajectory, model, layout, configuration), the
     :class:`simcore.model.Trajectory` of the zoom with the model, layout and validated
     configuration that made it (what :func:`zoom` turns into its dataset). Same parameters and
     errors as :func:`zoom`; for code that reads a few arrays of many zooms
     (:func:`analysis.zoom.add_zoom_forces`)."""
-    from ..io import GENERALIZED_PARTS, state_at
+    from ..io import state_at
 
-    for name, parts in GENERALIZED_PARTS.items():  # a run file has q and v in parts
-        if name not in run_ds and not all(part in run_ds for part in parts):
-            raise ConfigError(f"run: the run file has no variable {name!r} (needed to restart "
-                              "from its state)")
     cfg = zoom_config(run_ds, window=window, dt=dt, overrides=overrides, output_dt=output_dt,
                       adaptive=adaptive)
     i = start_index(run_ds, time)

@@ -1,0 +1,115 @@
+"""Every bad input of the issue on the bearing's integrity ends in one line naming the key and
+what is allowed, exit code 2, before any work, and no file: the inputs that ended in a
+traceback, the misleading messages, and the output paths of every command."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import simcore
+from analysis.__main__ import main as analysis_main
+from simcore.cli import main as simcore_main
+
+
+def _call(main, argv):
+    """(exit code, stderr lines) of a command line called in this process; an exception that
+    escapes it (a traceback) fails the test."""
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main(argv)
+    return code, [line for line in err.getvalue().splitlines() if line.strip()]
+
+
+def _assert_refused(main, argv, words, folder: Path):
+    before = sorted(folder.rglob("*"))
+    code, lines = _call(main, argv)
+    assert code == 2, (argv, code, lines)
+    assert len(lines) == 1 and lines[0].startswith("error: "), (argv, lines)
+    for word in words:
+        assert word in lines[0], (argv, word, lines[0])
+    assert sorted(folder.rglob("*")) == before, argv  # nothing written
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def run_file(tmp_path_factory):
+    """A short run of the paper's case written to a file."""
+    path = tmp_path_factory.mktemp("run") / "run.nc"
+    ds = simcore.run(simcore.load_config(overrides=["solver.t_end=0.003"]))
+    simcore.write_netcdf(ds, path)
+    return path
+
+
+@pytest.mark.parametrize("item, words", [
+    # tracebacks before: OverflowError, ZeroDivisionError, ValueError naming rod.inertia
+    ("solver.dt=1e-310", ["solver.dt", "1e-310", "max_memory_gb"]),
+    ("model.ball_mass=1e-300", ["model.ball_mass", "1e-300", "between 1e-30 and 1e+30"]),
+    ("model.rod_length=1e308", ["model.rod_length", "1e+308", "between 1e-30 and 1e+30"]),
+    # misleading before: blamed on solver.dt <= 0 s; a singular Newton matrix after 100 steps
+    ("model.cage_stiffness=1e308", ["model.cage_stiffness", "between 1e-30 and 1e+30"]),
+    ("model.cage_damping=1e308", ["model.cage_damping", "between 1e-30 and 1e+30"]),
+    # and within those magnitudes: the cage mode no step resolves, the Newton matrix
+    ("model.cage_stiffness=1e25", ["model.cage_stiffness", "model.ball_mass", "N/m"]),
+    ("model.cage_damping=1e13", ["model.cage_damping", "solver.dt", "N s/m"]),
+])
+def test_extreme_values_name_their_key(item, words, tmp_path):
+    _assert_refused(simcore_main, ["run", "--set", item, "--out", str(tmp_path / "r.nc")],
+                    words, tmp_path)
+
+
+def test_a_mapping_with_keys_of_mixed_types_names_the_key(tmp_path):
+    config = tmp_path / "mixed.yaml"
+    config.write_text("model: {1: 2, x: 3}\n")
+    _assert_refused(simcore_main, ["run", "--config", str(config), "--out",
+                                   str(tmp_path / "r.nc")], ["model.1", "unknown key"], tmp_path)
+
+
+def test_an_output_name_too_long_for_the_file_system(tmp_path):
+    out = str(tmp_path / ("a" * 300 + ".nc"))
+    line = _assert_refused(simcore_main, ["run", "--out", out], ["--out", "303 bytes"], tmp_path)
+    assert "at most 239 bytes" in line  # 255 less the temporary file's 16
+    # the longest name allowed is written, through its temporary file
+    out = tmp_path / ("b" * 236 + ".nc")
+    assert _call(simcore_main, ["run", "--set", "solver.t_end=0.001", "--quiet", "--out",
+                                str(out)]) == (0, [])
+    assert out.is_file()
+
+
+def test_zoom_of_a_file_that_is_not_a_run(tmp_path, run_file):
+    other = tmp_path / "other.nc"
+    xr.Dataset({"a": ("x", np.arange(3.0))}).to_netcdf(other)
+    _assert_refused(simcore_main, ["zoom", str(other), "--time", "1e-3", "--out",
+                                   str(tmp_path / "z.nc")], ["RUN", "'time'"], tmp_path)
+    (tmp_path / "not_netcdf.nc").write_text("text")
+    _assert_refused(simcore_main, ["zoom", str(tmp_path / "not_netcdf.nc"), "--time", "1e-3",
+                                   "--out", str(tmp_path / "z.nc")], ["RUN"], tmp_path)
+    for out, word in ((tmp_path, "directory"), (tmp_path / "z.txt", ".nc")):
+        _assert_refused(simcore_main, ["zoom", str(run_file), "--time", "1e-3", "--out",
+                                       str(out)], ["--out", word], tmp_path)
+
+
+@pytest.mark.parametrize("command", [["impacts"], ["filter"], ["dt-check", "--t-check", "1e-3"]])
+def test_analysis_output_files_follow_the_rules_of_simcore_run(command, tmp_path, run_file):
+    (tmp_path / "folder").mkdir()
+    for out, word in ((tmp_path / "folder", "directory"), (tmp_path / "x.txt", ".nc"),
+                      (tmp_path / "none" / "x.nc", "does not exist"),
+                      (tmp_path / ("c" * 300 + ".nc"), "bytes")):
+        _assert_refused(analysis_main, [command[0], str(run_file), *command[1:], "--out",
+                                        str(out)], ["--out", word], tmp_path)
+
+
+def test_analysis_output_folders_and_numbers_are_checked_first(tmp_path, run_file):
+    (tmp_path / "file.png").write_bytes(b"")
+    _assert_refused(analysis_main, ["figures", str(run_file), "--outdir",
+                                    str(tmp_path / "file.png")], ["--outdir"], tmp_path)
+    for option, value, word in (("--zero-tol", "2", "[0, 1)"), ("--v-min", "0", "> 0"),
+                                ("--groove-conformity", "0.4", "0.5"),
+                                ("--zero-floor", "-1", ">= 0")):
+        _assert_refused(analysis_main, ["impacts", str(run_file), option, value, "--out",
+                                        str(tmp_path / "i.nc")], [option, word], tmp_path)
