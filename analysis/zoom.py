@@ -286,9 +286,13 @@ def _zoom_numbers(run_ds, table, time, plan, overrides, adaptive=False):
     contacts = np.asarray(table["contact"].values)
     groups = np.zeros((len(rows), ball_of_contact.size), dtype=bool)
     onset = np.zeros_like(groups)
+    kinds = np.asarray(table["kind"].values) if "kind" in table else np.full(len(balls), -1)
     for g, row in enumerate(rows):
         groups[g] = ball_of_contact == int(balls[row])
-        onset[g, int(contacts[row])] = True
+        if kinds[row] == KIND["pinch"]:  # a pinch's episode starts where both races carry it
+            onset[g] = groups[g]
+        else:
+            onset[g, int(contacts[row])] = True
     # (the zoom's arrays: its dataset would be built for three of them) a zoom's flagged step
     # (not converged, energy created, an integrity check such as an indentation beyond Hertz's
     # range) flags its impacts (zoom_flagged) instead of stopping the study
@@ -303,7 +307,6 @@ def _zoom_numbers(run_ds, table, time, plan, overrides, adaptive=False):
         F_N, indentation = _at_sample_instants(traj, model, zcfg)
     flagged = int(not np.all(traj.converged))
     output_dt = float(zcfg["solver"]["dt"]) * output_every(zcfg)
-    kinds = np.asarray(table["kind"].values) if "kind" in table else np.full(len(balls), -1)
     out = {}
     for g, row in enumerate(rows):
         F_contact = _struck(F_N[:, int(contacts[row])])

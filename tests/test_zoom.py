@@ -417,3 +417,19 @@ def test_a_pinch_reads_the_squeeze_not_an_earlier_touch():
     # never together: the first force on either contact
     apart = np.stack([inner, np.zeros_like(inner)], axis=1)
     assert _episode_peak(apart.max(axis=1), _pinch_onset(apart)) == 2.0
+
+
+def test_a_pinch_watch_starts_where_both_races_carry_the_ball():
+    """A ball struck on one race, free for a sample, then pinched between both: watched from its
+    struck contact the episode ends at the short release; watched as a pinch (both races as
+    onset) it starts at the squeeze and ends when the ball is free again."""
+    from simcore.model.driver import _ReleaseWatch
+
+    F = np.array([[0, 0], [5, 0], [0, 0], [3, 4], [2, 1], [0, 0], [0, 0]], dtype=float)
+    struck = _ReleaseWatch([[True, True]], [[True, False]], 2)
+    pinch = _ReleaseWatch([[True, True]], [[True, True]], 2)
+    assert struck.released(F, 0, 3)
+    assert not pinch.released(F, 0, 3)
+    assert not pinch.released(F, 3, 5)  # squeezed on rows 3 and 4
+    assert pinch.released(F, 5, 7)
+    assert list(pinch.onset_row) == [3]

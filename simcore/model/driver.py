@@ -237,8 +237,9 @@ class ReleaseStop:
     Without groups, the run stops at the end of the first chunk where every contact that closed
     during the run is open again. With ``watch_contacts``, groups of contacts are watched, shape
     (nc,) for one group or (groups, nc) (e.g. the contacts of one ball): a group's episode
-    starts at the first output row where one of its onset contacts (``watch_onset``) carries a
-    force and ends at the first later row where none of the group's contacts carries one; the
+    starts at the first output row where each of its onset contacts (``watch_onset``; default:
+    any one of the group's contacts) carries a force (a pinch: both races of its ball) and ends
+    at the first later row where none of the group's contacts carries one; the
     run stops at the end of the first chunk after which every group's episode has ended. A
     group whose onset never comes runs the whole window. A force at row 0 alone (none at row 1)
     is no onset: a zoom starts from a nonsmooth run's state, where a contact about to be struck
@@ -249,8 +250,8 @@ class ReleaseStop:
     watch_contacts : array of bool, optional
         Groups of contacts to watch.
     watch_onset : array of bool, optional
-        Onset contacts of each group, the shape of ``watch_contacts`` (default: the group's
-        own contacts).
+        Onset contacts of each group, the shape of ``watch_contacts``: the episode starts where
+        all of them carry a force (default: where any of the group's own contacts does).
     """
 
     watch_contacts: object = None
@@ -325,6 +326,7 @@ class _ReleaseWatch:
 
     def __init__(self, groups, onset, nc):
         groups = np.atleast_2d(np.asarray(groups, dtype=bool))
+        self.onset_needs_all = onset is not None
         onset = groups if onset is None else np.atleast_2d(np.asarray(onset, dtype=bool))
         if groups.shape[1] > nc or onset.shape != groups.shape:
             raise ValueError(f"watch_contacts: shape {groups.shape} is not allowed; allowed: "
@@ -344,10 +346,13 @@ class _ReleaseWatch:
         F = np.asarray(F_N[row0:row1]) > 0.0
         for g in np.flatnonzero(~self.done):
             if self.onset_row[g] < 0:
+                if not self.onset[g].any():  # an empty onset never comes
+                    continue
                 on = F[:, self.onset[g]]
                 if row0 == 0 and on.shape[0] > 1:
                     on[0] &= on[1]  # a force at the first row alone is no onset
-                first = np.flatnonzero(on.any(axis=1))
+                first = np.flatnonzero(on.all(axis=1) if self.onset_needs_all
+                                       else on.any(axis=1))
                 if first.size == 0:
                     continue
                 self.onset_row[g] = row0 + first[0]
