@@ -333,6 +333,7 @@ def method_disagrees(F_max, F_max_zoom, method_tol: float) -> np.ndarray:
     return both & (np.abs(ratio - 1.0) > float(method_tol))
 
 
+# (over 80 lines: 53 of them the docstring of its eleven settings; the body is named stages)
 def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 5,
                     dt: float | None = None, window: float = 5e-4, overrides=(),
                     max_window: float = 2e-2, steps_per_contact: int = STEPS_PER_CONTACT,

@@ -248,6 +248,8 @@ def _creates_energy(k, h, rs, out, scale):
     return not (err <= tol)
 
 
+# (over 80 lines: 33 of them the docstring; the loop itself is the retry of one step and
+# reads best whole)
 @loop_kernel
 def integrate_chunk(k0, k1, st, ma, state, out, work, rs):
     """Advance steps k0 .. k1-1 (state at time k0*h on entry, at k1*h on exit), writing the
