@@ -1,8 +1,9 @@
 """Random configurations over the whole input range; counts of what the tool refuses and flags.
 
-    PYTHONPATH=. python benchmarks/fuzz_corners.py [N] [T_END] [SEED] [MAX_HALVINGS]
+    PYTHONPATH=. python benchmarks/fuzz_corners.py [N] [T_END] [SEED] [MAX_HALVINGS] [MAX_ITER]
     (default 300 0.1 11 4)
-    PYTHONPATH=. python benchmarks/fuzz_corners.py --hard [N] [T_END] [SEED] (default 16 0.02 5)
+    PYTHONPATH=. python benchmarks/fuzz_corners.py --hard [N] [T_END] [SEED] [MAX_ITER]
+                                                       (default 16 0.02 5, the schema's cap)
 
 Each configuration draws clearance 1e-6..2e-3 m, mu 0..0.5, omega0 1..400 rad/s, e_N and e_T
 0..1, 3..22 balls, cage stiffness 1e3..1e7 N/m, cage damping 0 (one in four) or 1..1e4 N s/m,
@@ -76,7 +77,7 @@ def accepted_dt(overrides, dt=1e-4):
             return dt
 
 
-def hard_corners(n=16, t_end=0.02, seed=5):
+def hard_corners(n=16, t_end=0.02, seed=5, max_iter=None):
     """The table of ``--hard`` (see the module docstring); returns the steps still flagged
     with retries, summed over the configurations."""
     import simcore
@@ -93,6 +94,8 @@ def hard_corners(n=16, t_end=0.02, seed=5):
     for _ in range(n):
         overrides = draw_hard(rng, t_end)
         overrides.append(f"solver.dt={accepted_dt(overrides)}")
+        if max_iter is not None:
+            overrides.append(f"solver.max_iter={max_iter}")
         res = []
         for halvings in (0, 4):
             cfg = simcore.load_config(overrides=overrides + [f"solver.max_halvings={halvings}"])
@@ -155,20 +158,23 @@ def regions(cfg):
     return names
 
 
-def main(n=300, t_end=0.1, seed=11, max_halvings=4):
+def main(n=300, t_end=0.1, seed=11, max_halvings=4, max_iter=None):
     import simcore
     from simcore.model.audit import ENERGY_FLOOR_J
 
     rng = np.random.default_rng(seed)
     table = {}
     silent_gain = silent_pen = 0
+    slowest = 0.0
     start = time.perf_counter()
     for _ in range(n):
-        cfg = simcore.load_config(overrides=draw(rng, t_end)
+        cap = [] if max_iter is None else [f"solver.max_iter={max_iter}"]
+        cfg = simcore.load_config(overrides=draw(rng, t_end) + cap
                                   + [f"solver.max_halvings={max_halvings}"])
         row = {"n": 0, "refused": 0, "defect": 0, "flagged": 0, "steps": 0, "worst": 0.0,
                "gain": 0, "pen": 0}
         outcome = {}
+        began = time.process_time()
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -190,13 +196,16 @@ def main(n=300, t_end=0.1, seed=11, max_halvings=4):
                        "gain": int(gains.any()), "pen": int(pens.any())}
             silent_gain += int(gains.sum())
             silent_pen += int(pens.sum())
+            slowest = max(slowest, time.process_time() - began)
         for name in regions(cfg):
             r = table.setdefault(name, dict(row))
             r["n"] += 1
             for key, value in outcome.items():
                 r[key] = max(r[key], value) if key == "worst" else r[key] + value
+    cap = cfg["solver"]["max_iter"]
     print(f"{n} configurations, t_end = {t_end} s, seed {seed}, max_halvings {max_halvings}, "
-          f"{time.perf_counter() - start:.0f} s")
+          f"max_iter {cap}, {time.perf_counter() - start:.0f} s (slowest run {slowest:.1f} s "
+          "of CPU)")
     print(f"{'region':28s} {'runs':>5s} {'refused':>8s} {'defect':>7s} {'flagged':>9s} "
           f"{'worst':>6s} {'gain':>5s} {'pen':>4s}")
     for name in sorted(table):
@@ -216,7 +225,8 @@ if __name__ == "__main__":
     if args and args[0] == "--hard":
         args = args[1:]
         hard_corners(int(args[0]) if args else 16, float(args[1]) if len(args) > 1 else 0.02,
-                     int(args[2]) if len(args) > 2 else 5)
+                     int(args[2]) if len(args) > 2 else 5, int(args[3]) if len(args) > 3 else None)
         sys.exit(0)
     main(int(args[0]) if args else 300, float(args[1]) if len(args) > 1 else 0.1,
-         int(args[2]) if len(args) > 2 else 11, int(args[3]) if len(args) > 3 else 4)
+         int(args[2]) if len(args) > 2 else 11, int(args[3]) if len(args) > 3 else 4,
+         int(args[4]) if len(args) > 4 else None)
