@@ -1000,8 +1000,9 @@ def _provenance(summary: xr.Dataset, settle: float, method_tol: float, settings:
         method_tol=method_tol,
     )
     for key, value in settings.items():
-        if value is not None:
-            summary.attrs[f"analysis_{key}"] = value
+        if value is not None:  # (netCDF has no boolean attribute: 0/1, as the run files)
+            summary.attrs[f"analysis_{key}"] = (int(value) if isinstance(value, bool | np.bool_)
+                                                else value)
 
 
 # --- the study in one table -----------------------------------------------------------------

@@ -152,8 +152,9 @@ def study(tmp_path_factory):
                  tmp / "twin_empty.nc")
     s = summarize({"nonsmooth": runs, "compliant": [tmp / "twin_empty.nc", tmp / "twin_new.nc"]},
                   {"nonsmooth": impacts}, scheduler="synchronous", settle=1.0,
-                  force_levels=[1000.0, 100.0], settings={"settle": 1.0, "zero_tol": 1e-4})
-    path = write_netcdf(s, tmp / "summary.nc")
+                  force_levels=[1000.0, 100.0],
+                  settings={"settle": 1.0, "zero_tol": 1e-4, "zoom_adaptive": True})
+    path = write_netcdf(s, tmp / "summary.nc")  # (a boolean setting too: netCDF has none)
     return s, path
 
 
@@ -451,3 +452,10 @@ def test_revolutions_of_the_window_and_the_short_tail(turned, expected):
             first = position[index == k].min()
             assert k <= first < k + step
         assert position[index == expected - 1].max() == pytest.approx(turned)
+
+
+def test_the_summary_file_keeps_the_analysis_settings_booleans_as_integers(study):
+    _, path = study
+    with xr.open_dataset(path) as stored:
+        assert stored.attrs["analysis_zoom_adaptive"] == 1
+        assert stored.attrs["analysis_zero_tol"] == 1e-4
