@@ -204,7 +204,8 @@ def estimate_check(results: Path, wall: float, out: str) -> list[str]:
     per_job = sum(j["imported"] - j["process_start"] + j["numba_load"] for j in jobs) / len(jobs)
     measured = [("nonsmooth step", sum(j.get("integration_nonsmooth", 0) for j in jobs),
                  steps_ns, COST.nonsmooth_step, 1e6, "us"),
-                ("compliant step", sum(j.get("integration_compliant", 0) for j in jobs),
+                ("compliant step (a step taken)",
+                 sum(j.get("integration_compliant", 0) for j in jobs),
                  steps_c, COST.compliant_step, 1e6, "us"),
                 ("zoom", sum(j["zoom"] for j in jobs), zooms, COST.per_zoom, 1.0, "s")]
     parts = [f"{name} {scale * total / count:.3g} {unit} (estimate {scale * const:.3g})"
