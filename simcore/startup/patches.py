@@ -316,8 +316,8 @@ def lock_cache_writes() -> bool:
 
     Patch ``parallel_compile`` (this, the helper process and :func:`in_cache`, which reads a
     dispatcher's private ``_cache``) shares a cold compile between two idle cores (its two
-    halves take 8.7 and 8.5 s; ``benchmarks/bench_patches.py --cold`` on a loaded machine, with
-    no idle core, cannot resolve the gain).
+    halves are chosen to take about the same time; ``benchmarks/bench_patches.py --cold``
+    measures the gain, which a loaded machine with no idle core cannot resolve).
 
     Returns
     -------
