@@ -181,7 +181,12 @@ def _profile_kernel():
     from simcore.kernels import smooth_step, total_energy
     from simcore.kernels.contact import contact_velocities_into
     from simcore.kernels.generalized_alpha import alpha_coefficients
-    from simcore.kernels.nonsmooth_step import position_step, velocity_step
+    from simcore.kernels.nonsmooth_step import (
+        _accept_substep,
+        _normal_velocities_before_jump,
+        position_step,
+        velocity_step,
+    )
 
     @njit
     def clock():
@@ -198,44 +203,32 @@ def _profile_kernel():
 
     @njit
     def profile(n_steps, st, ma, state, work, spent):
-        h, tol, max_iter, eta = st.h, st.tol, st.max_iter, st.eta
-        q, v, acc, vdot = state.q, state.v, state.acc, state.vdot
-        nc = ma.ct_type.shape[0]
+        # the stages of integrate_chunk's whole step (no retries), a clock read between them
+        h = st.h
         coef = alpha_coefficients(st.rho_inf)
         q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
-        sw = work.smooth
-        nu_c, gap, vn, vt = np.zeros(nc), np.zeros(nc), np.zeros(nc), np.zeros(nc)
-        vnf = np.zeros(nc)
+        contact = work.contact
+        nu_c, gap, vn_free = contact[0], contact[1], contact[4]
         pwk = work.position
-        vwk = work.velocity
         nbil = pwk.nu_b.shape[0]
         energy = 0.0
         for k in range(n_steps):
             t1 = (k + 1) * h
             c0 = clock()
-            smooth_step(q, v, acc, vdot, state.lam_s, t1, h, coef, st, ma, work.step, sw)
+            smooth_step(state.q, state.v, state.acc, state.vdot, state.lam_s, t1, h, coef, st,
+                        ma, work.step, work.smooth)
             c1 = clock()
-            position_step(q_t, t1, h, tol, max_iter, eta, ma, Ks_t, q1, nu_c, gap, pwk)
+            position_step(q_t, t1, h, st, ma, Ks_t, q1, nu_c, gap, pwk)
             c2 = clock()
-            for j in range(nc):
-                s = 0.0
-                for t in range(pwk.ncols[nbil + j]):
-                    i = pwk.cols[nbil + j, t]
-                    s += pwk.GN[j, i] * v_t[i]
-                vnf[j] = s
+            _normal_velocities_before_jump(v_t, pwk.GN, pwk.metric.cols, pwk.metric.ncols,
+                                           nbil, vn_free)
             c3 = clock()
-            velocity_step(q1, q_t, v_t, t1, h, tol, max_iter, eta, tol * h, ma, f_t, nu_c,
-                          gap, state.vn, state.vt, v1, state.lamN, state.lamT, state.lam_b,
-                          vwk)
+            velocity_step(q1, v_t, t1, h, st, ma, f_t, nu_c, gap, state, v1, work.velocity)
             c4 = clock()
-            q[:] = q1
-            v[:] = v1
-            acc[:] = acc1
-            vdot[:] = vdot1
-            contact_velocities_into(q, v, ma, gap, vn, vt, pwk.wN, pwk.wT, pwk.trig)
-            state.vn[:] = vn
-            state.vt[:] = vt
-            energy += total_energy(q, v, ma)
+            _accept_substep(state, work.step)
+            contact_velocities_into(state.q, state.v, ma, gap, contact[2], contact[3],
+                                    pwk.scratch.wN, pwk.scratch.wT, pwk.scratch.trig)
+            energy += total_energy(state.q, state.v, ma)
             c5 = clock()
             spent[0] += c1 - c0
             spent[1] += c2 - c1
