@@ -999,10 +999,11 @@ def _provenance(summary: xr.Dataset, settle: float, method_tol: float, settings:
         settle_revolutions=settle,
         method_tol=method_tol,
     )
+    from simcore.io import setting_attribute
+
     for key, value in settings.items():
-        if value is not None:  # (netCDF has no boolean attribute: 0/1, as the run files)
-            summary.attrs[f"analysis_{key}"] = (int(value) if isinstance(value, bool | np.bool_)
-                                                else value)
+        if value is not None:
+            summary.attrs[f"analysis_{key}"] = setting_attribute(value)
 
 
 # --- the study in one table -----------------------------------------------------------------

@@ -34,6 +34,7 @@ from .dataset import (
     failed_run_dataset,
     global_attributes,
     history_line,
+    setting_attribute,
     trajectory_dataset,
 )
 from .netcdf import keep_variables, netcdf_encoding, write_netcdf
@@ -55,7 +56,7 @@ BASE_PARAMETERS = tuple(PARAMETERS)
 
 __all__ = ["write_netcdf", "trajectory_dataset", "dataset_of_arrays", "failed_run_dataset",
            "generalized", "open_run", "state_at", "parameter_coords", "study_coords",
-           "history_line", "BASE_PARAMETERS",
+           "history_line", "setting_attribute", "BASE_PARAMETERS",
            "keep_variables", "netcdf_encoding", "to_netcdf4", "global_attributes",
            "GENERALIZED_PARTS", "CONVENTIONS", "COORDINATES", "PARAMETERS", "STORAGE",
            "VARIABLES", "RUN_VARIABLES", "DEFAULT_KEEP"]

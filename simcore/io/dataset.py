@@ -216,6 +216,12 @@ def history_line(what: str) -> str:
     return f"{stamp} bearingsim {__version__}: {what}"
 
 
+def setting_attribute(value):
+    """A setting as a netCDF attribute value: a boolean as 0/1 (netCDF has no boolean
+    attribute), anything else as it is."""
+    return int(value) if isinstance(value, bool | np.bool_) else value
+
+
 def flat_settings(cfg: dict) -> dict:
     """Every set value of the model, solver and analysis sections as ``section.key``
     attributes (booleans as 0/1, unset values left out)."""
@@ -224,7 +230,7 @@ def flat_settings(cfg: dict) -> dict:
         for key, value in cfg.get(section, {}).items():
             if value is None:
                 continue
-            out[f"{section}.{key}"] = value if not isinstance(value, bool) else int(value)
+            out[f"{section}.{key}"] = setting_attribute(value)
     return out
 
 
