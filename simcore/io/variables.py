@@ -78,7 +78,9 @@ VARIABLES: dict[str, RunVariable] = {
         "position-correction multiplier (0: compliant contacts have none)"),
     "gap_N": RunVariable(
         TIME_CONTACT, "m", "normal gap after the step (negative: penetration)", "float32",
-        "Gap after the position correction (compliant: the smallest gap of the interval).",
+        "Gap after the position correction (compliant: the smallest gap of the interval's "
+        "steps at which it is evaluated: every step while the contact may close in it, and "
+        "the interval's last; docs/compliant.md, 'What a step costs').",
         "smallest normal gap in the output interval (negative: indentation)"),
     "vn_pre": RunVariable(
         TIME_CONTACT, "m s-1",

@@ -90,7 +90,10 @@ ProjectionWork = namedtuple("ProjectionWork", ["g", "G", "gm", "dgdt", "cols", "
 #: iterates need not evaluate (:func:`_skip_far_open`): ``q_ref``, ``v_ref`` (n) and ``g_ref``
 #: (nc) the state and the gaps they are measured from (the last step's result, or this step's
 #: first iterate while ``ready[1]`` is 0), ``skip`` (nc), ``lever`` (2 x nc) the distance of
-#: each contact's point from its body's reference point [m]; ``stale`` (nc): the open contacts
+#: each contact's point from its body's reference point [m], ``moved`` (nc) how far a contact's
+#: gap may have moved since ``g_ref`` was evaluated (0 where it is the reference state's own;
+#: a contact skipped at a step's result keeps its older gap and adds that step's ``reach``,
+#: the bound :func:`_skip_far_open` computed) [m]; ``stale`` (nc): the open contacts
 #: whose velocities the last step left out (their onset speed, should they close, comes from
 #: the reference state: :func:`_lazy_onset_speeds`); ``ready`` (2): whether ``jcols``,
 #: ``jncols`` and ``lever`` are made (:func:`_prepare`) and whether the reference is the last
@@ -99,7 +102,7 @@ BranchWork = namedtuple("BranchWork", ["J2", "r2", "current", "assumed", "r0", "
                                        "first_w", "first_z", "G_f", "c_f", "reuse",
                                        "vdot_old", "jcols", "jncols", "react", "inv_t", "jg",
                                        "s_inv", "xc", "stats", "q_ref", "v_ref", "g_ref",
-                                       "skip", "lever", "stale", "ready"])
+                                       "skip", "lever", "moved", "reach", "stale", "ready"])
 
 
 #: Joint rows g [m, rad], G (m x n) and dg/dt [m/s, rad/s] at the state a joint projection
@@ -141,6 +144,7 @@ def compliant_work(n, nbil, nc):
                                              g_ref=np.zeros(nc),
                                              skip=np.zeros(nc, dtype=np.bool_),
                                              lever=np.zeros((2, nc)),
+                                             moved=np.zeros(nc), reach=np.zeros(nc),
                                              stale=np.zeros(nc, dtype=np.bool_),
                                              ready=np.zeros(2, dtype=np.int64)))
 
@@ -197,8 +201,10 @@ def project_joints_into(q_t, v_t, t1, h, tol, max_iter, ma, q1, v1, pw, trig, ro
     rhs = pw.rhs
     piv = pw.piv
     mdiag = ma.mdiag
-    # each joint row touches its two bodies' columns only (G is zero elsewhere)
-    _joint_columns(ma, cols, ncols)
+    # each joint row touches its two bodies' columns only (G is zero elsewhere); those
+    # columns are made once per work array (every row has at least one)
+    if ncols[0] == 0:
+        _joint_columns(ma, cols, ncols)
     target = tol * h
     iters = 0
     ok = False
@@ -285,16 +291,19 @@ def _prepare(ma, bw):
 @step_kernel
 def _skip_far_open(q_t, ma, bw):
     """Mark the contacts that are open at the iterate ``q_t`` because they were open at the
-    reference state (``bw.q_ref``, gaps ``bw.g_ref``: the last step's result) by more than the
-    bodies have moved since: a sphere element's gap changes by at most the motion of its two
-    points, each at most |dx| + |dy| + lever |dphi| of its body (a plane turning with its body
-    is always evaluated). Such a contact has no force at this iterate, whatever its exact gap;
-    its gap at the step's result comes from :func:`finish_contacts`."""
+    reference state (``bw.q_ref``, gaps ``bw.g_ref``: the last step's result, less
+    ``bw.moved`` where a gap is older) by more than the bodies have moved since: a sphere
+    element's gap changes by at most the motion of its two points, each at most |dx| + |dy| +
+    lever |dphi| of its body (a plane turning with its body is always evaluated). Such a
+    contact has no force at this iterate, whatever its exact gap. The bound on how far its gap
+    may have moved since ``g_ref`` goes to ``bw.reach`` (:func:`commit_step` keeps it where the
+    step's result skips the contact)."""
     for k in range(ma.ct_type.shape[0]):
         g0 = bw.g_ref[k]
         skip = g0 > 0.0 and not (ma.ct_type[k] == CONTACT_PLANE and ma.ct_body[k, 0] >= 0)
         if skip:
-            reach = 1e-12  # (round-off of the gaps, far below any indentation)
+            # (1e-12: round-off of the gaps, far below any indentation)
+            reach = 1e-12 + bw.moved[k]
             for s in range(2):
                 b = ma.ct_body[k, s]
                 if b >= 0:
@@ -302,6 +311,7 @@ def _skip_far_open(q_t, ma, bw):
                               + abs(q_t[3 * b + 1] - bw.q_ref[3 * b + 1])
                               + bw.lever[s, k] * abs(q_t[3 * b + 2] - bw.q_ref[3 * b + 2]))
             skip = g0 > reach
+            bw.reach[k] = reach
         bw.skip[k] = skip
 
 
@@ -325,14 +335,14 @@ def _lazy_onset_speeds(q_t, ma, v_pre, v_pre_min, bw, hw, trig):
 
 @step_kernel
 def finish_contacts(q_t, v_t, ma, cwork, bw, hw, trig, velocities):
-    """The contacts at a step's result (q_t, v_t) beyond what its last iterate evaluated:
-    the gaps of the contacts it skipped, and with ``velocities`` the normal and tangential
-    velocities of every open contact (:func:`~.hertz.open_contact_velocities_into`; where
-    these are left out, their contacts become ``bw.stale``, see :func:`commit_step`)."""
-    for k in range(ma.ct_type.shape[0]):
-        if bw.skip[k]:
-            cwork[GAP_ROW, k] = contact_gap_cached(q_t, k, ma.ct_type, ma.ct_body, ma.ct_geom,
-                                                   trig)
+    """The contacts at a step's result (q_t, v_t) beyond what its last iterate evaluated: with
+    ``velocities``, the gaps and the normal and tangential velocities of every open contact
+    (:func:`~.hertz.open_contact_velocities_into`, the skipped ones included: their records
+    hold the positive gap of an earlier evaluation). Without, nothing: a contact the last
+    iterate skipped keeps its older gap with the bound on how far it has moved since
+    (``bw.moved``, :func:`commit_step`), and the open contacts become ``bw.stale``. The gap of
+    a far open contact is thus evaluated where a step's iterates need it, or at an output
+    row; a step's forces are the same either way (a skipped contact is open, and has none)."""
     if velocities:
         open_contact_velocities_into(q_t, v_t, ma, cwork, hw, trig)
 
@@ -406,6 +416,7 @@ def _evaluate_iterate(it, t1, ma, law, tangent, v_pre_min, work):
     if first:
         for k in range(bw.skip.shape[0]):
             bw.skip[k] = False
+            bw.moved[k] = 0.0
     else:
         _skip_far_open(q_t, ma, bw)
     _lazy_onset_speeds(q_t, ma, law.v_pre, v_pre_min, bw, work.hertz, work.smooth.trig)
@@ -931,7 +942,9 @@ def commit_step(h, state, cs, work, it_s, it_p, ok, drive_row, velocities):
     records (largest force and the friction at it, impulses by the trapezoidal rule, smallest
     gap, the drive's torque impulse [N m s]) with its iteration counts and convergence. The
     smooth stage's result becomes the reference of the next step's contacts
-    (:func:`_skip_far_open`, :func:`_lazy_onset_speeds`)."""
+    (:func:`_skip_far_open`, :func:`_lazy_onset_speeds`); a contact it skipped (without
+    ``velocities``, see :func:`finish_contacts`) keeps its older gap, which the interval's
+    smallest gap leaves out, and the bound on how far that has moved (``bw.moved``)."""
     q_t, v_t, acc1, vdot1, _, _, _, _, q1, v1 = work.step
     cwork = work.contacts
     bw = work.branches
@@ -952,13 +965,17 @@ def commit_step(h, state, cs, work, it_s, it_p, ok, drive_row, velocities):
         cs.vn[j] = cwork[VN_ROW, j]
         cs.vt[j] = cwork[VT_ROW, j]
         cs.closed[j] = 1 if cs.gap[j] < 0.0 else 0
-        bw.g_ref[j] = cs.gap[j]
         bw.stale[j] = not velocities and cs.closed[j] == 0
         cs.LN[j] += 0.5 * h * (FN_old + cs.FN[j])
         cs.LT[j] += 0.5 * h * (FT_old + cs.FT[j])
         if cs.FN[j] > cs.FN_max[j]:
             cs.FN_max[j] = cs.FN[j]
             cs.FT_at_max[j] = cs.FT[j]
+        if bw.skip[j] and not velocities:  # an older gap (open, see finish_contacts)
+            bw.moved[j] = bw.reach[j]
+            continue
+        bw.g_ref[j] = cs.gap[j]
+        bw.moved[j] = 0.0
         if cs.gap[j] < cs.gap_min[j]:
             cs.gap_min[j] = cs.gap[j]
     if drive_row >= 0:

@@ -47,6 +47,8 @@ def bilateral(q, v, t, ma, g, G, gamma, dgdt):
     Fills ``g`` (position residual [m or rad]), ``G`` (rows x ndof Jacobian), ``gamma``
     (the velocity-squared term of the acceleration constraint, G a + gamma = 0) and ``dgdt``
     (explicit time derivative, rheonomic joints) in place. ``ma``: :class:`ModelArrays`.
+    Only the entries of each row on its joint's bodies' columns are written: G must be zero
+    elsewhere on entry (as made by ``np.zeros``).
     """
     bilateral_cached(q, v, t, ma, g, G, gamma, dgdt, None)
 
@@ -58,11 +60,18 @@ def bilateral_cached(q, v, t, ma, g, G, gamma, dgdt, trig):
     jt_type = ma.jt_type
     jt_body = ma.jt_body
     jt_geom = ma.jt_geom
-    G[:, :] = 0.0
     row = 0
     for j in range(jt_type.shape[0]):
         bi = jt_body[j, 0]
         bj = jt_body[j, 1]
+        # clear the joint's rows on its bodies' columns, the only entries written (not all of
+        # G, which is evaluated at every iterate of a compliant step)
+        for r in range(row, row + (1 if jt_type[j] == JOINT_ANGLE else 2)):
+            for b in (bi, bj):
+                if b >= 0:
+                    G[r, 3 * b] = 0.0
+                    G[r, 3 * b + 1] = 0.0
+                    G[r, 3 * b + 2] = 0.0
         # scalars, not a row view (a view costs two atomic reference-count updates)
         p0, p1, p2 = jt_geom[j, 0], jt_geom[j, 1], jt_geom[j, 2]
         p3, p4, p5 = jt_geom[j, 3], jt_geom[j, 4], jt_geom[j, 5]

@@ -36,6 +36,10 @@ DT_MIN_DEFAULT = 1e-9
 ADAPTIVE_TOL_DEFAULT = 1e-9
 ONSET_STEPS_DEFAULT = 40.0
 ON_NONCONVERGENCE = ("error", "warn")
+#: steps per kernel call by contact model when ``SolverSettings.chunk`` is None: a compliant
+#: step costs a few microseconds, and the checks and the call between chunks about a tenth of
+#: a millisecond (benchmarks/bench_compliant.py prints both chunk sizes' cost)
+DEFAULT_CHUNK = {"nonsmooth": 500, "compliant": 5000}
 #: names of the three sub-problems of a step, in the order of the ``iterations`` columns
 STAGES = ("smooth", "position", "velocity")
 #: largest ``solver.max_halvings``: a step taken as at most 2^10 substeps
@@ -102,9 +106,10 @@ class SolverSettings:
         audit's criterion, is taken again from its start as 2, 4, ... 2^max_halvings substeps
         (docs/method.md); only a step that fails at the smallest one is flagged or stops the
         run. 0: never retried; at most :data:`MAX_HALVINGS`.
-    chunk : int
+    chunk : int or None
         Steps per kernel call (the checks, the progress bar and an early stop act between
-        calls); with adaptive steps, chunk // output_every output intervals per call.
+        calls); with adaptive steps, chunk // output_every output intervals per call. None:
+        :data:`DEFAULT_CHUNK` of the contact model.
     progress : bool
         Print a progress bar on stderr (when it is a terminal).
     max_indentation : float
@@ -140,7 +145,7 @@ class SolverSettings:
     v_pre_min: float = 1e-3
     energy_tol: float = 0.005
     max_halvings: int = 4
-    chunk: int = 500
+    chunk: int | None = None
     progress: bool = False
     max_indentation: float = 0.1
     adaptive: bool = False
@@ -180,6 +185,10 @@ class SolverSettings:
             raise ValueError(f"solver.max_indentation: {indentation} is not allowed; allowed: "
                              "in (0, 1]")
         object.__setattr__(self, "max_indentation", indentation)
+        whole = isinstance(self.chunk, (int, np.integer)) and not isinstance(self.chunk, bool)
+        if self.chunk is not None and not (whole and self.chunk >= 1):
+            raise ValueError(f"chunk: {self.chunk!r} is not allowed; allowed: a whole number "
+                             ">= 1 of steps, or None")
 
     def _check_adaptive(self, dt: float) -> None:
         if not self.compliant:
@@ -458,6 +467,13 @@ def _allocate(model, settings: SolverSettings, start: _Start, t0: float) -> Traj
     return out
 
 
+def _chunk(settings: SolverSettings) -> int:
+    """Steps per kernel call: ``settings.chunk``, else the contact model's default."""
+    if settings.chunk is None:
+        return DEFAULT_CHUNK[settings.contact_model]
+    return int(settings.chunk)
+
+
 def _kernel_settings(settings: SolverSettings, drive_row: int, t0: float):
     return nb.StepSettings(settings.dt, float(settings.rho_inf), float(settings.tol),
                            int(settings.max_iter), float(settings.proximal), int(drive_row),
@@ -507,7 +523,7 @@ class _Loop:
                                           out.lambda_T, out.gap_N, out.vn_pre, out.vn_post,
                                           out.energy, out.iterations, out.converged,
                                           out.drive_torque)
-            self.chunk = max(1, int(settings.chunk) // every) * every
+            self.chunk = max(1, _chunk(settings) // every) * every
             if settings.adaptive:
                 aset = nb.AdaptiveSettings(settings.output_dt, float(settings.dt_min),
                                            float(settings.adaptive_tol),
@@ -529,7 +545,7 @@ class _Loop:
             # the energy audit's criterion, for the kernel's retries (EnergyAudit.check's)
             retry = nb.RetrySettings(settings.max_halvings, float(settings.energy_tol),
                                      ENERGY_FLOOR_J, drive_rate(model))
-            self.chunk = int(settings.chunk)
+            self.chunk = _chunk(settings)
             self._advance = lambda k, k_next: nb.integrate_chunk(
                 k, k_next, kset, start.arrays, start.state, outputs, start.work, retry)
         self.release = self._release_watch(release, start.gap.size)
