@@ -120,12 +120,9 @@ def alpha_predict(q, v, acc, vdot, vdot1, h, coef, acc1, q_t, v_t):
     beta) a_n + beta a_{n+1}), v~ = v + h ((1 - gam) a_n + gam a_{n+1}), into ``acc1``, ``q_t``,
     ``v_t``. ``coef``: :func:`alpha_coefficients`."""
     am, af, gam, beta = coef
-    # three loops of one output each: each vectorises (one loop writing three arrays does not)
     for i in range(q.shape[0]):
         acc1[i] = ((1.0 - af) * vdot1[i] + af * vdot[i] - am * acc[i]) / (1.0 - am)
-    for i in range(q.shape[0]):
         q_t[i] = q[i] + h * v[i] + h * h * (0.5 - beta) * acc[i] + h * h * beta * acc1[i]
-    for i in range(q.shape[0]):
         v_t[i] = v[i] + h * (1.0 - gam) * acc[i] + h * gam * acc1[i]
 
 
