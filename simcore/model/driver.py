@@ -37,8 +37,8 @@ ADAPTIVE_TOL_DEFAULT = 1e-9
 ONSET_STEPS_DEFAULT = 40.0
 ON_NONCONVERGENCE = ("error", "warn")
 #: steps per kernel call by contact model when ``SolverSettings.chunk`` is None: a compliant
-#: step costs a few microseconds, and the checks and the call between chunks about a tenth of
-#: a millisecond (benchmarks/bench_compliant.py prints both chunk sizes' cost)
+#: step costs about 5 us, the checks and the call between two chunks about 0.2 ms
+#: (benchmarks/bench_compliant.py prints the paper case's time in 500-step chunks against this)
 DEFAULT_CHUNK = {"nonsmooth": 500, "compliant": 5000}
 #: names of the three sub-problems of a step, in the order of the ``iterations`` columns
 STAGES = ("smooth", "position", "velocity")
