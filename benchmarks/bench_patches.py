@@ -34,7 +34,7 @@ from bench_core import ONE_STEP, _child_env, run_child  # noqa: E402
 from simcore.startup.patches import PATCHES, SWITCH  # noqa: E402
 
 #: the patches that act on a cold compile (the others change nothing there)
-COLD_PATCHES = ("numba_link_only", "parallel_compile")
+COLD_PATCHES = ("numba_internal_kernels", "numba_link_only", "parallel_compile")
 
 
 def configurations(names) -> dict:

@@ -402,3 +402,66 @@ def test_a_bad_switch_value_is_refused_in_one_line():
     last = proc.stderr.strip().splitlines()[-1]
     assert last == ("ValueError: BEARINGSIM_STARTUP_PATCHES: 'numba' is not allowed; allowed: "
                     "0, 1 or a comma-separated list of " + ", ".join(patches.PATCHES))
+
+
+@_patched("numba_internal_kernels")
+def test_an_internal_kernel_has_no_python_entry_and_still_answers_python():
+    """A kernel that only kernels call is compiled without a Python entry (its compiled
+    library has no wrapper symbol); a call from Python goes to a twin with one and gives what
+    the Python function gives; the kernels a run calls from Python keep their entry."""
+    from numba import typeof
+
+    from simcore.kernels.bodies import body_omega
+
+    v = np.array([0.3, 0.5, -1.5, 2.0, -1.0, 4.0])
+    args = (v, 1)
+    sig = tuple(typeof(a) for a in args)
+    body_omega.compile(sig)
+    compiled = body_omega.overloads[sig]
+    assert compiled.library.get_pointer_to_function(
+        compiled.fndesc.llvm_cpython_wrapper_name) == 0
+    assert body_omega(*args) == body_omega.py_func(*args) == 4.0
+    assert body_omega.python_twin() is body_omega.python_twin()
+    for entry in (nb.integrate_chunk, nb.initial_acceleration, nb.total_energy,
+                  nb.contact_velocities_into, nb.body_point):
+        assert not hasattr(entry, "python_twin"), entry
+
+
+NO_TWINS = r"""
+import simcore, sys
+from numba.core.dispatcher import Dispatcher
+from simcore import kernels
+for over in ([], ["model.contact_model=compliant", "solver.dt=1e-6", "solver.output_dt=1e-5"],
+             ["model.contact_model=compliant", "solver.adaptive=true", "solver.dt=1e-5",
+              "solver.output_dt=1e-5"]):
+    simcore.run(simcore.load_config(overrides=["solver.t_end=2e-3", *over]))
+twins = sorted({f"{m.__name__}.{name}" for m in list(sys.modules.values())
+                if m is not None and m.__name__.startswith("simcore.kernels")
+                for name, d in vars(m).items()
+                if isinstance(d, Dispatcher) and getattr(d, "_twin", None) is not None})
+print(",".join(twins) or "-")
+"""
+
+
+@_patched("numba_internal_kernels")
+def test_runs_call_no_internal_kernel_from_python():
+    """Nonsmooth, compliant and adaptive runs call only entry kernels from Python: no internal
+    kernel's twin is made (it would compile a second time what the cache holds)."""
+    proc = subprocess.run([sys.executable, "-c", NO_TWINS], capture_output=True, text=True,
+                          cwd=ROOT, timeout=900)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().splitlines()[-1] == "-"
+
+
+def test_the_cache_folder_is_named_by_the_internal_kernels_patch(tmp_path):
+    """Kernels without a Python entry and kernels with one never share a cache folder: with
+    the patch off, a user's NUMBA_CACHE_DIR gets a subfolder."""
+    code = "from simcore import kernels; print(kernels.CACHE_DIR)"
+    folders = {}
+    for switch in ("1", "0"):
+        env = dict(os.environ, BEARINGSIM_STARTUP_PATCHES=switch, NUMBA_CACHE_DIR=str(tmp_path))
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              cwd=ROOT, timeout=300, env=env)
+        assert proc.returncode == 0, proc.stderr
+        folders[switch] = proc.stdout.strip().splitlines()[-1]
+    assert folders == {"1": str(tmp_path), "0": str(tmp_path / "python-entries")}

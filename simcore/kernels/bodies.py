@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .jit import step_kernel
+from .jit import entry_step_kernel, step_kernel
 
 
-@step_kernel
+@entry_step_kernel
 def body_point(q, body, px, py):
     """World position (x, y) and lever arm (ax, ay) = R(phi) p of a body-fixed point [m]."""
     if body < 0:

@@ -21,7 +21,7 @@ from .bodies import (
     transverse_form,
     unit_direction,
 )
-from .jit import inline_kernel, kernel, step_kernel
+from .jit import entry_kernel, entry_step_kernel, inline_kernel, kernel, step_kernel
 
 CONTACT_PLANE = 0
 CONTACT_OUTSIDE = 1
@@ -199,13 +199,13 @@ def contact_hessian_into(q, k, ma, H, P):
         H[5, 5] -= sign * (nx * abx + ny * aby)
 
 
-@kernel
+@entry_kernel
 def contact_velocities(q, v, ma, gap, vn, vt):
     """Gaps [m], normal and tangential relative velocities [m/s] of every contact."""
     contact_velocities_into(q, v, ma, gap, vn, vt, np.zeros(6), np.zeros(6), None)
 
 
-@step_kernel
+@entry_step_kernel
 def contact_velocities_into(q, v, ma, gap, vn, vt, wN, wT, trig):
     """:func:`contact_velocities` on work rows ``wN``, ``wT`` (6 entries each) and with the
     bodies' sines and cosines cached in ``trig`` (:func:`~.bodies.body_point_cached`, or

@@ -10,7 +10,7 @@ from collections import namedtuple
 import numpy as np
 
 from .bodies import BLOCKS_NEWTON, fill_pair_blocks, trig_cache
-from .jit import step_kernel
+from .jit import entry_step_kernel, step_kernel
 from .joints import bilateral_cached
 from .linalg import (
     block_factor_work,
@@ -72,7 +72,7 @@ def alpha_coefficients(rho_inf):
     return am, af, gam, beta
 
 
-@step_kernel
+@entry_step_kernel
 def initial_acceleration(q, v, t, ma, f_extra, vdot, lam, sw):
     """Smooth acceleration at time ``t`` [s] from M vdot = f + f_extra + G^T lam,
     G vdot + gamma = 0 (the consistent start of generalized-alpha, both contact models).

@@ -29,7 +29,7 @@ from .contact import (
     contact_rows_cached,
     pair_indices,
 )
-from .jit import inline_kernel, kernel, step_kernel
+from .jit import entry_kernel, inline_kernel, kernel, step_kernel
 
 #: Work arrays of :func:`contact_forces_into` and :func:`elastic_energy_into` (made once per
 #: run by :func:`hertz_work`): a contact's Jacobian rows wN, wT, its gap Hessian H (6 x 6),
@@ -83,7 +83,7 @@ def normal_force(delta, delta_dot, K, chi, v_pre):
     return F, 1.5 * K * root * damp, elastic * chi / v_pre
 
 
-@kernel
+@entry_kernel
 def contact_forces(q, v, ma, v_pre, v_reg, f, K, C, tangent, rec):
     """Add the compliant contact forces to ``f`` [N, N m] and, with ``tangent``, their
     stiffness ``K`` and damping ``C`` to the matrices (in place): :func:`contact_forces_into`
@@ -225,7 +225,7 @@ def _add_contact_tangents(q, v, k, ma, hw, K, C, terms):
             C[idx[a], idx[c]] += cc
 
 
-@kernel
+@entry_kernel
 def elastic_energy(q, ma):
     """Energy stored in the compliant contacts, sum of (2/5) K delta^(5/2) [J]."""
     return elastic_energy_into(q, ma, None)

@@ -9,9 +9,14 @@ count, some 15 % of a step's time in the bearing's small functions. Such a kerne
 create an array (``np.zeros``, ``.copy()``), nor keep one a callee returns: it would never be
 freed. Views (``a[i]``, ``a[:n]``) are fine, they borrow the parent's memory.
 
+Both are for kernels that only other kernels call: they are compiled without a Python entry
+(start-up patch ``numba_internal_kernels``, :func:`simcore.startup.patches.internal_njit`; a
+call from Python still works, through a twin compiled on first use). A kernel that simcore
+calls from Python is an :data:`entry_kernel` or :data:`entry_step_kernel`.
+
 :data:`inline_kernel` is :data:`step_kernel` for small helpers that their callers take in
 whole (see its comment); :data:`stage` is a named part of a larger kernel, compiled only as
-part of it. :func:`loop_kernel` is :data:`step_kernel` for a time loop, whose
+part of it. :func:`loop_kernel` is :data:`entry_step_kernel` for a time loop, whose
 callees (the stages of a step) are large and already optimised: see its docstring.
 
 All release Python's global interpreter lock while they run (``nogil``): runs started from
@@ -23,15 +28,21 @@ from __future__ import annotations
 
 from numba import njit
 
-from ..startup.patches import link_only
+from ..startup.patches import internal_njit, link_only
 
-#: Kernels that may allocate arrays. (Reference counting is asked for explicitly: a callee
-#: inherits the caller's setting otherwise, and a step kernel calls some of these.)
-kernel = njit(cache=True, error_model="numpy", _nrt=True, no_cfunc_wrapper=True, nogil=True)
+#: Options of kernels that may allocate arrays. (Reference counting is asked for explicitly: a
+#: callee inherits the caller's setting otherwise, and a step kernel calls some of these.)
+_ALLOCATING = dict(cache=True, error_model="numpy", _nrt=True, no_cfunc_wrapper=True, nogil=True)
+#: Options of kernels that allocate nothing (see the module docstring).
+_STEP = dict(cache=True, error_model="numpy", _nrt=False, no_cfunc_wrapper=True, nogil=True)
 
-#: Kernels that allocate nothing (see the module docstring).
-step_kernel = njit(cache=True, error_model="numpy", _nrt=False, no_cfunc_wrapper=True,
-                   nogil=True)
+#: Kernels that may allocate arrays, called by other kernels only.
+kernel = internal_njit(**_ALLOCATING)
+#: Kernels that allocate nothing, called by other kernels only.
+step_kernel = internal_njit(**_STEP)
+#: :data:`kernel` and :data:`step_kernel` for kernels that simcore calls from Python.
+entry_kernel = njit(**_ALLOCATING)
+entry_step_kernel = njit(**_STEP)
 
 #: Small step kernels that their callers take in whole (Numba's own inlining, before LLVM).
 #: A call between kernels passes every array of its bundles as separate arguments (seven
@@ -39,8 +50,7 @@ step_kernel = njit(cache=True, error_model="numpy", _nrt=False, no_cfunc_wrapper
 #: several bundles that copying cost more than its arithmetic (the compliant step's force
 #: evaluation, residual and chord update, and the spring state of every spring: about a tenth
 #: of a compliant step). The same arithmetic, so the same numbers.
-inline_kernel = njit(cache=True, error_model="numpy", _nrt=False, no_cfunc_wrapper=True,
-                     nogil=True, inline="always")
+inline_kernel = internal_njit(**_STEP, inline="always")
 
 #: A named stage of a kernel (a part of a step kernel given a name of its own): inlined into
 #: its caller in Numba's own representation, before typing, so that it is compiled as part
@@ -53,7 +63,7 @@ stage = njit(inline="always", error_model="numpy", _nrt=False, no_cfunc_wrapper=
 
 
 def loop_kernel(func):
-    """:data:`step_kernel` for a time loop: its compiled callees are linked in as they are.
+    """:data:`entry_step_kernel` for a time loop: its compiled callees are linked in as they are.
 
     A time loop's callees are the stages of a step, each already optimised in its own library;
     the loop's library is only linked (its direct callees inlined), not optimised as a whole a
@@ -61,4 +71,4 @@ def loop_kernel(func):
     Numba's internals, :func:`simcore.startup.patches.install_link_only`; without it (switched
     off, or another Numba) the loop is optimised as any other kernel.
     """
-    return step_kernel(link_only(func))
+    return entry_step_kernel(link_only(func))

@@ -15,7 +15,7 @@ from .bodies import (
     unit_direction,
 )
 from .contact import element_points, pair_indices
-from .jit import inline_kernel, kernel, step_kernel
+from .jit import entry_step_kernel, inline_kernel, kernel, step_kernel
 
 #: ``tangent`` flags of :func:`smooth_forces_into`. NumPy booleans, not Python ones: Numba types
 #: a Python constant argument as a literal and compiles a specialisation per value.
@@ -173,7 +173,7 @@ def spring_damping_into(q, v, ma, C, fw, iw):
                 C[idx[a], idx[c]] += damp * w[a] * w[c]
 
 
-@step_kernel
+@entry_step_kernel
 def total_energy(q, v, ma):
     """Kinetic + gravitational + spring energy [J]."""
     mdiag = ma.mdiag

@@ -7,6 +7,11 @@ a callee (say ``contact.py``) would leave the cached machine code of its callers
 at a folder named after a SHA-1 of every kernel source file, before any kernel is compiled: any
 edit anywhere in the kernels gives a new folder and a fresh compilation.
 
+The folder is also named by the state of the start-up patch ``numba_internal_kernels``
+(:func:`simcore.startup.patches.internal_njit`): with it, kernels that only kernels call are
+cached without a Python entry, which a process with the patch off would look for
+(:func:`mode_suffix`).
+
 This module must not import any kernel module; :mod:`simcore.kernels` calls it first.
 """
 
@@ -39,25 +44,41 @@ def _writable(folder: Path) -> bool:
     return os.access(folder, os.W_OK)
 
 
+def mode_suffix() -> str:
+    """What the cache folder's name adds for the start-up patches in use: ``""`` with patch
+    ``numba_internal_kernels`` (the default), ``"-python-entries"`` without it."""
+    from .patches import enabled
+
+    return "" if enabled("numba_internal_kernels") else "-python-entries"
+
+
 def cache_dir_for(folder: str | Path = KERNELS_DIR) -> Path:
     """The cache folder for the sources in ``folder``: ``<folder>/__pycache__/numba-<key>``, or
-    ``~/.cache/bearingsim/numba-<key>`` when the package folder is read-only."""
-    key = kernel_source_key(folder)
+    ``~/.cache/bearingsim/numba-<key>`` when the package folder is read-only (with
+    :func:`mode_suffix` after the key)."""
+    key = kernel_source_key(folder) + mode_suffix()
     local = Path(folder) / "__pycache__" / f"numba-{key}"
     if _writable(local):
         return local
     return Path.home() / ".cache" / "bearingsim" / f"numba-{key}"
 
 
+def cache_folder(folder: str | Path = KERNELS_DIR) -> str:
+    """The cache folder in use for the sources in ``folder``: the user's ``NUMBA_CACHE_DIR``
+    (or its subfolder ``python-entries`` where :func:`mode_suffix` says so), else
+    :func:`cache_dir_for`."""
+    user = os.environ.get("NUMBA_CACHE_DIR", "")
+    if not user:
+        return str(cache_dir_for(folder))
+    suffix = mode_suffix()
+    return os.path.join(user, suffix.lstrip("-")) if suffix else user
+
+
 def configure_cache(folder: str | Path = KERNELS_DIR) -> str:
-    """Set ``numba.config.CACHE_DIR`` to :func:`cache_dir_for` unless the user chose a folder
-    with ``NUMBA_CACHE_DIR``. Returns the folder in use (must run before the kernels are
-    decorated, i.e. imported)."""
+    """Set ``numba.config.CACHE_DIR`` to :func:`cache_folder`. Returns the folder (must run
+    before the kernels are decorated, i.e. imported)."""
     import numba
 
-    user = os.environ.get("NUMBA_CACHE_DIR", "")
-    if user:
-        return user
-    path = str(cache_dir_for(folder))
+    path = cache_folder(folder)
     numba.config.CACHE_DIR = path
     return path

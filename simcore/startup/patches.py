@@ -33,8 +33,8 @@ from contextlib import contextmanager
 SWITCH = "BEARINGSIM_STARTUP_PATCHES"
 
 #: every patch, by name (see the function of the same name for what it does and saves)
-PATCHES = ("numba_link_only", "parallel_compile", "scipy_blas", "gc_freeze", "xarray_dask_type",
-           "netcdf_store", "fast_dataset")
+PATCHES = ("numba_internal_kernels", "numba_link_only", "parallel_compile", "scipy_blas",
+           "gc_freeze", "xarray_dask_type", "netcdf_store", "fast_dataset")
 
 #: which patches :func:`install` has put in place (name: True/False)
 INSTALLED: dict[str, bool] = {}
@@ -81,6 +81,8 @@ def install() -> dict[str, bool]:
         return INSTALLED
     chosen = selected()
     INSTALLED.update({
+        "numba_internal_kernels": "numba_internal_kernels" in chosen
+        and _internal_kernel_class() is not None,
         "numba_link_only": "numba_link_only" in chosen and install_link_only(),
         "parallel_compile": "parallel_compile" in chosen and lock_cache_writes(),
         "scipy_blas": "scipy_blas" in chosen and preload_scipy_blas(),
@@ -182,6 +184,93 @@ def freeze_heap_at_exit() -> None:
 
 
 _FREEZE_REGISTERED: list = []
+
+
+# --- numba_internal_kernels: kernels compiled without a Python entry ---------------------------
+
+#: the subclass of Numba's CPUDispatcher made by :func:`_internal_kernel_class` (False: it
+#: could not be made)
+_INTERNAL_KERNEL: list = []
+
+
+def internal_njit(**options):
+    """Numba's ``njit(**options)`` for a kernel that only other kernels call: with patch
+    ``numba_internal_kernels``, compiled without a Python entry.
+
+    Numba compiles every kernel with a Python entry (a wrapper that converts the Python
+    arguments, each array of a bundle, into native ones), even one that only kernels call. The
+    time loops take their stages' bundles (some two hundred arrays), and the kernels of a cold
+    compile carry 58 such entries, four times the code of the kernels' own bodies before
+    optimisation: their making, optimisation and machine code took some 6 of the 31 s of CPU.
+    Here a kernel that simcore calls only from other kernels is compiled without one (Numba's
+    ``no_cpython_wrapper``); kernels call each other natively, so the machine code they run
+    is the same and so are the results. A call from Python (a test, a benchmark's timing of one
+    stage) goes to a twin compiled with an entry on its first call, not cached on disk.
+
+    Entries and none cannot share a cache folder (a process with the patch off would find an
+    entry missing), so :func:`simcore.startup.numba_cache.configure_cache` names the folder by
+    the patch's state. Saves 1.6 s of a cold compile's 19 s (``python
+    benchmarks/bench_patches.py --cold``, 4 alternations).
+
+    Parameters
+    ----------
+    **options
+        Numba's ``njit`` options (``cache=True`` caches on disk).
+
+    Returns
+    -------
+    callable
+        The decorator; plain ``njit(**options)`` with the patch off or where the subclass of
+        Numba's dispatcher cannot be made.
+    """
+    from numba import config, njit
+
+    cls = _internal_kernel_class() if enabled("numba_internal_kernels") else None
+    if cls is None or config.DISABLE_JIT:
+        return njit(**options)
+    cache = options.pop("cache", False)
+    targetoptions = dict(options, nopython=True, no_cpython_wrapper=True)
+
+    def decorate(func):
+        dispatcher = cls(py_func=func, locals={}, targetoptions=targetoptions)
+        if cache:
+            dispatcher.enable_caching()
+        return dispatcher
+
+    return decorate
+
+
+def _internal_kernel_class():
+    """The dispatcher class of :func:`internal_njit` (made once), or None where Numba's
+    ``CPUDispatcher`` is not there to subclass."""
+    if not _INTERNAL_KERNEL:
+        try:
+            from numba import njit
+            from numba.core.registry import CPUDispatcher
+        except ImportError:
+            _INTERNAL_KERNEL.append(None)
+            return None
+
+        class InternalKernel(CPUDispatcher):
+            """A kernel compiled without a Python entry; a call from Python goes to
+            :meth:`python_twin`."""
+
+            _twin = None
+
+            def python_twin(self):
+                """The same function compiled with a Python entry (made on first use, not
+                cached on disk: its cache entry would carry what this one's lacks)."""
+                if self._twin is None:
+                    options = {k: v for k, v in self.targetoptions.items()
+                               if k not in ("nopython", "no_cpython_wrapper")}
+                    self._twin = njit(**options)(self.py_func)
+                return self._twin
+
+            def __call__(self, *args, **kwargs):
+                return self.python_twin()(*args, **kwargs)
+
+        _INTERNAL_KERNEL.append(InternalKernel)
+    return _INTERNAL_KERNEL[0]
 
 
 # --- numba_link_only: Numba's CPUCodeLibrary._optimize_final_module ---------------------------

@@ -19,7 +19,6 @@ of a new process loading the cache before the first job starts).
 """
 
 import hashlib
-import os
 import sys
 import time
 from pathlib import Path
@@ -37,15 +36,14 @@ def warm_stamp() -> Path:
     cache folder, so that clearing the cache clears it too."""
     from importlib.metadata import version
 
-    from simcore.startup.numba_cache import cache_dir_for
+    from simcore.startup.numba_cache import cache_folder
 
     digest = hashlib.sha1(f"{sys.version} numba {version('numba')}".encode())
     for pattern in KERNEL_SOURCES:
         for path in sorted(ROOT.glob(pattern)):
             stat = path.stat()
             digest.update(f"{path.relative_to(ROOT)} {stat.st_size} {stat.st_mtime_ns}".encode())
-    folder = os.environ.get("NUMBA_CACHE_DIR") or str(cache_dir_for())
-    return Path(folder) / f"study-warm-{digest.hexdigest()[:16]}"
+    return Path(cache_folder()) / f"study-warm-{digest.hexdigest()[:16]}"
 
 
 #: run by a second process: the kernels of the compliant model (those of the zooms), compiled
