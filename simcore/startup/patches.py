@@ -188,7 +188,7 @@ _FREEZE_REGISTERED: list = []
 
 # --- numba_internal_kernels: kernels compiled without a Python entry ---------------------------
 
-#: the subclass of Numba's CPUDispatcher made by :func:`_internal_kernel_class` (False: it
+#: the subclass of Numba's CPUDispatcher made by :func:`_internal_kernel_class` (None: it
 #: could not be made)
 _INTERNAL_KERNEL: list = []
 
@@ -198,19 +198,17 @@ def internal_njit(**options):
     ``numba_internal_kernels``, compiled without a Python entry.
 
     Numba compiles every kernel with a Python entry (a wrapper that converts the Python
-    arguments, each array of a bundle, into native ones), even one that only kernels call. The
-    time loops take their stages' bundles (some two hundred arrays), and the kernels of a cold
-    compile carry 58 such entries, four times the code of the kernels' own bodies before
-    optimisation: their making, optimisation and machine code took some 6 of the 31 s of CPU.
-    Here a kernel that simcore calls only from other kernels is compiled without one (Numba's
+    arguments, each array of a bundle, into native ones), even one that only kernels call: 58
+    entries in a cold compile, of which a run needs 5, each made, optimised and turned into
+    machine code. Here a kernel that simcore calls only from other kernels is compiled without one (Numba's
     ``no_cpython_wrapper``); kernels call each other natively, so the machine code they run
     is the same and so are the results. A call from Python (a test, a benchmark's timing of one
     stage) goes to a twin compiled with an entry on its first call, not cached on disk.
 
     Entries and none cannot share a cache folder (a process with the patch off would find an
     entry missing), so :func:`simcore.startup.numba_cache.configure_cache` names the folder by
-    the patch's state. Saves 1.6 s of a cold compile's 19 s (``python
-    benchmarks/bench_patches.py --cold``, 4 alternations).
+    the patch's state. Saves 1.8 s of wall and 3.7 s of CPU of a cold compile (18.3 s and 30.3 s
+    with every patch; ``python benchmarks/bench_patches.py --cold --rounds 3``).
 
     Parameters
     ----------
@@ -309,7 +307,8 @@ def install_link_only() -> bool:
     registered loops only; where it is missing or anything in the linking fails, the loop is
     optimised as any other kernel (:data:`LINK_FAILED` names it).
 
-    Saves 4.8 s of the 34 s of CPU of a cold compile (``benchmarks/bench_patches.py --cold``).
+    Saves 4.3 s of wall and 5.4 s of CPU of a cold compile (18.3 s and 30.3 s with every
+    patch; ``python benchmarks/bench_patches.py --cold --rounds 3``).
 
     Returns
     -------
