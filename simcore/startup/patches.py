@@ -200,10 +200,11 @@ def internal_njit(**options):
     Numba compiles every kernel with a Python entry (a wrapper that converts the Python
     arguments, each array of a bundle, into native ones), even one that only kernels call: 58
     entries in a cold compile, of which a run needs 5, each made, optimised and turned into
-    machine code. Here a kernel that simcore calls only from other kernels is compiled without one (Numba's
-    ``no_cpython_wrapper``); kernels call each other natively, so the machine code they run
-    is the same and so are the results. A call from Python (a test, a benchmark's timing of one
-    stage) goes to a twin compiled with an entry on its first call, not cached on disk.
+    machine code. Here a kernel that simcore calls only from other kernels is compiled without
+    one (Numba's ``no_cpython_wrapper``); kernels call each other natively, so the machine code
+    they run is the same and so are the results. A call from Python (a test, a benchmark's
+    timing of one stage) goes to a twin compiled with an entry on its first call, not cached
+    on disk.
 
     Entries and none cannot share a cache folder (a process with the patch off would find an
     entry missing), so :func:`simcore.startup.numba_cache.configure_cache` names the folder by
