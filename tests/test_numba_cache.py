@@ -29,7 +29,8 @@ def test_key_changes_with_any_kernel_source(tmp_path):
     # a new module counts as well
     (folder / "extra.py").write_text("X = 1\n")
     assert numba_cache.kernel_source_key(folder) not in (key, edited)
-    expected = f"numba-{numba_cache.kernel_source_key(folder)}{numba_cache.mode_suffix()}"
+    suffix = f"-{numba_cache.ENTRIES}" if numba_cache.all_entries() else ""
+    expected = f"numba-{numba_cache.kernel_source_key(folder)}{suffix}"
     assert numba_cache.cache_dir_for(folder).name == expected
 
 

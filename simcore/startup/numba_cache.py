@@ -10,7 +10,7 @@ edit anywhere in the kernels gives a new folder and a fresh compilation.
 The folder is also named by the state of the start-up patch ``numba_internal_kernels``
 (:func:`simcore.startup.patches.internal_njit`): with it, kernels that only kernels call are
 cached without a Python entry, which a process with the patch off would look for
-(:func:`mode_suffix`).
+(:func:`all_entries`).
 
 This module must not import any kernel module; :mod:`simcore.kernels` calls it first.
 """
@@ -44,19 +44,24 @@ def _writable(folder: Path) -> bool:
     return os.access(folder, os.W_OK)
 
 
-def mode_suffix() -> str:
-    """What the cache folder's name adds for the start-up patches in use: ``""`` with patch
-    ``numba_internal_kernels`` (the default), ``"-python-entries"`` without it."""
+#: the name the cache folder adds where every kernel has a Python entry (start-up patch
+#: ``numba_internal_kernels`` off)
+ENTRIES = "python-entries"
+
+
+def all_entries() -> bool:
+    """Whether every kernel is compiled with a Python entry (patch ``numba_internal_kernels``
+    off), so that the cache folder's name says :data:`ENTRIES`."""
     from .patches import enabled
 
-    return "" if enabled("numba_internal_kernels") else "-python-entries"
+    return not enabled("numba_internal_kernels")
 
 
 def cache_dir_for(folder: str | Path = KERNELS_DIR) -> Path:
     """The cache folder for the sources in ``folder``: ``<folder>/__pycache__/numba-<key>``, or
-    ``~/.cache/bearingsim/numba-<key>`` when the package folder is read-only (with
-    :func:`mode_suffix` after the key)."""
-    key = kernel_source_key(folder) + mode_suffix()
+    ``~/.cache/bearingsim/numba-<key>`` when the package folder is read-only (``<key>-``
+    :data:`ENTRIES` where :func:`all_entries`)."""
+    key = kernel_source_key(folder) + (f"-{ENTRIES}" if all_entries() else "")
     local = Path(folder) / "__pycache__" / f"numba-{key}"
     if _writable(local):
         return local
@@ -65,13 +70,11 @@ def cache_dir_for(folder: str | Path = KERNELS_DIR) -> Path:
 
 def cache_folder(folder: str | Path = KERNELS_DIR) -> str:
     """The cache folder in use for the sources in ``folder``: the user's ``NUMBA_CACHE_DIR``
-    (or its subfolder ``python-entries`` where :func:`mode_suffix` says so), else
-    :func:`cache_dir_for`."""
+    (its subfolder :data:`ENTRIES` where :func:`all_entries`), else :func:`cache_dir_for`."""
     user = os.environ.get("NUMBA_CACHE_DIR", "")
     if not user:
         return str(cache_dir_for(folder))
-    suffix = mode_suffix()
-    return os.path.join(user, suffix.lstrip("-")) if suffix else user
+    return os.path.join(user, ENTRIES) if all_entries() else user
 
 
 def configure_cache(folder: str | Path = KERNELS_DIR) -> str:
