@@ -24,6 +24,7 @@ docs/performance.md ("Start-up patches") the table.
 from __future__ import annotations
 
 import atexit
+import functools
 import gc
 import os
 import sys
@@ -188,11 +189,6 @@ _FREEZE_REGISTERED: list = []
 
 # --- numba_internal_kernels: kernels compiled without a Python entry ---------------------------
 
-#: the subclass of Numba's CPUDispatcher made by :func:`_internal_kernel_class` (None: it
-#: could not be made)
-_INTERNAL_KERNEL: list = []
-
-
 def internal_njit(**options):
     """Numba's ``njit(**options)`` for a kernel that only other kernels call: with patch
     ``numba_internal_kernels``, compiled without a Python entry.
@@ -239,37 +235,35 @@ def internal_njit(**options):
     return decorate
 
 
+@functools.cache
 def _internal_kernel_class():
     """The dispatcher class of :func:`internal_njit` (made once), or None where Numba's
     ``CPUDispatcher`` is not there to subclass."""
-    if not _INTERNAL_KERNEL:
-        try:
-            from numba import njit
-            from numba.core.registry import CPUDispatcher
-        except ImportError:
-            _INTERNAL_KERNEL.append(None)
-            return None
+    try:
+        from numba import njit
+        from numba.core.registry import CPUDispatcher
+    except ImportError:
+        return None
 
-        class InternalKernel(CPUDispatcher):
-            """A kernel compiled without a Python entry; a call from Python goes to
-            :meth:`python_twin`."""
+    class InternalKernel(CPUDispatcher):
+        """A kernel compiled without a Python entry; a call from Python goes to
+        :meth:`python_twin`."""
 
-            _twin = None
+        _twin = None
 
-            def python_twin(self):
-                """The same function compiled with a Python entry (made on first use, not
-                cached on disk: its cache entry would carry what this one's lacks)."""
-                if self._twin is None:
-                    options = {k: v for k, v in self.targetoptions.items()
-                               if k not in ("nopython", "no_cpython_wrapper")}
-                    self._twin = njit(**options)(self.py_func)
-                return self._twin
+        def python_twin(self):
+            """The same function compiled with a Python entry (made on first use, not cached
+            on disk: its cache entry would carry what this one's lacks)."""
+            if self._twin is None:
+                options = {k: v for k, v in self.targetoptions.items()
+                           if k not in ("nopython", "no_cpython_wrapper")}
+                self._twin = njit(**options)(self.py_func)
+            return self._twin
 
-            def __call__(self, *args, **kwargs):
-                return self.python_twin()(*args, **kwargs)
+        def __call__(self, *args, **kwargs):
+            return self.python_twin()(*args, **kwargs)
 
-        _INTERNAL_KERNEL.append(InternalKernel)
-    return _INTERNAL_KERNEL[0]
+    return InternalKernel
 
 
 # --- numba_link_only: Numba's CPUCodeLibrary._optimize_final_module ---------------------------
