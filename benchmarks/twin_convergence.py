@@ -5,6 +5,10 @@ steps (``solver.adaptive_tol``) against fixed steps of N per Hertz contact time.
                                                                 fixed N = 20, 40, 80
     python benchmarks/twin_convergence.py --tols 1e-9 --n 40    others
     python benchmarks/twin_convergence.py --zooms               also the zooms' N
+    python benchmarks/twin_convergence.py --rhos 0 0.5          adaptive runs at each rho_inf
+    python benchmarks/twin_convergence.py --revolutions 3 --tols 1e-9 --rhos 0 0.5 --n
+        --points 1e-4,0.05,25,1 ...                             the study's twins (1 + 3
+                                                                revolutions) of other points
 
 For each point (steel, constant drive, the default study's settings; clearance, mu, omega0,
 e_N given below) the twin of :func:`simcore.study.plan.twin_config` (adaptive steps, at most
@@ -52,21 +56,24 @@ def steady_peaks(ds, settle: float = 1.0):
     return out_max, out_med
 
 
-def twin_runs(cfg, tols, ns):
+def twin_runs(cfg, tols, ns, rhos=(None,)):
     """{label: (steps, peak per race, median per race, integration time)} of the point's twin
-    with adaptive steps at each tolerance and fixed steps at each N."""
+    with adaptive steps at each tolerance (and each spectral radius of ``rhos``, None: the
+    twin's own ``analysis.twin_rho_inf``) and fixed steps at each N."""
     out = {}
     twin = [r for r in plan.plan_runs(cfg) if r.model == "compliant"][0].config
     out_dt = twin["solver"]["output_dt"]
-    for tol in tols:
-        twin["solver"].update(adaptive=True, adaptive_tol=tol, dt=out_dt)
+    rho_twin = twin["solver"]["rho_inf"]
+    for rho, tol in [(r, t) for r in rhos for t in tols]:
+        rho = rho_twin if rho is None else rho
+        twin["solver"].update(adaptive=True, adaptive_tol=tol, dt=out_dt, rho_inf=rho)
         ds = simcore.run(twin)
-        out[f"adaptive tol={tol:.0e} m"] = (int(ds.attrs["n_steps_accepted"]), *steady_peaks(ds),
-                                           ds.attrs["wall_time_s"])
+        out[f"adaptive tol={tol:.0e} m rho={rho:g}"] = (
+            int(ds.attrs["n_steps_accepted"]), *steady_peaks(ds), ds.attrs["wall_time_s"])
     for n in sorted(ns):
         analysis = dict(twin["analysis"], zoom_steps_per_contact=n)
         dt = plan.twin_step(twin["model"], analysis, out_dt)
-        twin["solver"].update(adaptive=False, dt=dt)
+        twin["solver"].update(adaptive=False, dt=dt, rho_inf=rho_twin)
         ds = simcore.run(twin)
         steps = int(round(twin["solver"]["t_end"] / dt))
         out[f"fixed N={n} (dt={dt:.3g} s)"] = (steps, *steady_peaks(ds), ds.attrs["wall_time_s"])
@@ -93,23 +100,33 @@ def zoom_forces(cfg, ns):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tols", type=float, nargs="*", default=[1e-8, 1e-9, 1e-10])
-    parser.add_argument("--n", type=int, nargs="+", default=[20, 40, 80])
+    parser.add_argument("--n", type=int, nargs="*", default=[20, 40, 80],
+                        help="fixed steps per Hertz contact time (none: adaptive runs only)")
+    parser.add_argument("--points", nargs="+", default=None, metavar="C,MU,OMEGA0,E_N",
+                        help="grid points (default: the reference and a small clearance)")
+    parser.add_argument("--rhos", type=float, nargs="*", default=[],
+                        help="spectral radii of the adaptive runs (default: the twin's own)")
     parser.add_argument("--revolutions", type=float, default=2.0)
     parser.add_argument("--zooms", action="store_true")
     args = parser.parse_args()
-    for clearance, mu, omega0, e_N in POINTS:
+    points = ([tuple(float(x) for x in p.split(",")) for p in args.points] if args.points
+              else POINTS)
+    for clearance, mu, omega0, e_N in points:
         cfg = simcore.load_config("config/config.yaml", overrides=[
             f"study.revolutions={args.revolutions}", f"sweep.clearance=[{clearance}]",
             f"sweep.mu=[{mu}]", f"sweep.omega0=[{omega0}]", f"sweep.e_N=[{e_N}]"])
-        results = twin_runs(cfg, args.tols, args.n)
-        finest = list(results.values())[-1]
+        results = twin_runs(cfg, args.tols, args.n, args.rhos or (None,))
+        finest = list(results.values())[-1] if args.n else None
         print(f"point clearance={clearance} m, mu={mu}, omega0={omega0} rad/s, e_N={e_N}, "
               f"E={cfg['model']['youngs_modulus']:.3g} Pa:")
         for label, (steps, peak, median, wall) in results.items():
-            change = [p / f - 1.0 for p, f in zip(peak, finest[1], strict=True)]
-            print(f"  {label:28s} {steps:9d} steps  peak inner/outer {peak[0]:8.1f} "
-                  f"{peak[1]:8.1f} N ({100 * change[0]:+.2f} %, {100 * change[1]:+.2f} % vs "
-                  f"N={max(args.n)}); median per rev {median[0]:8.1f} {median[1]:8.1f} N; "
+            vs = ""
+            if finest:
+                change = [p / f - 1.0 for p, f in zip(peak, finest[1], strict=True)]
+                vs = (f" ({100 * change[0]:+.2f} %, {100 * change[1]:+.2f} % vs "
+                      f"N={max(args.n)})")
+            print(f"  {label:36s} {steps:9d} steps  peak inner/outer {peak[0]:8.1f} "
+                  f"{peak[1]:8.1f} N{vs}; median per rev {median[0]:8.1f} {median[1]:8.1f} N; "
                   f"{wall:.1f} s", flush=True)
         if args.zooms:
             zooms = zoom_forces(cfg, args.n)

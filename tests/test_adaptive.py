@@ -133,7 +133,8 @@ def _steady_state(name_overrides, t_lead, dt=1e-6):
     return model, (lead.q[-1], lead.v[-1], float(lead.time[-1]), v_pre)
 
 
-def test_adaptive_window_of_a_steady_bearing_matches_fixed_steps():
+@pytest.mark.parametrize("rho_inf", [0.0, 0.5])  # the default and the study's twins'
+def test_adaptive_window_of_a_steady_bearing_matches_fixed_steps(rho_inf):
     """The small-clearance point (2e-5 m, mu 0.01, 100 rad/s, e_N 0.7) with steel, restarted
     from the state (and the contacts' onset speeds) after a quarter revolution of fixed steps:
     over the next 2 ms (balls loaded between both races) the largest force per race with
@@ -146,7 +147,7 @@ def test_adaptive_window_of_a_steady_bearing_matches_fixed_steps():
     fixed = model.simulate(SolverSettings(2.5e-7, window, contact_model="compliant",
                                           output_every=40), **start)
     adaptive = model.simulate(SolverSettings(1e-5, window, contact_model="compliant",
-                                             adaptive=True), **start)
+                                             adaptive=True, rho_inf=rho_inf), **start)
     for race in (slice(0, n), slice(n, 2 * n)):
         ref = fixed.F_N[1:, race].max()
         assert ref > 100.0  # loaded
@@ -236,11 +237,13 @@ def test_coarse_output_of_a_driven_compliant_run_passes_the_energy_audit():
 
 def test_error_constant_of_the_scheme():
     """beta - 1/6 + (alpha_m - alpha_f)/2: Zienkiewicz-Xie's 1/12 for the trapezoidal rule
-    (rho_inf = 1), 1/3 at rho_inf = 0 (alpha_m = -1, alpha_f = 0, beta = 1)."""
+    (rho_inf = 1), 1/3 at rho_inf = 0 (alpha_m = -1, alpha_f = 0, beta = 1), 1/9 at the study
+    twins' 0.5 (alpha_m = 0, alpha_f = 1/3, beta = 4/9)."""
     from simcore.kernels.compliant_adaptive import error_constant
 
     assert error_constant(nb.alpha_coefficients(1.0)) == pytest.approx(1.0 / 12.0)
     assert error_constant(nb.alpha_coefficients(0.0)) == pytest.approx(1.0 / 3.0)
+    assert error_constant(nb.alpha_coefficients(0.5)) == pytest.approx(1.0 / 9.0)
 
 
 def test_crossing_speed_of_a_quadratic_gap():

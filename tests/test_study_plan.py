@@ -199,8 +199,10 @@ def test_the_compliant_twin_resolves_the_hertz_contact_and_samples_the_nonsmooth
 
 
 def test_the_twin_writes_a_smaller_set_of_variables():
+    from simcore.io import DEFAULT_KEEP
+
     run = plan.plan_runs(_study())[1]
-    keep = run.keep(simcore.io.DEFAULT_KEEP)
+    keep = run.keep(DEFAULT_KEEP)
     assert "F_N" in keep and "Lambda_N" in keep and "position" not in keep
 
 
@@ -282,6 +284,15 @@ def test_a_run_is_finished_only_when_both_files_carry_its_fingerprint(tmp_path):
     lines = repair_outputs([paths[0]], [paths[1]], tmp_path / "summary.nc",
                            batches={marker: paths})
     assert not marker.exists() and any("b0001.json" in line for line in lines)
+
+
+@pytest.mark.parametrize("twin_rho", ["0.5", "0.8", "null"])
+def test_the_twin_takes_its_own_spectral_radius_or_the_runs(twin_rho):
+    cfg = _study("solver.rho_inf=0.2", f"analysis.twin_rho_inf={twin_rho}")
+    run = plan.plan_runs(cfg)[0].config
+    twin = plan.twin_config(run)
+    assert run["solver"]["rho_inf"] == 0.2  # the nonsmooth run keeps its own
+    assert twin["solver"]["rho_inf"] == (0.2 if twin_rho == "null" else float(twin_rho))
 
 
 def test_the_twin_takes_error_controlled_steps_at_most_the_output_step():

@@ -208,11 +208,15 @@ def twin_config(run_cfg: Mapping[str, Any]) -> dict:
     contacts, its output step the nonsmooth step (``solver.output_dt``: per interval the
     largest force, so no peak is lost; the same samples as the nonsmooth run); no zooms (a
     compliant run is its own reference). Its steps are error-controlled (``solver.adaptive``),
-    at most the output step."""
+    at most the output step, with the scheme's spectral radius ``analysis.twin_rho_inf`` (null:
+    the run's ``solver.rho_inf``)."""
     twin = copy.deepcopy(dict(run_cfg))
     twin["model"]["contact_model"] = "compliant"
     out_dt = float(run_cfg["solver"]["dt"])
     twin["solver"]["adaptive"] = True
+    rho_inf = run_cfg["analysis"].get("twin_rho_inf")
+    if rho_inf is not None:
+        twin["solver"]["rho_inf"] = float(rho_inf)
     twin["solver"]["dt"] = out_dt
     twin["solver"]["output_dt"] = out_dt
     twin["analysis"]["zoom_top"] = 0
