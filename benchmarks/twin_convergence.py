@@ -104,6 +104,8 @@ def main() -> None:
                         help="fixed steps per Hertz contact time (none: adaptive runs only)")
     parser.add_argument("--points", nargs="+", default=None, metavar="C,MU,OMEGA0,E_N",
                         help="grid points (default: the reference and a small clearance)")
+    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                        help="other settings of the study, e.g. model.cage_damping=100")
     parser.add_argument("--rhos", type=float, nargs="*", default=[],
                         help="spectral radii of the adaptive runs (default: the twin's own)")
     parser.add_argument("--revolutions", type=float, default=2.0)
@@ -114,7 +116,7 @@ def main() -> None:
     for clearance, mu, omega0, e_N in points:
         cfg = simcore.load_config("config/config.yaml", overrides=[
             f"study.revolutions={args.revolutions}", f"sweep.clearance=[{clearance}]",
-            f"sweep.mu=[{mu}]", f"sweep.omega0=[{omega0}]", f"sweep.e_N=[{e_N}]"])
+            f"sweep.mu=[{mu}]", f"sweep.omega0=[{omega0}]", f"sweep.e_N=[{e_N}]", *args.set])
         results = twin_runs(cfg, args.tols, args.n, args.rhos or (None,))
         finest = list(results.values())[-1] if args.n else None
         print(f"point clearance={clearance} m, mu={mu}, omega0={omega0} rad/s, e_N={e_N}, "
