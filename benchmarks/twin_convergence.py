@@ -68,7 +68,7 @@ def twin_runs(cfg, tols, ns, rhos=(None,)):
         rho = rho_twin if rho is None else rho
         twin["solver"].update(adaptive=True, adaptive_tol=tol, dt=out_dt, rho_inf=rho)
         ds = simcore.run(twin)
-        out[f"adaptive tol={tol:.0e} m rho={rho:g}"] = (
+        out[f"adaptive tol={tol:.3g} m rho={rho:g}"] = (
             int(ds.attrs["n_steps_accepted"]), *steady_peaks(ds), ds.attrs["wall_time_s"])
     for n in sorted(ns):
         analysis = dict(twin["analysis"], zoom_steps_per_contact=n)
