@@ -24,7 +24,6 @@ impacts) at each N: their ``F_max_zoom`` against the finest N.
 from __future__ import annotations
 
 import argparse
-import math
 
 import numpy as np
 
@@ -39,21 +38,13 @@ POINTS = (  # (clearance [m], mu, omega0 [rad/s], e_N): the reference and a smal
 
 def steady_peaks(ds, settle: float = 1.0):
     """(largest F_N per race, median over revolutions of each revolution's largest per race)
-    after ``settle`` crank revolutions [N]."""
-    angle = np.asarray(ds["crank_angle"].values, dtype=float)
-    turns = (angle - angle[0]) / (2.0 * math.pi)
-    force = np.asarray(ds["F_N"].values, dtype=float)
-    race = np.asarray(ds["race"].values).astype(str)
-    rev = np.floor(turns).astype(int)
-    out_max, out_med = [], []
-    for name in ("inner", "outer"):
-        f = force[:, race == name].max(axis=1)
-        steady = turns >= settle
-        out_max.append(float(f[steady].max()))
-        per_rev = [f[(rev == r) & steady].max() for r in np.unique(rev[steady])
-                   if np.any((rev == r) & steady)]
-        out_med.append(float(np.median(per_rev)))
-    return out_max, out_med
+    after ``settle`` crank revolutions [N]: the study summary's ``peak_force`` and
+    ``peak_force_rev_median`` of the run (:func:`analysis.summary.compliant_numbers`)."""
+    from analysis.summary import SteadyWindow, compliant_numbers
+
+    numbers = compliant_numbers(ds, SteadyWindow.of_run(ds, settle), [], None)
+    return ([float(f) for f in numbers["peak_force"]],
+            [float(f) for f in numbers["peak_force_rev_median"]])
 
 
 def twin_runs(cfg, tols, ns, rhos=(None,)):
