@@ -23,9 +23,14 @@ The first ``settle`` crank revolutions of a run are its start-up: their forces g
 over the rest of the run, the *steady window*, and also per crank revolution of that window:
 ``peak_force`` is the largest force of the window per race, ``peak_force_rev_median`` the median
 over its revolutions of each revolution's largest force (a statistic that a chaotic trajectory
-moves less than a single maximum). Revolutions are counted from the run's ``crank_angle``
-(:class:`SteadyWindow`), so that they are right for the free drive too; a last piece shorter
-than half a revolution joins the revolution before it.
+moves less than a single maximum), ``peak_force_rev_spread`` how far apart those revolution
+maxima lie, (largest - smallest) / median: near 0 where every revolution repeats the last.
+(The spread is how the steady peak varies from one revolution to the next, not how much it
+moves with the initial state: a peak that repeats within 8 % may move by 25 % when a ball
+starts 1 nm elsewhere, and one that varies by 15 % from revolution to revolution may not move
+at all.) Revolutions are counted from the run's
+``crank_angle`` (:class:`SteadyWindow`), so that they are right for the free drive too; a last
+piece shorter than half a revolution joins the revolution before it.
 
 Forces of the two models
 ------------------------
@@ -111,6 +116,10 @@ _VARIABLES = {
     "peak_force_rev_median": (
         ("race",), "model", "N",
         "median over the steady crank revolutions of each revolution's largest force, per race"),
+    "peak_force_rev_spread": (
+        ("race",), "model", "1",
+        "spread of the steady crank revolutions' largest forces, (largest - smallest) / median, "
+        "per race (missing with fewer than two revolutions)"),
     "p_max": (
         ("race",), "model", "Pa", "largest Hertz contact pressure in the steady window, per race"),
     "top3_force": (
@@ -283,13 +292,16 @@ class SteadyWindow:
         return np.clip(np.floor(position + 1e-9), 0, max(n - 1, 0)).astype(np.int64)
 
 
-def _revolution_peaks(window: SteadyWindow, time, race, force) -> tuple[np.ndarray, np.ndarray]:
-    """Per race: the largest force of the steady window and the median over its revolutions of
-    each revolution's largest force (0 for a revolution without a force). NaN where the window
-    has no force on the race; the median also where the revolutions are unknown."""
+def _revolution_peaks(window: SteadyWindow, time, race,
+                      force) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per race: the largest force of the steady window, the median over its revolutions of
+    each revolution's largest force (0 for a revolution without a force) and the spread of
+    those, (largest - smallest) / median. NaN where the window has no force on the race; the
+    median also where the revolutions are unknown, the spread also with fewer than two."""
     steady = (np.asarray(time) > window.settle_time) & np.isfinite(force) & (force > 0)
     peak = np.full(len(RACES), np.nan)
     median = np.full(len(RACES), np.nan)
+    spread = np.full(len(RACES), np.nan)
     n_rev = window.n_revolutions
     per_rev = np.zeros((max(n_rev, 1), len(RACES)))
     sel = steady & (race >= 0) & (race < len(RACES))
@@ -301,7 +313,9 @@ def _revolution_peaks(window: SteadyWindow, time, race, force) -> tuple[np.ndarr
             peak[r] = float(np.max(force[mine]))
             if n_rev:
                 median[r] = float(np.median(per_rev[:, r]))
-    return peak, median
+            if n_rev > 1 and median[r] > 0:
+                spread[r] = float(np.ptp(per_rev[:, r])) / median[r]
+    return peak, median, spread
 
 
 # --- numbers of one run -----------------------------------------------------------------------
@@ -388,7 +402,8 @@ def impact_numbers(time, race, kind, f_max, p_max, flags, window: SteadyWindow,
     Returns
     -------
     dict of numpy.ndarray
-        ``peak_force``, ``peak_force_rev_median``, ``p_max``, ``peak_force_flagged`` (race),
+        ``peak_force``, ``peak_force_rev_median``, ``peak_force_rev_spread``, ``p_max``,
+        ``peak_force_flagged`` (race),
         ``top3_force`` (rank), ``startup_peak_force`` (), ``n_impacts`` and ``impacts_per_rev``
         (race, kind), ``n_above`` and ``above_per_rev`` (race, level), ``n_flagged`` ().
     """
@@ -399,7 +414,7 @@ def impact_numbers(time, race, kind, f_max, p_max, flags, window: SteadyWindow,
     levels = np.asarray(levels, dtype=float)
     steady = t > window.settle_time
     n_race = len(RACES)
-    peak, median = _revolution_peaks(window, t, race, f)
+    peak, median, spread = _revolution_peaks(window, t, race, f)
     pressure = np.full(n_race, np.nan)
     if p_max is not None:
         p = np.asarray(p_max, dtype=float).ravel()
@@ -418,6 +433,7 @@ def impact_numbers(time, race, kind, f_max, p_max, flags, window: SteadyWindow,
     return {
         "peak_force": peak,
         "peak_force_rev_median": median,
+        "peak_force_rev_spread": spread,
         "p_max": pressure,
         "peak_force_flagged": peak_flagged,
         "top3_force": _top(f, steady),
@@ -449,7 +465,8 @@ def compliant_numbers(run_ds: xr.Dataset, window: SteadyWindow, levels: Sequence
     Returns
     -------
     dict of numpy.ndarray
-        ``peak_force``, ``peak_force_rev_median``, ``p_max`` (race), ``top3_force`` (rank),
+        ``peak_force``, ``peak_force_rev_median``, ``peak_force_rev_spread``, ``p_max`` (race),
+        ``top3_force`` (rank),
         ``startup_peak_force`` (), ``n_above``, ``above_per_rev`` (race, level): per sample the
         largest force of each race for the peaks, contact episodes
         (:func:`analysis.episodes.episode_peaks`) for ``top3_force`` and the counts.
@@ -464,8 +481,8 @@ def compliant_numbers(run_ds: xr.Dataset, window: SteadyWindow, levels: Sequence
                          else np.zeros(time.size) for r in range(len(RACES))])  # (race, time)
     sample_race = np.broadcast_to(np.arange(len(RACES))[:, None], per_race.shape)
     sample_time = np.broadcast_to(time[None, :], per_race.shape)
-    peak, median = _revolution_peaks(window, sample_time.ravel(), sample_race.ravel(),
-                                     per_race.ravel())
+    peak, median, spread = _revolution_peaks(window, sample_time.ravel(), sample_race.ravel(),
+                                             per_race.ravel())
     startup = time <= window.settle_time
     startup_peak = float(per_race[:, startup].max()) if startup.any() else np.nan
     contact, _, _, peak_index, episode_force = episode_peaks(force)
@@ -479,6 +496,7 @@ def compliant_numbers(run_ds: xr.Dataset, window: SteadyWindow, levels: Sequence
     return {
         "peak_force": peak,
         "peak_force_rev_median": median,
+        "peak_force_rev_spread": spread,
         "p_max": pressure,
         "top3_force": _top(episode_force, steady),
         "startup_peak_force": np.array(startup_peak if startup_peak > 0 else np.nan),
@@ -676,7 +694,8 @@ def stored_attributes(numbers: dict, settings: dict) -> dict:
 
 
 def _from_stored(attrs: dict, settings: dict) -> dict | None:
-    """The numbers stored in a table's attributes for these settings, else None."""
+    """The numbers stored in a table's attributes for these settings, else None; None too where
+    they lack one of the model's variables (a table written before the variable existed)."""
     if attrs.get(f"{STORED}settings") != _settings_key(settings):
         return None
     numbers = {}
@@ -684,7 +703,14 @@ def _from_stored(attrs: dict, settings: dict) -> dict | None:
         if key.startswith(STORED) and key != f"{STORED}settings":
             name = key[len(STORED):]
             numbers[name] = int(value) if name == "model" else np.asarray(value, dtype="f8")
-    return numbers if "model" in numbers and "failed" in numbers else None
+    if "model" not in numbers or "failed" not in numbers:
+        return None
+    if not float(numbers["failed"]):
+        scopes = ("model", MODELS[numbers["model"]])
+        if any(name not in numbers for name, (_, scope, _, _) in _VARIABLES.items()
+               if scope in scopes):
+            return None
+    return numbers
 
 
 # --- collecting every run ---------------------------------------------------------------------
@@ -1029,6 +1055,8 @@ def _table_rows(summary: xr.Dataset, models: list[int]) -> list:
     for name, what, unit, scale in (("peak_force", "steady peak force", "kN", 1e-3),
                                     ("peak_force_rev_median", "median over revolutions of the "
                                      "peak force", "kN", 1e-3),
+                                    ("peak_force_rev_spread", "spread over revolutions of the "
+                                     "peak force, (largest - smallest) / median", "1", 1.0),
                                     ("p_max", "peak contact pressure p_max", "MPa", 1e-6)):
         for r in (1, 0):
             for m in models if name in summary else ():

@@ -26,6 +26,7 @@ import math
 import time
 
 import numpy as np
+from _common import run_shifted
 
 POINTS = {
     "reference": {"clearance": 4e-4, "mu": 0.01, "omega0": 50.0, "e_N": 0.9},
@@ -55,26 +56,6 @@ def base_config(point: dict, model: str, revolutions: float) -> dict:
         # output interval: steps it flags are counted in converged_fraction, not fatal here
         cfg["solver"]["on_nonconvergence"] = "warn"
     return simcore.validate_config(cfg)
-
-
-def run(cfg: dict, shift: float = 0.0):
-    """simcore.run of ``cfg``, ball 0 moved ``shift`` [m] along the pitch circle at the start
-    (ball 0 starts on the +x axis: along +y)."""
-    import simcore
-    from simcore.io import trajectory_dataset
-    from simcore.model import SolverSettings
-    from simcore.model.mechanism import crank_slider
-    from simcore.runner import warm_up
-
-    if shift == 0.0:
-        return simcore.run(cfg)
-    model, layout = crank_slider(cfg["model"])
-    ball = layout.balls[0]
-    x, y, phi = model.q0[ball]
-    model.q0[ball] = (x, y + shift, phi)
-    warm_up(cfg)
-    traj = model.simulate(SolverSettings.from_config(cfg))
-    return trajectory_dataset(traj, model, layout, cfg)
 
 
 def numbers(ds, cfg) -> dict:
@@ -129,7 +110,7 @@ def main(argv=None) -> int:
         base = {}
         for label, model, cfg, shift in variants(point, args.revolutions):
             start = time.perf_counter()
-            out = numbers(run(cfg, shift), cfg)
+            out = numbers(run_shifted(cfg, shift), cfg)
             wall = time.perf_counter() - start
             if label == "base":
                 base[model] = out

@@ -9,14 +9,20 @@ steps (``solver.adaptive_tol``) against fixed steps of N per Hertz contact time.
     python benchmarks/twin_convergence.py --revolutions 3 --tols 1e-9 --rhos 0 0.5 --n
         --points 1e-4,0.05,25,1 ...                             the study's twins (1 + 3
                                                                 revolutions) of other points
+    python benchmarks/twin_convergence.py --revolutions 3 --tols 1e-9 --n
+        --shifts 1e-9,-1e-9,2e-9 --points ...                   also the twin started with
+                                                                ball 0 moved along the pitch
+                                                                circle by each shift [m]
 
 For each point (steel, constant drive, the default study's settings; clearance, mu, omega0,
 e_N given below) the twin of :func:`simcore.study.plan.twin_config` (adaptive steps, at most
 the output step) runs 1 + ``--revolutions`` crank revolutions at each tolerance, and the same
 twin with fixed steps (:func:`simcore.study.plan.twin_step`: the Hertz contact time over N).
 Printed per run: the steps taken, the largest ``F_N`` per race after the first revolution (the
-study's steady window, ``analysis.settle`` = 1) and its change against the finest fixed N, the
-median over revolutions of each revolution's largest force, and the run's integration time.
+study's steady window, ``analysis.settle`` = 1) and its change against the finest fixed N (or,
+with ``--shifts``, against the unshifted twin), the median over revolutions of each
+revolution's largest force, their spread ((largest - smallest) / median), and the run's
+integration time.
 With ``--zooms``, the compliant zooms of the nonsmooth run (``analysis.zoom_top`` largest
 impacts) at each N: their ``F_max_zoom`` against the finest N.
 """
@@ -26,6 +32,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
+from _common import run_shifted
 
 import simcore
 from simcore.study import plan
@@ -37,30 +44,35 @@ POINTS = (  # (clearance [m], mu, omega0 [rad/s], e_N): the reference and a smal
 
 
 def steady_peaks(ds, settle: float = 1.0):
-    """(largest F_N per race, median over revolutions of each revolution's largest per race)
-    after ``settle`` crank revolutions [N]: the study summary's ``peak_force`` and
-    ``peak_force_rev_median`` of the run (:func:`analysis.summary.compliant_numbers`)."""
+    """(largest F_N per race, median over revolutions of each revolution's largest per race,
+    spread of those) after ``settle`` crank revolutions [N, N, -]: the study summary's
+    ``peak_force``, ``peak_force_rev_median`` and ``peak_force_rev_spread`` of the run
+    (:func:`analysis.summary.compliant_numbers`)."""
     from analysis.summary import SteadyWindow, compliant_numbers
 
     numbers = compliant_numbers(ds, SteadyWindow.of_run(ds, settle), [], None)
-    return ([float(f) for f in numbers["peak_force"]],
-            [float(f) for f in numbers["peak_force_rev_median"]])
+    return tuple([float(f) for f in numbers[name]] for name in (
+        "peak_force", "peak_force_rev_median", "peak_force_rev_spread"))
 
 
-def twin_runs(cfg, tols, ns, rhos=(None,)):
-    """{label: (steps, peak per race, median per race, integration time)} of the point's twin
-    with adaptive steps at each tolerance (and each spectral radius of ``rhos``, None: the
-    twin's own ``analysis.twin_rho_inf``) and fixed steps at each N."""
+def twin_runs(cfg, tols, ns, rhos=(None,), shifts=()):
+    """{label: (steps, peak, median and spread per race, integration time)} of the point's
+    twin with adaptive steps at each tolerance (and each spectral radius of ``rhos``, None: the
+    twin's own ``analysis.twin_rho_inf``; and, at the first tolerance and radius, ball 0 moved
+    by each of ``shifts`` [m] at the start) and fixed steps at each N."""
     out = {}
     twin = [r for r in plan.plan_runs(cfg) if r.model == "compliant"][0].config
     out_dt = twin["solver"]["output_dt"]
     rho_twin = twin["solver"]["rho_inf"]
-    for rho, tol in [(r, t) for r in rhos for t in tols]:
+    for i, (rho, tol) in enumerate([(r, t) for r in rhos for t in tols]):
         rho = rho_twin if rho is None else rho
         twin["solver"].update(adaptive=True, adaptive_tol=tol, dt=out_dt, rho_inf=rho)
-        ds = simcore.run(twin)
-        out[f"adaptive tol={tol:.3g} m rho={rho:g}"] = (
-            int(ds.attrs["n_steps_accepted"]), *steady_peaks(ds), ds.attrs["wall_time_s"])
+        for shift in (0.0, *shifts) if i == 0 else (0.0,):
+            ds = run_shifted(twin, shift)
+            label = f"adaptive tol={tol:.3g} m rho={rho:g}" + (
+                f" shift={shift:.3g} m" if shift else "")
+            out[label] = (int(ds.attrs["n_steps_accepted"]), *steady_peaks(ds),
+                          ds.attrs["wall_time_s"])
     for n in sorted(ns):
         analysis = dict(twin["analysis"], zoom_steps_per_contact=n)
         dt = plan.twin_step(twin["model"], analysis, out_dt)
@@ -99,28 +111,34 @@ def main() -> None:
                         help="other settings of the study, e.g. model.cage_damping=100")
     parser.add_argument("--rhos", type=float, nargs="*", default=[],
                         help="spectral radii of the adaptive runs (default: the twin's own)")
+    parser.add_argument("--shifts", default="", metavar="S1,S2,...",
+                        help="also the twin (first tolerance and radius) with ball 0 moved "
+                             "along the pitch circle by each shift at the start [m], "
+                             "comma-separated (a negative one too)")
     parser.add_argument("--revolutions", type=float, default=2.0)
     parser.add_argument("--zooms", action="store_true")
     args = parser.parse_args()
     points = ([tuple(float(x) for x in p.split(",")) for p in args.points] if args.points
               else POINTS)
+    shifts = [float(x) for x in args.shifts.split(",") if x]
     for clearance, mu, omega0, e_N in points:
         cfg = simcore.load_config("config/config.yaml", overrides=[
             f"study.revolutions={args.revolutions}", f"sweep.clearance=[{clearance}]",
             f"sweep.mu=[{mu}]", f"sweep.omega0=[{omega0}]", f"sweep.e_N=[{e_N}]", *args.set])
-        results = twin_runs(cfg, args.tols, args.n, args.rhos or (None,))
-        finest = list(results.values())[-1] if args.n else None
+        results = twin_runs(cfg, args.tols, args.n, args.rhos or (None,), shifts)
+        finest, against = (list(results.values())[0], "unshifted") if shifts else (
+            list(results.values())[-1] if args.n else None, f"N={max(args.n, default=0)}")
         print(f"point clearance={clearance} m, mu={mu}, omega0={omega0} rad/s, e_N={e_N}, "
               f"E={cfg['model']['youngs_modulus']:.3g} Pa:")
-        for label, (steps, peak, median, wall) in results.items():
+        for label, (steps, peak, median, spread, wall) in results.items():
             vs = ""
             if finest:
                 change = [p / f - 1.0 for p, f in zip(peak, finest[1], strict=True)]
-                vs = (f" ({100 * change[0]:+.2f} %, {100 * change[1]:+.2f} % vs "
-                      f"N={max(args.n)})")
+                vs = f" ({100 * change[0]:+.2f} %, {100 * change[1]:+.2f} % vs {against})"
             print(f"  {label:36s} {steps:9d} steps  peak inner/outer {peak[0]:8.1f} "
                   f"{peak[1]:8.1f} N{vs}; median per rev {median[0]:8.1f} {median[1]:8.1f} N; "
-                  f"{wall:.1f} s", flush=True)
+                  f"spread {100 * spread[0]:.1f} % {100 * spread[1]:.1f} %; {wall:.1f} s",
+                  flush=True)
         if args.zooms:
             zooms = zoom_forces(cfg, args.n)
             best = zooms[max(zooms)]

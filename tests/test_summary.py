@@ -212,6 +212,9 @@ def test_peak_per_revolution_of_the_paper_method(study):
     s, _ = study
     at = s.sel(NEW).sel(PAPER)
     np.testing.assert_array_equal(at["peak_force_rev_median"], [90.0, 1200.0])
+    # spread (largest - smallest) / median: inner (101 - 0) / 90, outer (2000 - 0) / 1200
+    np.testing.assert_allclose(at["peak_force_rev_spread"], [101.0 / 90.0, 2000.0 / 1200.0],
+                               rtol=1e-15)
 
 
 def test_compliant_twin_against_its_hand_built_forces(study):
@@ -226,6 +229,8 @@ def test_compliant_twin_against_its_hand_built_forces(study):
     # per revolution, outer: 1900, 800, 1200 N; inner: 400, 200 (the long episode), 0 N
     np.testing.assert_array_equal(at["peak_force"], [400.0, 1900.0])
     np.testing.assert_array_equal(at["peak_force_rev_median"], [200.0, 1200.0])
+    np.testing.assert_allclose(at["peak_force_rev_spread"], [400.0 / 200.0, 1100.0 / 1200.0],
+                               rtol=1e-15)
     assert float(at["startup_peak_force"]) == 3000.0
     # episodes of the steady window: outer 1900, 800, 1200 N; inner one of 400 N
     np.testing.assert_array_equal(at["top3_force"], [1900.0, 1200.0, 800.0])
