@@ -22,13 +22,13 @@ The first ``settle`` crank revolutions of a run are its start-up: their forces g
 ``startup_peak_force`` and nothing else. Everything else (peak forces, p_max, counts) is taken
 over the rest of the run, the *steady window*, and also per crank revolution of that window:
 ``peak_force`` is the largest force of the window per race, ``peak_force_rev_median`` the median
-over its revolutions of each revolution's largest force (a statistic that a chaotic trajectory
-moves less than a single maximum), ``peak_force_rev_spread`` how far apart those revolution
+over its revolutions of each revolution's largest force (a statistic of every revolution, not
+of the one that holds the maximum), ``peak_force_rev_spread`` how far apart those revolution
 maxima lie, (largest - smallest) / median: near 0 where every revolution repeats the last.
 (The spread is how the steady peak varies from one revolution to the next, not how much it
-moves with the initial state: a peak that repeats within 8 % may move by 25 % when a ball
+moves with the initial state: a peak that repeats within 8 % may move by 19 % when a ball
 starts 1 nm elsewhere, and one that varies by 15 % from revolution to revolution may not move
-at all.) Revolutions are counted from the run's
+at all; ``model.ball0_shift`` moves the start.) Revolutions are counted from the run's
 ``crank_angle`` (:class:`SteadyWindow`), so that they are right for the free drive too; a last
 piece shorter than half a revolution joins the revolution before it.
 

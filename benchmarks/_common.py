@@ -79,24 +79,3 @@ def steady_run_largest_impact():
                           r_eff=a["r_eff"], v_min=a["v_min"])
     return run, float(imp["time"].values[int(np.argmax(imp["impulse"].values))])
 
-
-def run_shifted(cfg: dict, shift: float = 0.0):
-    """simcore.run of ``cfg``, ball 0 moved ``shift`` [m] along the pitch circle at the start
-    (ball 0 starts on the +x axis: along +y; a radial shift of a ball would be erased by the
-    nonsmooth model's position correction as soon as the ball is pinched)."""
-    import simcore
-    from simcore.io import trajectory_dataset
-    from simcore.model import SolverSettings
-    from simcore.model.mechanism import crank_slider
-    from simcore.runner import warm_up
-
-    cfg = simcore.validate_config(cfg)
-    if shift == 0.0:
-        return simcore.run(cfg)
-    model, layout = crank_slider(cfg["model"])
-    ball = layout.balls[0]
-    x, y, phi = model.q0[ball]
-    model.q0[ball] = (x, y + shift, phi)
-    warm_up(cfg)
-    traj = model.simulate(SolverSettings.from_config(cfg))
-    return trajectory_dataset(traj, model, layout, cfg)

@@ -7,8 +7,9 @@ steady revolutions, as the default study) it runs the nonsmooth model and its co
 (the twin's step: the Hertz contact time over analysis.zoom_steps_per_contact, a whole fraction
 of the output step 1e-4 s), then again with
 
-* ball 0 moved 1 nm along the pitch circle at the start (both models; a radial shift of a ball
-  is erased by the nonsmooth model's position correction as soon as the ball is pinched),
+* ball 0 moved 1 nm along the pitch circle at the start (``model.ball0_shift``; both models; a
+  radial shift of a ball is erased by the nonsmooth model's position correction as soon as the
+  ball is pinched),
 * half the step (both models),
 * the compliant model's other damping laws (hunt_crossley, lankarani_nikravesh),
 * the compliant model's friction regularisation speed 1e-3 and 1e-2 m/s (default 1e-4),
@@ -26,7 +27,6 @@ import math
 import time
 
 import numpy as np
-from _common import run_shifted
 
 POINTS = {
     "reference": {"clearance": 4e-4, "mu": 0.01, "omega0": 50.0, "e_N": 0.9},
@@ -77,23 +77,26 @@ def change(values, reference) -> str:
 
 
 def variants(point: dict, revolutions: float):
-    """(label, model, config, shift) of every run."""
+    """(label, model, config) of every run."""
     for model in ("nonsmooth", "compliant"):
         cfg = base_config(point, model, revolutions)
-        yield "base", model, cfg, 0.0
-        yield "initial state +1 nm", model, cfg, SHIFT
+        yield "base", model, cfg
+        yield "initial state +1 nm", model, dict(cfg, model=dict(cfg["model"],
+                                                                 ball0_shift=SHIFT))
         half = dict(cfg, solver=dict(cfg["solver"], dt=cfg["solver"]["dt"] / 2))
-        yield f"dt / 2 ({half['solver']['dt']:.3g} s)", model, half, 0.0
+        yield f"dt / 2 ({half['solver']['dt']:.3g} s)", model, half
         if model == "compliant":
             for law in ("hunt_crossley", "lankarani_nikravesh"):
                 yield f"damping_law {law}", model, dict(cfg, model=dict(
-                    cfg["model"], damping_law=law)), 0.0
+                    cfg["model"], damping_law=law))
             for v in (1e-3, 1e-2):
                 yield f"friction_regularization {v:g} m/s", model, dict(cfg, model=dict(
-                    cfg["model"], friction_regularization=v)), 0.0
+                    cfg["model"], friction_regularization=v))
 
 
 def main(argv=None) -> int:
+    import simcore
+
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--point", choices=sorted(POINTS), action="append",
                    help="grid point (repeatable; default: both)")
@@ -108,9 +111,9 @@ def main(argv=None) -> int:
               "converged | wall [s] |")
         print("|---|---|---|---|---|---|---|---|---|---|")
         base = {}
-        for label, model, cfg, shift in variants(point, args.revolutions):
+        for label, model, cfg in variants(point, args.revolutions):
             start = time.perf_counter()
-            out = numbers(run_shifted(cfg, shift), cfg)
+            out = numbers(simcore.run(cfg), cfg)
             wall = time.perf_counter() - start
             if label == "base":
                 base[model] = out

@@ -32,7 +32,6 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from _common import run_shifted
 
 import simcore
 from simcore.study import plan
@@ -68,7 +67,7 @@ def twin_runs(cfg, tols, ns, rhos=(None,), shifts=()):
         rho = rho_twin if rho is None else rho
         twin["solver"].update(adaptive=True, adaptive_tol=tol, dt=out_dt, rho_inf=rho)
         for shift in (0.0, *shifts) if i == 0 else (0.0,):
-            ds = run_shifted(twin, shift)
+            ds = simcore.run(dict(twin, model=dict(twin["model"], ball0_shift=shift)))
             label = f"adaptive tol={tol:.3g} m rho={rho:g}" + (
                 f" shift={shift:.3g} m" if shift else "")
             out[label] = (int(ds.attrs["n_steps_accepted"]), *steady_peaks(ds),

@@ -62,6 +62,44 @@ def test_initial_state_matches_ideal_kinematics(paper_short):
     assert float(ds["journal_y"][0]) == pytest.approx(0.0, abs=1e-15)
 
 
+def test_ball0_shift_moves_ball_0_along_the_pitch_circle():
+    """model.ball0_shift = s: ball 0 at angle s / R_p on the pitch circle, still centred in its
+    clearance and without slip, its guard gaps to its neighbours the chords of the new angles;
+    every other body where it was."""
+    s, n = 1e-4, 8
+    rB, rA, g = 0.0055, 0.033745, 4e-4
+    pitch = rA + rB + g / 2
+    states = []
+    for shift in (0.0, s):
+        model, layout = crank_slider(simcore.validate_config(
+            {"model": {"ball0_shift": shift}})["model"])
+        arr = model.arrays()
+        q0, vel0 = model.initial_state()
+        nc = arr.ct_type.size
+        gap, vn, vt = np.zeros(nc), np.zeros(nc), np.zeros(nc)
+        nb.contact_velocities(q0, vel0, arr, gap, vn, vt)
+        states.append((q0.reshape(-1, 3), gap, vt))
+    (q_base, gap_base, _), (q, gap, vt) = states
+    ball0 = layout.balls[0]
+    centre = np.array([0.11, 0.0])  # the pin, where the bearing is centred
+    x, y = q[ball0, :2] - centre
+    assert np.hypot(x, y) == pytest.approx(pitch, rel=1e-12)
+    assert np.arctan2(y, x) == pytest.approx(s / pitch, rel=1e-9)
+    others = [b for b in range(q.shape[0]) if b != ball0]
+    np.testing.assert_array_equal(q[others], q_base[others])
+    race = slice(0, layout.n_race_contacts)
+    np.testing.assert_allclose(gap[race], g / 2, rtol=1e-9)
+    np.testing.assert_allclose(vt[race], 0.0, atol=1e-12)
+    # guards 16.. are ball k against ball k + 1: ball 0 now s / R_p nearer ball 1, as far
+    # further from ball 7
+    step = 2 * np.pi / n
+    assert gap[16] == pytest.approx(2 * pitch * np.sin((step - s / pitch) / 2) - 2 * rB,
+                                    rel=1e-12)
+    assert gap[16 + n - 1] == pytest.approx(2 * pitch * np.sin((step + s / pitch) / 2) - 2 * rB,
+                                            rel=1e-12)
+    np.testing.assert_array_equal(gap[17:16 + n - 1], gap_base[17:16 + n - 1])
+
+
 def test_no_penetration_and_every_step_converged(paper_short):
     ds = paper_short
     assert int(ds["converged"].min()) == 1

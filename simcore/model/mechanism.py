@@ -96,7 +96,7 @@ class BearingSpec:
 
 def add_bearing(m: Model, spec: BearingSpec, inner: tuple, outer: tuple, centre: tuple,
                 phase: float = 0.0, centre_velocity: tuple = (0.0, 0.0), cage_speed: float = 0.0,
-                spin: float = 0.0) -> list[int]:
+                spin: float = 0.0, ball0_shift: float = 0.0) -> list[int]:
     """Add the balls, their contacts with both races and the cage to ``m``.
 
     Parameters
@@ -118,6 +118,9 @@ def add_bearing(m: Model, spec: BearingSpec, inner: tuple, outer: tuple, centre:
         the cage's rotation about the centre [rad/s], and
     spin : float
         each ball's own rotation [rad/s].
+    ball0_shift : float
+        Ball 0 starts this arc length further along the pitch circle [m] (a perturbation of
+        the start; the cage's rest lengths stay those of the even spacing).
 
     Returns
     -------
@@ -131,7 +134,7 @@ def add_bearing(m: Model, spec: BearingSpec, inner: tuple, outer: tuple, centre:
     pitch = spec.pitch_radius
     balls = []
     for k in range(n):
-        ang = phase + 2.0 * np.pi * k / n
+        ang = phase + 2.0 * np.pi * k / n + (ball0_shift / pitch if k == 0 else 0.0)
         cx, cy = np.cos(ang), np.sin(ang)
         balls.append(m.add_body(
             f"ball{k}", spec.ball_mass, spec.ball_inertia,
@@ -170,9 +173,10 @@ def crank_slider(model: dict) -> tuple[Model, BearingLayout]:
     end: their masses and inertias are merged into those bodies (parallel-axis theorem), so
     each body's reference point is the combined centre of mass. The bearing is the only link
     between crank and rod. Initial state (docs/model.md): crank and rod along +x, bearing
-    centred, balls evenly spaced on the pitch circle from angle 0, crank speed omega0, the rod
-    and slider from the ideal slider-crank, and each ball given the cage rotation and spin with
-    zero slip at both races as the contact element measures it (at r_A and r_C).
+    centred, balls evenly spaced on the pitch circle from angle 0 (ball 0 moved along it by
+    ``ball0_shift``), crank speed omega0, the rod and slider from the ideal slider-crank, and
+    each ball given the cage rotation and spin with zero slip at both races as the contact
+    element measures it (at r_A and r_C).
     """
     L1, L2 = model["crank_length"], model["rod_length"]
     w0 = model["omega0"]
@@ -206,7 +210,8 @@ def crank_slider(model: dict) -> tuple[Model, BearingLayout]:
     pin = (L1 - sc, 0.0)
     big_end = (-sr, 0.0)
     balls = add_bearing(m, spec, (crank, pin), (rod, big_end), (L1, 0.0),
-                        centre_velocity=(0.0, w0 * L1), cage_speed=cage, spin=spin)
+                        centre_velocity=(0.0, w0 * L1), cage_speed=cage, spin=spin,
+                        ball0_shift=model.get("ball0_shift", 0.0))
     geometry = spec.geometry
     guards = ()
     if model.get("guard_contacts", True):
