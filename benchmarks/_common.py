@@ -78,4 +78,3 @@ def steady_run_largest_impact():
     imp = extract_impacts(run, zero_tol=a["zero_tol"], zero_floor=a["zero_floor"],
                           r_eff=a["r_eff"], v_min=a["v_min"])
     return run, float(imp["time"].values[int(np.argmax(imp["impulse"].values))])
-
