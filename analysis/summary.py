@@ -119,7 +119,7 @@ _VARIABLES = {
     "peak_force_rev_spread": (
         ("race",), "model", "1",
         "spread of the steady crank revolutions' largest forces, (largest - smallest) / median, "
-        "per race (missing with fewer than two revolutions)"),
+        "per race (missing with fewer than two revolutions or a median of 0 N)"),
     "p_max": (
         ("race",), "model", "Pa", "largest Hertz contact pressure in the steady window, per race"),
     "top3_force": (
@@ -297,7 +297,8 @@ def _revolution_peaks(window: SteadyWindow, time, race,
     """Per race: the largest force of the steady window, the median over its revolutions of
     each revolution's largest force (0 for a revolution without a force) and the spread of
     those, (largest - smallest) / median. NaN where the window has no force on the race; the
-    median also where the revolutions are unknown, the spread also with fewer than two."""
+    median also where the revolutions are unknown, the spread also with fewer than two or a
+    median of 0."""
     steady = (np.asarray(time) > window.settle_time) & np.isfinite(force) & (force > 0)
     peak = np.full(len(RACES), np.nan)
     median = np.full(len(RACES), np.nan)
