@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from analysis.summary import COMPLIANT, NONSMOOTH, category_codes, steady_window, summarize
+from analysis.summary import (
+    COMPLIANT,
+    NONSMOOTH,
+    SteadyWindow,
+    category_codes,
+    steady_window,
+    summarize,
+)
 from analysis.synthetic import PAPER_MODEL, make_compliant_run
 from simcore.io import write_netcdf
 
@@ -215,6 +222,26 @@ def test_peak_per_revolution_of_the_paper_method(study):
     # spread (largest - smallest) / median: inner (101 - 0) / 90, outer (2000 - 0) / 1200
     np.testing.assert_allclose(at["peak_force_rev_spread"], [101.0 / 90.0, 2000.0 / 1200.0],
                                rtol=1e-15)
+
+
+def test_spread_over_revolutions_is_missing_without_two_revolutions_or_a_median():
+    """Three revolutions (turned 0..3 over t = 0..3 s): outer 100, 300, 200 N, spread
+    (300 - 100) / 200; inner 50 N in the first alone, median 0 N, no spread. One revolution:
+    no spread."""
+    from analysis.summary import impact_numbers
+
+    t = np.array([0.5, 1.5, 2.5, 0.5])
+    race = np.array([1, 1, 1, 0])
+    force = np.array([100.0, 300.0, 200.0, 50.0])
+    args = dict(time=t, race=race, kind=np.zeros(4, np.int64), f_max=force, p_max=None,
+                flags=None, levels=[100.0])
+    grid = np.linspace(0.0, 3.0, 31)
+    three = impact_numbers(**args, window=SteadyWindow(0.0, 3.0, grid, grid))
+    np.testing.assert_array_equal(three["peak_force_rev_median"], [0.0, 200.0])
+    assert np.isnan(three["peak_force_rev_spread"][0])
+    assert three["peak_force_rev_spread"][1] == pytest.approx(1.0, rel=1e-15)
+    one = impact_numbers(**args, window=SteadyWindow(0.0, 1.0, grid, grid / 3.0))
+    assert np.isnan(one["peak_force_rev_spread"]).all()
 
 
 def test_compliant_twin_against_its_hand_built_forces(study):
