@@ -90,14 +90,14 @@ def test_ball0_shift_moves_ball_0_along_the_pitch_circle():
     race = slice(0, layout.n_race_contacts)
     np.testing.assert_allclose(gap[race], g / 2, rtol=1e-9)
     np.testing.assert_allclose(vt[race], 0.0, atol=1e-12)
-    # guards 16.. are ball k against ball k + 1: ball 0 now s / R_p nearer ball 1, as far
-    # further from ball 7
-    step = 2 * np.pi / n
-    assert gap[16] == pytest.approx(2 * pitch * np.sin((step - s / pitch) / 2) - 2 * rB,
+    # the guards after the race contacts are ball k against ball k + 1: ball 0 now s / R_p
+    # nearer ball 1, as far further from ball n - 1
+    step, g0 = 2 * np.pi / n, layout.n_race_contacts
+    assert gap[g0] == pytest.approx(2 * pitch * np.sin((step - s / pitch) / 2) - 2 * rB,
                                     rel=1e-12)
-    assert gap[16 + n - 1] == pytest.approx(2 * pitch * np.sin((step + s / pitch) / 2) - 2 * rB,
+    assert gap[g0 + n - 1] == pytest.approx(2 * pitch * np.sin((step + s / pitch) / 2) - 2 * rB,
                                             rel=1e-12)
-    np.testing.assert_array_equal(gap[17:16 + n - 1], gap_base[17:16 + n - 1])
+    np.testing.assert_array_equal(gap[g0 + 1:g0 + n - 1], gap_base[g0 + 1:g0 + n - 1])
 
 
 def test_no_penetration_and_every_step_converged(paper_short):
