@@ -332,3 +332,22 @@ def test_a_swept_clearance_class_replaces_the_clearance_axis_even_beside_a_clear
         assert clearances == {resolve_model(alone, alone.keys())["clearance"]}
     (cn,), (c3,), (c4,) = by_class["CN"], by_class["C3"], by_class["C4"]
     assert cn < c3 < c4
+
+
+def test_a_fixed_clearance_class_replaces_a_swept_clearance_list():
+    """With the class set but not swept, each run's clearance is the class's (validate_config
+    sets it): a clearance list beside would label every point with a value it did not run at,
+    so the clearance axis holds the class's clearance alone, and each run's configuration and
+    label agree with it."""
+    from simcore.model.bearing import resolve_model
+
+    cfg = _study("model.bearing=6012", "model.clearance_class=C3")
+    assert len(cfg["sweep"]["clearance"]) > 1  # the default study's list is still there
+    alone = dict(cfg["model"])
+    c3 = resolve_model(alone, alone.keys())["clearance"]
+    axes = plan.study_axes(cfg)
+    assert axes["model.clearance"] == [c3]
+    for run in plan.plan_runs(cfg):
+        assert run.point["model.clearance"] == c3
+        # as the simulate job sees it, after validating the run's configuration again
+        assert simcore.validate_config(run.config)["model"]["clearance"] == c3

@@ -42,9 +42,11 @@ FOLDERS = {"nonsmooth": ("runs", "impacts"),
 #: compliant zoom reads (a twin is not zoomed) and the nonsmooth free approach speed; so its file
 #: (the same samples, plus ``F_N``) stays smaller than the nonsmooth run's.
 TWIN_DROPS = ("position", "angle", "velocity", "angular_velocity", "vn_free")
-#: A base axis that a swept key determines (``{base axis: key}``): where the key is swept the
+#: A base axis that another key determines (``{base axis: key}``): where the key is swept, the
 #: base axis is left out of the study's axes and each run's value comes from the key
-#: (:func:`resolve_determined`), e.g. the clearance of a clearance class.
+#: (:func:`resolve_determined`), e.g. the clearance of a clearance class; where the key is set
+#: but not swept, the base axis holds the one value it determines (a list swept beside is not
+#: used, as its points would all run at that value).
 DETERMINED = {"model.clearance": "model.clearance_class"}
 #: Jobs a study is split into at least (or one per run): two or four cores share a small study.
 MIN_JOBS = 4
@@ -115,16 +117,27 @@ def study_axes(cfg: Mapping[str, Any]) -> dict[str, list]:
     params = registry()
     axes = {}
     for key in params:
-        if DETERMINED.get(key) in swept:
+        by = DETERMINED.get(key)
+        if by in swept:
             # the swept key sets this axis' value per run; a list of it beside (the default
             # study's, merged under a smaller configuration) is not an axis
             continue
-        if key in swept:
+        if by is not None and _setting(cfg, by) is not None:
+            # (validate_config has set this key's value from ``by``)
+            section, name = key.split(".", 1)
+            axes[key] = [params[key].plain(cfg[section][name])]
+        elif key in swept:
             axes[key] = swept[key]
         elif key in BASE_AXES:
             section, name = key.split(".", 1)
             axes[key] = [params[key].plain(cfg[section][name])]
     return axes
+
+
+def _setting(cfg: Mapping[str, Any], key: str) -> Any:
+    """The value of ``section.key`` in a configuration (None where it is not set)."""
+    section, name = key.split(".", 1)
+    return cfg.get(section, {}).get(name)
 
 
 def resolve_determined(model: dict) -> None:
