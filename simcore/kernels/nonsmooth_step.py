@@ -307,7 +307,7 @@ def integrate_chunk(k0, k1, st, ma, state, out, work, rs):
             final = halvings >= rs.max_halvings
             ok = True
             for j in range(n_sub):
-                t1 = (k + 1) * h if j == n_sub - 1 else k * h + (j + 1) * hs
+                t1 = st.t0 + ((k + 1) * h if j == n_sub - 1 else k * h + (j + 1) * hs)
                 it_s, ok_s = smooth_step(state.q, state.v, state.acc, state.vdot, state.lam_s,
                                          t1, hs, coef, st, ma, work.step, work.smooth)
                 it_p, ok_p = position_step(q_t, t1, hs, st, ma, Ks_t, q1, nu_c, gap, pwk)
