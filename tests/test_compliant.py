@@ -298,3 +298,21 @@ def test_far_open_gaps_are_left_out_without_changing_the_motion():
     assert closing.any()
     np.testing.assert_array_equal(gap[closing], smallest[closing])
     assert np.any(gap > smallest)  # gaps were left out: the check above saw the lazy path
+
+
+def test_tangential_restitution_has_no_effect_on_the_compliant_model_and_says_so():
+    """Regularised Coulomb friction has no tangential compliance to restitute: the compliant
+    crank-slider at μ 0.3 is the same with e_T 0 and 0.5, and the run with 0.5 warns that
+    ``model.e_T`` has no effect, naming the key."""
+    items = ["model.contact_model=compliant", f"model.youngs_modulus={E_STEEL}", "model.mu=0.3",
+             "model.drive=constant", "solver.dt=1e-6", "solver.t_end=0.004"]
+    with pytest.warns(RuntimeWarning, match=r"^model\.e_T: .*no effect on the compliant"):
+        half = simcore.run(load_config(overrides=items + ["model.e_T=0.5"]))
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # no warning at e_T = 0
+        zero = simcore.run(load_config(overrides=items + ["model.e_T=0.0"]))
+    assert float(np.abs(zero["Lambda_T"]).max()) > 0.0  # friction acts
+    for name in ("Lambda_N", "Lambda_T", "F_N"):
+        np.testing.assert_array_equal(half[name].values, zero[name].values)

@@ -266,7 +266,7 @@ def check_run_of_config(cfg: dict) -> list[str]:
     check_cage_damping(cage, cfg["solver"]["dt"])  # c h / m is largest at the largest step
     dt, key = limiting_step(cfg)
     msgs = [check_step_size(cage, dt, cfg["solver"]["on_unresolved_dt"], key),
-            check_contact_step(cfg)]
+            check_contact_step(cfg), check_unused_restitution(cfg)]
     return [m for m in msgs if m]
 
 
@@ -334,8 +334,27 @@ def check_run(cfg: dict, model=None) -> list[str]:
     check_cage_damping(model, solver["dt"])
     dt, key = limiting_step(cfg)
     msgs = [check_step_size(model, dt, solver["on_unresolved_dt"], key),
-            check_contact_step(cfg)]
+            check_contact_step(cfg), check_unused_restitution(cfg)]
     return [m for m in msgs if m]
+
+
+def check_unused_restitution(cfg: dict) -> str | None:
+    """Warn that ``model.e_T`` (not 0) has no effect on a compliant run: its friction is
+    regularised Coulomb friction, with no tangential compliance to restitute, so a compliant
+    twin is the same for every ``e_T`` (docs/compliant.md, "Friction").
+
+    Returns
+    -------
+    str or None
+        The message, where the warning is given.
+    """
+    model = cfg["model"]
+    if model.get("contact_model", "nonsmooth") != "compliant" or model.get("e_T", 0.0) == 0.0:
+        return None
+    msg = ("model.e_T: not 0 but has no effect on the compliant model (regularised Coulomb "
+           "friction has no tangential restitution); its runs are the same for every e_T")
+    warnings.warn(msg, RuntimeWarning, stacklevel=2)
+    return msg
 
 
 #: fewest steps a compliant contact must last (its Hertz contact time over dt)
