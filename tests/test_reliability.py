@@ -165,16 +165,40 @@ def test_paper_case_passes_and_the_reproduction_is_refused():
     assert str(from_config.value) == str(from_model.value)
 
 
-def test_memory_estimate_counts_the_arrays_of_a_run():
-    cfg = load_config(overrides=["solver.t_end=0.001"])
+@pytest.mark.parametrize("contact_model, dt, output_dt", [("nonsmooth", 1e-4, None),
+                                                          ("compliant", 1e-6, 2e-5)])
+def test_memory_estimate_counts_the_arrays_of_a_run(contact_model, dt, output_dt):
+    """Every per-row array the run returns (the 1-byte flags counted as 8 B), one row per
+    output interval."""
+    from simcore.config import output_every
+    from simcore.model import Trajectory
+
+    t_end = 0.001
+    cfg = load_config(overrides=[f"model.contact_model={contact_model}", f"solver.dt={dt}",
+                                 f"solver.t_end={t_end}", "model.youngs_modulus=2.1e11"]
+                      + ([f"solver.output_dt={output_dt}"] if output_dt else []))
     model, _ = crank_slider(cfg["model"])
-    traj = model.simulate(SolverSettings(1e-4, 0.001))
-    arrays = [traj.time, traj.q, traj.v, traj.lambda_N, traj.lambda_T, traj.nu_N, traj.gap_N,
-              traj.vn_pre, traj.vn_post, traj.energy, traj.iterations, traj.drive_torque,
-              traj.extras["energy_audit"].error, traj.extras["energy_audit"].tolerance]
-    stored = sum(a.nbytes for a in arrays) + traj.converged.size * 8  # flag counted as 8 B
-    assert memory_estimate(model, 1e-4, 0.001) == stored
-    assert values_per_step(model) * 8 * 11 == stored
+    traj = model.simulate(SolverSettings.from_config(cfg))
+    arrays = [getattr(traj, name) for name in Trajectory.ROW_FIELDS]
+    arrays += [traj.extras["energy_audit"].error, traj.extras["energy_audit"].tolerance]
+    stored = sum(a.size * max(a.itemsize, 8) for a in arrays if a is not None)
+    every, compliant = output_every(cfg), contact_model == "compliant"
+    assert traj.time.size == round(t_end / dt) // every + 1
+    assert memory_estimate(model, dt, t_end, every, compliant) == stored
+    assert values_per_step(model, compliant=compliant) * 8 * traj.time.size == stored
+
+
+def test_memory_check_counts_output_rows_not_steps():
+    """A long compliant run with sparse output (1e7 steps, 1e4 rows) fits; the same run
+    writing every step (1e7 rows x 9 arrays per contact) is refused, naming the key."""
+    from simcore.config.limits import check_memory_of_config
+
+    items = ["model.contact_model=compliant", "model.youngs_modulus=2.1e11",
+             "solver.dt=1e-7", "solver.t_end=1.0"]
+    sparse = load_config(overrides=items + ["solver.output_dt=1e-4"])
+    assert check_memory_of_config(sparse) < 0.1e9
+    with pytest.raises(ConfigError, match=r"^solver\.t_end: .*max_memory_gb"):
+        check_memory_of_config(load_config(overrides=items))
 
 
 # --- the energy audit -------------------------------------------------------------------------

@@ -35,9 +35,11 @@ step that creates energy anyway.
 
 Memory
 ------
-``(steps + 1) x (values stored per step) x 8 bytes``, with the values per step counted from
-the model (positions and velocities of every body, six arrays per contact, energy, energy error
-and its tolerance, drive torque, time, iterations, flag). Refused above ``solver.max_memory_gb``.
+``(output rows) x (values stored per row) x 8 bytes``, one row per ``solver.output_dt`` (per
+step where it is null), with the values per row counted from the model (positions and
+velocities of every body, seven arrays per contact and nine for the compliant model, energy,
+energy error and its tolerance, drive torque, time, iterations, two flags). Refused above
+``solver.max_memory_gb``.
 """
 
 from __future__ import annotations
@@ -208,24 +210,28 @@ def check_cage_damping(model, dt: float) -> None:
         "singular in double precision)")
 
 
-def values_per_step(model=None, n_bodies=None, n_contacts=None) -> int:
-    """Numbers stored per time step by :meth:`simcore.model.Model.simulate` [-], from a model
-    or from its numbers of bodies and contacts."""
+def values_per_step(model=None, n_bodies=None, n_contacts=None, compliant=False) -> int:
+    """Numbers stored per output row by :meth:`simcore.model.Model.simulate` [-], from a model
+    or from its numbers of bodies and contacts; ``compliant``: with the compliant model's
+    forces."""
     if model is not None:
         n_bodies, n_contacts = len(model.mass), len(model.contacts)
     ndof = 3 * n_bodies
-    # q, v; Lambda_N, Lambda_T, nu_N, gap_N, vn_pre, vn_post; time, energy, energy_error and
-    # its tolerance, drive torque; 3 iteration counts (int64); the converged flag (int8,
-    # counted as one)
-    return 2 * ndof + 6 * n_contacts + 5 + 3 + 1
+    # q, v; per contact Lambda_N, Lambda_T, nu_N, gap_N, vn_pre, vn_post, vn_free (compliant:
+    # and F_N, F_T); time, energy, energy_error and its tolerance, drive torque; 3 iteration
+    # counts (int64); the converged and halvings flags (int8, counted as one each)
+    per_contact = 9 if compliant else 7
+    return 2 * ndof + per_contact * n_contacts + 5 + 3 + 2
 
 
-def memory_estimate(model, dt: float, t_end: float) -> float:
-    """Bytes of the arrays of a run: (steps + 1) x values per step x 8 [B] (a float: inf
-    for a step too small to count the steps)."""
+def memory_estimate(model, dt: float, t_end: float, every: int = 1,
+                    compliant: bool = False) -> float:
+    """Bytes of the arrays of a run: (steps // every + 1) rows x values per row x 8 [B], with
+    ``every`` steps per output row (a float: inf for a step too small to count the steps)."""
     with np.errstate(over="ignore"):
         n_steps = np.round(np.float64(t_end) / np.float64(dt))
-    return float((n_steps + 1.0) * values_per_step(model) * 8.0)
+    rows = np.floor(n_steps / every) + 1.0
+    return float(rows * values_per_step(model, compliant=compliant) * 8.0)
 
 
 def check_memory_of_config(cfg: dict) -> int:
@@ -234,7 +240,14 @@ def check_memory_of_config(cfg: dict) -> int:
     n = int(cfg["model"]["n_balls"])
     guards = n + 1 if cfg["model"].get("guard_contacts", True) else 0
     return check_memory(_Counts(3 + n, 2 * n + guards), cfg["solver"]["dt"],
-                        cfg["solver"]["t_end"], cfg["solver"]["max_memory_gb"])
+                        cfg["solver"]["t_end"], cfg["solver"]["max_memory_gb"], *_rows_of(cfg))
+
+
+def _rows_of(cfg: dict) -> tuple[int, bool]:
+    """Steps per output row and whether the run is compliant (:func:`memory_estimate`)."""
+    from . import output_every
+
+    return output_every(cfg), cfg["model"].get("contact_model", "nonsmooth") == "compliant"
 
 
 class _Counts:
@@ -280,8 +293,10 @@ def limiting_step(cfg: dict) -> tuple[float, str]:
     return float(solver["dt"]), "solver.dt"
 
 
-def check_memory(model, dt: float, t_end: float, max_gb: float) -> int:
-    """Refuse a run whose arrays would take more than ``max_gb`` GB (1e9 bytes).
+def check_memory(model, dt: float, t_end: float, max_gb: float, every: int = 1,
+                 compliant: bool = False) -> int:
+    """Refuse a run whose arrays would take more than ``max_gb`` GB (1e9 bytes)
+    (:func:`memory_estimate`, ``every`` steps per output row).
 
     Returns
     -------
@@ -293,12 +308,13 @@ def check_memory(model, dt: float, t_end: float, max_gb: float) -> int:
     ConfigError
         One line naming ``solver.t_end`` / ``solver.dt``, the estimate and the limit.
     """
-    need = memory_estimate(model, dt, t_end)
+    need = memory_estimate(model, dt, t_end, every, compliant)
     if not need <= max_gb * 1e9:
-        n_steps = need / (8.0 * values_per_step(model)) - 1
+        per_row = values_per_step(model, compliant=compliant)
+        rows = need / (8.0 * per_row)
         raise ConfigError(
-            f"solver.t_end: {t_end!r} with solver.dt = {dt!r} is not allowed: {n_steps:.4g} "
-            f"steps x {values_per_step(model)} values x 8 B = {need / 1e9:.3g} GB of arrays; "
+            f"solver.t_end: {t_end!r} with solver.dt = {dt!r} is not allowed: {rows:.4g} "
+            f"output rows x {per_row} values x 8 B = {need / 1e9:.3g} GB of arrays; "
             f"allowed: at most solver.max_memory_gb = {max_gb:g} GB (shorten solver.t_end, raise "
             "solver.dt or solver.max_memory_gb)")
     return need
@@ -330,7 +346,7 @@ def check_run(cfg: dict, model=None) -> list[str]:
 
         model = crank_slider(cfg["model"])[0]
     solver = cfg["solver"]
-    check_memory(model, solver["dt"], solver["t_end"], solver["max_memory_gb"])
+    check_memory(model, solver["dt"], solver["t_end"], solver["max_memory_gb"], *_rows_of(cfg))
     check_cage_damping(model, solver["dt"])
     dt, key = limiting_step(cfg)
     msgs = [check_step_size(model, dt, solver["on_unresolved_dt"], key),
