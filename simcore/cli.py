@@ -111,11 +111,15 @@ def _zoom_main(args) -> int:
         print(f"error: RUN: cannot read {args.run}: {str(exc).splitlines()[0]}",
               file=sys.stderr)
         return 2
+    import warnings
+
     from .io import write_netcdf
     from .study.zoom import start_index, zoom, zoom_config
 
-    try:  # every check before any work
-        zoom_config(run_ds, window=args.window, dt=args.dt, overrides=args.overrides)
+    try:  # every check before any work (its warnings are given once, by the zoom itself)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            zoom_config(run_ds, window=args.window, dt=args.dt, overrides=args.overrides)
         start_index(run_ds, args.time)
     except ConfigError as exc:
         msg = str(exc)

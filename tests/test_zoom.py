@@ -52,6 +52,23 @@ def test_zoom_time_outside_the_run_is_refused(run_ds):
         simcore.zoom(run_ds, 0.0)
 
 
+def test_a_zoom_is_checked_like_a_run_before_any_work(run_ds, first_impact, tmp_path, capsys):
+    """A zoom whose arrays would not fit is refused by the memory check, naming the window,
+    with no file; a zoom asked for another contact model is refused, naming the key."""
+    run_file = tmp_path / "run.nc"
+    simcore.write_netcdf(run_ds, run_file)
+    out = tmp_path / "z.nc"
+    time, _ = first_impact
+    assert main(["zoom", str(run_file), "--time", str(time), "--window", "1", "--dt", "1e-9",
+                 "--set", "solver.adaptive=false", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: --window: 1") and "max_memory_gb" in err and "\n" not in err
+    assert not out.exists()
+    with pytest.raises(ConfigError, match=r"^model\.contact_model: 'nonsmooth' is not allowed"):
+        simcore.zoom(run_ds, time, overrides=["model.contact_model=nonsmooth",
+                                              "solver.adaptive=false"])
+
+
 def test_cli_zoom(run_ds, first_impact, tmp_path, capsys):
     run_file = tmp_path / "run.nc"
     simcore.write_netcdf(run_ds, run_file)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..config import ConfigError, output_every, parse_override, validate_config
+from ..config.limits import check_run_of_config
 from ..model import ReleaseStop, SolverSettings
 from ..model.mechanism import crank_slider
 
@@ -60,7 +61,13 @@ def zoom_config(run_ds, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(),
         for k in keys[:-1]:
             node = node.setdefault(k, {})
         node[keys[-1]] = value
-    return validate_config(cfg)
+    if cfg["model"].get("contact_model") != "compliant":
+        raise ConfigError(f"model.contact_model: {cfg['model']['contact_model']!r} is not "
+                          "allowed in a zoom; allowed: compliant (a zoom re-simulates with "
+                          "compliant contacts)")
+    cfg = validate_config(cfg)
+    check_run_of_config(cfg)  # memory, step size and contact step, before any work
+    return cfg
 
 
 def start_index(run_ds, time: float) -> int:
