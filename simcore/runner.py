@@ -23,7 +23,8 @@ from .model import SolverError, SolverSettings  # noqa: F401  (SolverError re-ex
 from .model.mechanism import crank_slider
 from .startup.parallel_compile import compile_with_helper, start_helper, stop_helper
 
-_warm: set[str] = set()  # contact models whose kernels this process has compiled or loaded
+#: (contact model, adaptive steps) whose kernels this process has compiled or loaded
+_warm: set[tuple[str, bool]] = set()
 
 
 def _simulate(model, cfg: dict, t_end: float | None = None, on_nonconvergence=None,
@@ -85,7 +86,8 @@ def warm_up(config: dict | None = None, notify=None) -> float:
     """
     cfg = validate_config(config) if config is not None else load_config()
     kind = cfg["model"]["contact_model"]
-    if kind in _warm:
+    loop = (kind, bool(cfg["solver"].get("adaptive", False)))  # (each its own time loop)
+    if loop in _warm:
         return 0.0
     start = time.perf_counter()
     notice = _compile_notice(notify) if notify is not None else None
@@ -115,7 +117,7 @@ def warm_up(config: dict | None = None, notify=None) -> float:
     if notice is not None and notice.said:
         notify.write(f"simcore: kernels compiled in {seconds:.0f} s\n")
         notify.flush()
-    _warm.add(kind)
+    _warm.add(loop)
     return seconds
 
 

@@ -344,6 +344,22 @@ def test_a_long_warm_up_says_that_it_compiles(monkeypatch):
     assert simulate.warm_up() >= 0.5
 
 
+def test_warm_up_is_once_per_time_loop_fixed_and_adaptive_apart(monkeypatch):
+    """The adaptive compliant loop is its own kernels: warming the fixed-step loop does not
+    count for it (its loading would fall into the first adaptive run's wall time)."""
+    from simcore import runner
+
+    loops = []
+    monkeypatch.setattr(runner, "_simulate",
+                        lambda model, cfg, **kw: loops.append(cfg["solver"]["adaptive"]))
+    monkeypatch.setattr(runner, "_warm", set())
+    fixed = ["model.contact_model=compliant", "model.youngs_modulus=2.1e11", "solver.dt=1e-6"]
+    runner.warm_up(simcore.load_config(overrides=fixed))
+    runner.warm_up(simcore.load_config(overrides=fixed))  # (warm already)
+    runner.warm_up(simcore.load_config(overrides=fixed + ["solver.adaptive=true"]))
+    assert loops == [False, True]
+
+
 AT_EXIT = r"""
 import atexit, gc, sys
 atexit.register(lambda: print("frozen", gc.get_freeze_count() > 0))  # runs after simcore's
