@@ -109,13 +109,23 @@ def test_nonconvergence_is_an_error_or_a_flag(tmp_path):
 
 def test_written_files_get_ordinary_permissions(tmp_path):
     import os
+    from concurrent.futures import ThreadPoolExecutor
 
     import xarray as xr
 
-    out = simcore.write_netcdf(xr.Dataset({"a": ("x", [1.0, 2.0])}), tmp_path / "a.nc")
-    umask = os.umask(0)
-    os.umask(umask)
-    assert os.stat(out).st_mode & 0o777 == 0o666 & ~umask
+    ds = xr.Dataset({"a": ("x", [1.0, 2.0])})
+    before = os.umask(0o027)
+    try:
+        out = simcore.write_netcdf(ds, tmp_path / "a.nc")
+        assert os.stat(out).st_mode & 0o777 == 0o640
+        # writes in several threads at once leave the process's umask as it was
+        with ThreadPoolExecutor(4) as pool:
+            paths = list(pool.map(lambda k: simcore.write_netcdf(ds, tmp_path / f"{k}.nc"),
+                                  range(16)))
+        assert os.umask(0o027) == 0o027
+        assert {os.stat(p).st_mode & 0o777 for p in paths} == {0o640}
+    finally:
+        os.umask(before)
 
 
 @pytest.mark.parametrize("args, key", [(["--threads", "9999"], "--threads"),

@@ -47,6 +47,22 @@ def keep_variables(ds: xr.Dataset, keep=None) -> xr.Dataset:
     return ds.drop_vars(drop)
 
 
+def _umask() -> int:
+    """The process's umask, read without setting it where the system tells it (Linux's
+    /proc/self/status): setting and restoring it would race with a write in another thread,
+    which could then restore 0 for good."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)  # (elsewhere: set and restored at once)
+    os.umask(mask)
+    return mask
+
+
 def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4, keep=None) -> Path:
     """Write ``ds`` to ``path`` atomically, with zlib compression of the data variables.
 
@@ -87,9 +103,7 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4, keep=None
             raise
         # mkstemp creates the file for its owner only; give it the permissions of a file
         # opened the ordinary way (0666 less the umask)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
+        os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
