@@ -77,6 +77,8 @@ from typing import Sequence
 import numpy as np
 import xarray as xr
 
+from simcore.io.variables import STAGES
+
 __all__ = ["summarize", "summary_table", "steady_window", "SteadyWindow", "category_codes",
            "impact_numbers", "compliant_numbers", "point_numbers", "run_model", "MODELS",
            "STAGES", "RACES", "KINDS", "N_TOP", "STORED"]
@@ -85,8 +87,6 @@ __all__ = ["summarize", "summary_table", "steady_window", "SteadyWindow", "categ
 #: compliant (Hertz) reference.
 MODELS = ("nonsmooth", "compliant")
 NONSMOOTH, COMPLIANT = 0, 1
-#: Sub-problems of a time step (code = position in the tuple).
-STAGES = ("smooth", "position", "velocity")
 #: Races of the bearing (code = position: 0 inner, 1 outer).
 RACES = ("inner", "outer")
 #: Impact kinds of the impact table (code = position).

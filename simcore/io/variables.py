@@ -24,6 +24,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..config.parameters import BASE_AXES, registry
+from ..kernels.bundles import STAGES  # noqa: F401  (the labels of coordinate ``stage``)
 
 #: CF version the files declare.
 CONVENTIONS = "CF-1.10"
@@ -222,8 +223,6 @@ COORDINATES: dict[str, RunCoordinate] = {
 GUARD_COORDINATE = RunCoordinate(
     "guard", None, "guard contact: ball k against ball k+1, or the rings' lands")
 
-#: The sub-problems of a step, the labels of coordinate ``stage``.
-STAGES = ("smooth", "position", "velocity")
 
 #: The paper's four study parameters, ``{coordinate name: (units, long name)}`` (``clearance``,
 #: ``mu``, ``omega0``, ``e_N``): scalar coordinates of every run file (a study adds its other

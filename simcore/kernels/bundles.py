@@ -8,6 +8,12 @@ from __future__ import annotations
 
 from collections import namedtuple
 
+#: The sub-problems of a step, in the order of the columns of its iteration counts (a run's
+#: ``iterations``, coordinate ``stage`` of its file): the smooth stage, the position
+#: correction, the velocity jump (a compliant step: its smooth and projection stages).
+STAGES = ("smooth", "position", "velocity")
+STAGE_SMOOTH, STAGE_POSITION, STAGE_VELOCITY = range(3)
+
 #: The model as flat arrays (built by :meth:`simcore.model.Model.arrays`).
 #:
 #: - ``mdiag`` (3 nb): diagonal mass matrix (m, m, Izz) per body [kg, kg m^2]

@@ -17,6 +17,7 @@ from collections import namedtuple
 import numpy as np
 
 from .bodies import clear_pair_blocks, row_dot
+from .bundles import STAGE_POSITION, STAGE_SMOOTH
 from .contact import CONTACT_PLANE, contact_gap_cached, contact_rows_cached
 from .generalized_alpha import (
     WITH_CONTACT_BLOCKS,
@@ -157,9 +158,6 @@ CHORD_TIGHTENING = 0.01
 #: factor.
 CHORD_CONTRACTION = 0.1
 
-COMPLIANT_STAGE_SMOOTH = 0
-COMPLIANT_STAGE_POSITION = 1
-COMPLIANT_STAGE_VELOCITY = 2
 
 
 @kernel
@@ -980,8 +978,8 @@ def commit_step(h, state, cs, work, it_s, it_p, ok, drive_row, velocities):
             cs.gap_min[j] = cs.gap[j]
     if drive_row >= 0:
         cs.drive_impulse[0] += h * state.lam_s[drive_row]
-    cs.it_max[COMPLIANT_STAGE_SMOOTH] = max(cs.it_max[COMPLIANT_STAGE_SMOOTH], it_s)
-    cs.it_max[COMPLIANT_STAGE_POSITION] = max(cs.it_max[COMPLIANT_STAGE_POSITION], it_p)
+    cs.it_max[STAGE_SMOOTH] = max(cs.it_max[STAGE_SMOOTH], it_s)
+    cs.it_max[STAGE_POSITION] = max(cs.it_max[STAGE_POSITION], it_p)
     if not ok:
         cs.ok[0] = 0
 

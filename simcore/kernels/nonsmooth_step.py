@@ -17,7 +17,7 @@ from collections import namedtuple
 import numpy as np
 
 from .bodies import trig_cache
-from .bundles import StepState
+from .bundles import STAGE_POSITION, STAGE_SMOOTH, STAGE_VELOCITY, StepState
 from .contact import contact_velocities_into
 from .generalized_alpha import alpha_coefficients, smooth_step, smooth_work, step_work
 from .jit import loop_kernel, stage
@@ -37,10 +37,6 @@ __all__ = ["STAGE_POSITION", "STAGE_SMOOTH", "STAGE_VELOCITY", "NonsmoothWork",
            "loop_stage_calls", "nonsmooth_work", "position_step", "solve_velocity_problem",
            "velocity_step"]
 
-# layout of the per-step statistics written by integrate_chunk
-STAGE_SMOOTH = 0
-STAGE_POSITION = 1
-STAGE_VELOCITY = 2
 
 #: Settings of the retries of :func:`integrate_chunk`: ``max_halvings`` (a failed step is
 #: taken again as 2, 4, ... 2^max_halvings substeps; 0: never), and the energy audit's

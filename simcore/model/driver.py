@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import kernels as nb
+from ..kernels.bundles import STAGES
 from .audit import ENERGY_FLOOR_J, EnergyAudit, drive_rate
 from .hertz import DAMPING_LAWS
 from .integrity import CheckSettings, run_checks
@@ -40,8 +41,6 @@ ON_NONCONVERGENCE = ("error", "warn")
 #: step costs about 5 us, the checks and the call between two chunks about 0.2 ms
 #: (benchmarks/bench_compliant.py prints the paper case's time in 500-step chunks against this)
 DEFAULT_CHUNK = {"nonsmooth": 500, "compliant": 5000}
-#: names of the three sub-problems of a step, in the order of the ``iterations`` columns
-STAGES = ("smooth", "position", "velocity")
 #: largest ``solver.max_halvings``: a step taken as at most 2^10 substeps
 MAX_HALVINGS = 10
 
