@@ -25,6 +25,8 @@ analysis.figures.plot_run / plot_study / plot_life (imported lazily: matplotlib 
     there)
 """
 
+# (first: it sets the kernels' cache folder before any submodule defines one)
+from . import _cache  # noqa: F401
 from .contact_stress import contact_stress, elliptical_contact, hertz_circular
 from .filtering import impact_masks, split_dataset, split_impulses, zero_threshold
 from .forces import (

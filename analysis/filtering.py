@@ -43,16 +43,7 @@ import numpy as np
 import xarray as xr
 from numba import njit
 
-from simcore.startup.numba_cache import configure_cache
-
 from ._checks import positive
-
-# The analysis kernels (here and in analysis.forces) are cached in the folder of the simulation
-# kernels, whatever was imported first: Numba picks a kernel's cache folder when the kernel is
-# defined, so without this the study's warm-up (which imported analysis first) and its jobs
-# (simcore first) kept two caches, and the jobs compiled the analysis kernels again each time
-# the simulation kernels changed.
-configure_cache()
 
 __all__ = ["split_impulses", "split_dataset", "zero_threshold", "impact_masks"]
 

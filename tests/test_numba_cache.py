@@ -46,6 +46,25 @@ def test_every_kernel_caches_in_the_keyed_folder():
         assert Path(path).is_relative_to(kernels.CACHE_DIR), (name, path)
 
 
+def test_analysis_kernels_cache_in_the_same_folder_when_analysis_is_imported_first():
+    """In a fresh process that imports ``analysis`` before ``simcore`` (the study's warm-up
+    does), every analysis kernel caches in the simulation kernels' folder, where the jobs
+    look."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        pytest.skip("the user chose NUMBA_CACHE_DIR; the keyed folder is not used")
+    code = (
+        "import analysis, analysis.forces, analysis.filtering\n"
+        "from numba.core.registry import CPUDispatcher\n"
+        "from simcore import kernels\n"
+        "paths = [f._cache._cache_path for m in (analysis.forces, analysis.filtering)\n"
+        "         for f in vars(m).values() if isinstance(f, CPUDispatcher)]\n"
+        "print(len(paths), all(p.startswith(kernels.CACHE_DIR) for p in paths))\n")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    count, inside = res.stdout.split()
+    assert int(count) >= 2 and inside == "True", res.stdout
+
+
 CALLEE = """
 from numba import njit
 
