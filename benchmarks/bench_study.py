@@ -280,7 +280,7 @@ def main() -> None:
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--smoke", action="store_true",
-                        help="the smoke study instead of the 24-run study")
+                        help="the smoke study instead of the 24-point study")
     parser.add_argument("--jobs", default="1,2", help="comma-separated -j values (default 1,2)")
     parser.add_argument("--default", type=int, default=0, metavar="N",
                         help="also run the default study (81 grid points, both models) N times "
