@@ -156,3 +156,26 @@ def test_study_config_is_read_with_the_cli_types(tmp_path):
     extra.write_text("model:\n  mu: 0.1\n  mu: 0.2\n")
     with pytest.raises(ConfigError, match="--configfile: .*twice"):
         read_study_config([base, extra])
+
+
+def test_solver_settings_defaults_are_the_schema_defaults():
+    """``SolverSettings`` made in Python (no configuration) takes the same defaults as a
+    configuration does, for every field named like a schema key of ``solver`` or ``model``;
+    its halving bound is the schema's maximum."""
+    import dataclasses
+
+    from simcore.config import load_schema
+    from simcore.model import SolverSettings
+    from simcore.model.driver import MAX_HALVINGS
+
+    sections = load_schema()["properties"]
+    checked = []
+    for field in dataclasses.fields(SolverSettings):
+        for section in ("solver", "model"):
+            node = sections[section]["properties"].get(field.name)
+            if node is not None and "default" in node and field.default is not dataclasses.MISSING:
+                assert field.default == node["default"], (section, field.name)
+                checked.append(field.name)
+                break
+    assert {"tol", "max_iter", "dt_min", "adaptive_tol", "max_halvings"} <= set(checked)
+    assert sections["solver"]["properties"]["max_halvings"]["maximum"] == MAX_HALVINGS
