@@ -179,3 +179,13 @@ def test_solver_settings_defaults_are_the_schema_defaults():
                 break
     assert {"tol", "max_iter", "dt_min", "adaptive_tol", "max_halvings"} <= set(checked)
     assert sections["solver"]["properties"]["max_halvings"]["maximum"] == MAX_HALVINGS
+
+
+def test_a_whole_float_for_an_integer_key_is_stored_as_an_int():
+    """``n_balls: 8.0`` is valid (the schema's integer admits it) and is kept as the int 8, so
+    the run file's attribute has the schema's type; 8.5 is refused naming the key."""
+    cfg = load_config(overrides=["model.n_balls=8.0", "solver.max_iter=50.0"])
+    assert type(cfg["model"]["n_balls"]) is int and cfg["model"]["n_balls"] == 8
+    assert type(cfg["solver"]["max_iter"]) is int
+    with pytest.raises(ConfigError, match=r"^model\.n_balls: 8\.5 is not allowed"):
+        load_config(overrides=["model.n_balls=8.5"])

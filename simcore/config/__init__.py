@@ -289,13 +289,18 @@ def _coerce_scalars(cfg: dict, schema: Mapping[str, Any]) -> None:
     """0 and 1 as false and true for the boolean keys of the sections (a run file's netCDF
     attributes store the booleans of its configuration as integers), and a whole number as
     its text for the keys that take a name only (YAML reads the catalogue name 6012 as a
-    number)."""
+    number), and a whole float as an int for the integer keys (``n_balls: 8.0`` is stored as
+    8, as the schema's type says)."""
     for section, node in schema.get("properties", {}).items():
         values = cfg.get(section)
         if not isinstance(values, dict):
             continue
         for key, sub in node.get("properties", {}).items():
             value = values.get(key)
+            if (sub.get("type") == "integer" and isinstance(value, float)
+                    and value.is_integer()):
+                values[key] = int(value)
+                continue
             if isinstance(value, bool) or not isinstance(value, int):
                 continue
             if sub.get("type") == "boolean" and value in (0, 1):
