@@ -21,6 +21,13 @@ of the bearing).
 Where the zoom contradicts the paper's force, |F_max / F_max_zoom - 1| > ``analysis.method_tol``,
 the row gets the flag bit ``method_disagrees`` and is no longer ``trusted``.
 
+A row whose ball already carries load in the state the zoom would start from
+(:func:`loaded_at_start`) is not zoomed and gets no verdict: the rigid state has no
+deformation, so a compliant restart starts that ball's contacts undeformed under their load,
+and what the zoom's ball then shows first is the overshoot of a suddenly applied load (up to
+twice the load), not the impact (docs/forces.md, §8). The grid point's compliant twin, which
+carries its loads from the start of its run, checks those numbers.
+
 A zoom stops once, for each impact it serves, the ball's contacts have carried no force at one
 sample after the impact's contact first closed (``watch_contacts`` of :func:`simcore.zoom`,
 checked every 100 steps). Both numbers read only the samples up to that point, so they are
@@ -40,7 +47,7 @@ from .impacts import FLAG, KIND, count_flags
 _METHOD_DISAGREES = FLAG["method_disagrees"]
 
 __all__ = ["ADAPTIVE_STEPS_PER_CONTACT", "STEPS_PER_CONTACT", "ZOOM_ADAPTIVE", "add_zoom_forces",
-           "zoom_step", "zoom_rows", "method_disagrees"]
+           "zoom_step", "zoom_rows", "loaded_at_start", "method_disagrees"]
 
 
 #: steps of a zoom per Hertz contact time (dt = t_Hertz / N): doubling N changes F_max_zoom by
@@ -213,6 +220,38 @@ def zoom_rows(impacts_ds: xr.Dataset, zoom_top: int, settle_time: float = -np.in
     return np.asarray(chosen, dtype=np.int64)
 
 
+def loaded_at_start(run_ds: xr.Dataset, impacts_ds: xr.Dataset, rows,
+                    method_tol: float) -> np.ndarray:
+    """Which of ``rows`` have a ball that carries load in the run's state a zoom of the row
+    starts from: the largest rigid contact force Λ_N / h of the ball's contacts over the step
+    that ends at that state (the last sample before the impact) above ``method_tol`` times the
+    row's ``F_max``, so that starting them undeformed could alone move the zoom's force by
+    more than the tolerance.
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        One per row of ``rows``.
+    """
+    from simcore.study.zoom import start_index
+
+    rows = np.asarray(rows, dtype=np.int64)
+    out = np.zeros(rows.size, dtype=bool)
+    if rows.size == 0:
+        return out
+    t = np.asarray(run_ds["time"].values, dtype=float)
+    lam = np.asarray(run_ds["Lambda_N"].values, dtype=float)
+    ball_of_contact = np.asarray(run_ds["ball"].values)
+    for g, row in enumerate(rows):
+        i = start_index(run_ds, float(impacts_ds["time"].values[row]))
+        if i < 1:
+            continue  # (the run's first sample: nothing has been carried yet)
+        ball = ball_of_contact == int(impacts_ds["ball"].values[row])
+        force = lam[i, ball].max() / (t[i] - t[i - 1])
+        out[g] = force > float(method_tol) * float(impacts_ds["F_max"].values[row])
+    return out
+
+
 def _zoom_plans(run_ds, table, rows, dt, window, max_window, overrides, steps_per_contact):
     """One zoom per distinct impact time: {time: (window [s], step [s], rows it serves)}, the
     step its shortest Hertz contact time over ``steps_per_contact`` (an adaptive zoom's
@@ -338,7 +377,7 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
                     dt: float | None = None, window: float = 5e-4, overrides=(),
                     max_window: float = 2e-2, steps_per_contact: int = STEPS_PER_CONTACT,
                     settle_time: float = -np.inf, method_tol: float = 0.2,
-                    adaptive: bool = ZOOM_ADAPTIVE) -> xr.Dataset:
+                    adaptive: bool = ZOOM_ADAPTIVE, loaded: str = "skip") -> xr.Dataset:
     """Impact table with ``F_max_zoom`` and ``contact_time_zoom`` for the impacts the summary
     reads (:func:`zoom_rows`), and the flag ``method_disagrees`` where they contradict F_max.
 
@@ -376,6 +415,11 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
         contact episodes and contact times are read at the output instants from the gaps
         (:func:`_at_sample_instants`). False: the fixed step ``dt`` or t_Hertz /
         ``steps_per_contact``.
+    loaded : {"skip", "zoom"}
+        Rows whose ball carries load at the zoom's start (:func:`loaded_at_start`): "skip"
+        (default) leaves them unzoomed, without a verdict, and marks them in the column
+        ``zoom_loaded_start``; "zoom" zooms them all the same (their numbers then measure the
+        restart, e.g. for comparing zoom steps, not the impact), still without a verdict.
 
     Returns
     -------
@@ -402,7 +446,13 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
     zoom_flagged = np.zeros(n, dtype=np.int8)
     dt_smallest = np.full(n, np.nan)
     n_steps = 0
+    if loaded not in ("skip", "zoom"):
+        raise ValueError(f"loaded: {loaded!r} is not allowed; allowed: 'skip' or 'zoom'")
     rows = zoom_rows(out, zoom_top, settle_time)
+    at_load = np.zeros(n, dtype=bool)
+    at_load[rows] = loaded_at_start(run_ds, out, rows, method_tol)
+    if loaded == "skip":
+        rows = rows[~at_load[rows]]
     if rows.size:
         plans = _zoom_plans(run_ds, out, rows, dt, window, max_window, overrides,
                             ADAPTIVE_STEPS_PER_CONTACT if adaptive else steps_per_contact)
@@ -415,7 +465,14 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
                 dt_smallest[row] = smallest
                 zoom_flagged[row] = flag
     _zoom_columns(out, F_zoom, t_zoom, (dt_zoom, dt_smallest), zoom_flagged, adaptive)
-    disagree = method_disagrees(out["F_max"].values, F_zoom, method_tol)
+    out["zoom_loaded_start"] = ("impact", at_load.astype(np.int8), {
+        "units": "1", "long_name": "1 where the impact was chosen for a compliant zoom but its "
+        "ball carried load in the state the zoom would start from (rigid contact force above "
+        "method_tol x F_max): a restart starts those contacts undeformed, so no zoom verdict "
+        "(the grid point's compliant twin checks the number)",
+        "flag_values": np.array([0, 1], np.int8), "flag_meanings": "no yes"})
+    disagree = method_disagrees(out["F_max"].values, np.where(at_load, np.nan, F_zoom),
+                                method_tol)
     if "flags" in out:
         flags = np.asarray(out["flags"].values).copy()
         flags[disagree] |= _METHOD_DISAGREES
@@ -429,6 +486,7 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
                       "zoom_window": float(window), "zoom_max_window": float(max_window),
                       "zoom_settle_time": float(settle_time), "method_tol": float(method_tol),
                       "n_zoomed": int(rows.size), "zoom_adaptive": int(bool(adaptive)),
+                      "n_zoom_loaded_start": int(np.count_nonzero(at_load)),
                       "n_zoom_steps": int(n_steps),
                       "n_method_disagrees": int(np.count_nonzero(disagree))})
     return out
@@ -441,8 +499,9 @@ def _zoom_columns(out: xr.Dataset, F_zoom, t_zoom, steps, zoom_flagged, adaptive
     out["F_max_zoom"] = ("impact", F_zoom, {
         "units": "N", "long_name": "largest contact force of the impact's ball during the "
         "impact (the ball's contact episode that contains the impact contact's first closing) "
-        "in a compliant (Hertz) zoom from the state before the impact (NaN: not zoomed, or "
-        "the force was still rising at the end of the zoom)"})
+        "in a compliant (Hertz) zoom from the state before the impact (NaN: not zoomed, e.g. "
+        "its ball loaded at the zoom's start (zoom_loaded_start), or the force was still "
+        "rising at the end of the zoom)"})
     out["contact_time_zoom"] = ("impact", t_zoom, {
         "units": "s", "long_name": "duration of the impact's contact in the compliant zoom "
         "(first contact episode; NaN: not zoomed, or still closed at the end of the zoom)"})
