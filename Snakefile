@@ -37,8 +37,10 @@ include: "workflow/rules/analysis.smk"
 include: "workflow/rules/figures.smk"
 
 
-# Compile the Numba kernels once before the parallel jobs (workflow/rules/terminal.smk).
+# Before the jobs: --forceall redoes every run (workflow/rules/common.smk), and the Numba
+# kernels are compiled once (workflow/rules/terminal.smk).
 onstart:
+    mark_redo()
     warm_numba_cache()
 
 

@@ -171,6 +171,13 @@ def test_smoke_study_end_to_end(results):
                      f"study={{'results_dir': '{results}'}}", timeout=900)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     _check_study(results)
+    # --forceall redoes every run, not only the missing ones (docs/study.md)
+    before = {p: p.stat().st_mtime_ns for p in (results / "runs").glob("*.nc")}
+    proc = snakemake("-j2", "--forceall", "--until", "summarize", "--configfile",
+                     "config/smoke.yaml", "--config", f"study={{'results_dir': '{results}'}}",
+                     timeout=900)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert all(p.stat().st_mtime_ns != mtime for p, mtime in before.items())
 
 
 @pytest.mark.slow

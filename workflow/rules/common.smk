@@ -139,13 +139,15 @@ TABLE_FILES = {model: [run.paths(RES)[1] for run in RUNS if run.model == model]
 ALL_RUNS = [path for model in MODELS for path in RUN_FILES[model]]
 ALL_IMPACTS = [path for model in MODELS for path in TABLE_FILES[model]]
 
-# --forceall, or --forcerun simulate: every run is made again, not only the missing ones. The
-# workflow sets this variable for its jobs (they inherit its environment); nothing asks the
-# user for it.
-_dag = getattr(workflow, "dag_settings", None)
-if _dag is not None and (getattr(_dag, "forceall", False)
-                         or "simulate" in (getattr(_dag, "forcerun", None) or ())):
-    os.environ.update({"BEARINGSIM_STUDY_REDO": "1"})
+def mark_redo():
+    """--forceall, or --forcerun simulate: every run is made again, not only the missing ones.
+    Called by the Snakefile's onstart (Snakemake's DAG settings are not yet known while it reads
+    the workflow), it sets this variable for the jobs, which inherit the environment; nothing
+    asks the user for it."""
+    dag = getattr(workflow, "dag_settings", None)
+    if dag is not None and (getattr(dag, "forceall", False)
+                            or "simulate" in (getattr(dag, "forcerun", None) or ())):
+        os.environ.update({"BEARINGSIM_STUDY_REDO": "1"})
 
 
 def _repair():
