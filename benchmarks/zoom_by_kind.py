@@ -6,7 +6,8 @@ each impact kind (simple, persistent, pinch, multi) of the steady window are zoo
 (:func:`analysis.zoom.add_zoom_forces`) and printed with the ratio F_max / F_max_zoom, the
 effective mass, the approach speed and the contact time in steps, then the range of the ratio
 per kind. Where the ratio leaves 1 +- analysis.method_tol the impact gets the flag
-``method_disagrees``.
+``method_disagrees``. An impact whose ball is loaded in the state a zoom would start from is not
+zoomed (``zoom_loaded_start``; :func:`analysis.zoom.loaded_at_start`) and printed as such.
 
     python benchmarks/zoom_by_kind.py [--revolutions 1] [--top 4] [--set model.clearance=2e-5 ...]
 """
@@ -45,8 +46,8 @@ def main(argv=None) -> int:
     print(f"{imp.sizes['impact']} impacts in {cfg['solver']['t_end']:g} s, steady after "
           f"{window.settle_time:.4f} s; method_tol = {tol:g}")
     print("| kind | time [s] | contact | F_max [N] | F_max_zoom [N] | ratio | m_eff [kg] | "
-          "v_pre [m/s] | contact time [steps] | method_disagrees |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "v_pre [m/s] | contact time [steps] | method_disagrees | loaded at start |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     ratios = {}
     force = imp["F_max"].values
     for code, name in KIND_NAME.items():
@@ -63,10 +64,12 @@ def main(argv=None) -> int:
             if np.isfinite(ratio):
                 ratios.setdefault(name, []).append(ratio)
             bad = bool(int(table["flags"][i]) & FLAG["method_disagrees"])
+            loaded = bool(int(table["zoom_loaded_start"][i]))
             print(f"| {name} | {float(table['time'][i]):.4f} | {int(table['contact'][i])} | "
                   f"{f:,.0f} | {z:,.0f} | {ratio:.2f} | {float(table['m_eff'][i]):.3g} | "
                   f"{float(table['v_pre'][i]):.3f} | "
-                  f"{float(table['contact_time_steps'][i]):.2f} | {'yes' if bad else 'no'} |")
+                  f"{float(table['contact_time_steps'][i]):.2f} | {'yes' if bad else 'no'} | "
+                  f"{'yes (not zoomed)' if loaded else 'no'} |")
     print("F_max / F_max_zoom by kind:")
     for name, r in ratios.items():
         print(f"  {name}: {len(r)} impacts, {min(r):.2f} to {max(r):.2f}")
