@@ -68,7 +68,7 @@ def zoom_report(folder: str, tol: float) -> None:
 
     from analysis.impacts import FLAG
 
-    peaks = verdicts = disagree = 0
+    peaks = verdicts = disagree = loaded = 0
     ratios = []
     for path in sorted(Path(folder).glob("*.nc")):
         with xr.open_dataset(path) as table:
@@ -83,13 +83,16 @@ def zoom_report(folder: str, tol: float) -> None:
                     continue
                 row = rows[np.argmax(force[rows])]
                 peaks += 1
+                if "zoom_loaded_start" in table:
+                    loaded += int(table["zoom_loaded_start"].values[row])
                 zoom = float(table["F_max_zoom"].values[row])
                 if np.isfinite(zoom):
                     verdicts += 1
                     ratios.append(force[row] / zoom)
                     disagree += bool(int(table["flags"].values[row])
                                      & FLAG["method_disagrees"])
-    print(f"\nimpacts that give peak_force: {peaks}; zooms with a verdict: {verdicts} "
+    print(f"\nimpacts that give peak_force: {peaks}; not zoomed, their ball loaded at the "
+          f"zoom's start: {loaded}; zooms with a verdict: {verdicts} "
           f"(F_max / F_max_zoom {describe(np.asarray(ratios), tol)}); flagged "
           f"method_disagrees: {disagree}")
 

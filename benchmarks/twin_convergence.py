@@ -92,8 +92,9 @@ def zoom_forces(cfg, ns):
     table = extract_impacts(run, zero_tol=cfg["analysis"]["zero_tol"])
     zooms = {}
     for n in sorted(ns):
+        # (loaded balls zoomed all the same: this compares the zoom's steps)
         zoomed = add_zoom_forces(run, table, zoom_top=cfg["analysis"]["zoom_top"],
-                                 steps_per_contact=n, adaptive=False)
+                                 steps_per_contact=n, adaptive=False, loaded="zoom")
         f = np.asarray(zoomed["F_max_zoom"].values, dtype=float)
         zooms[n] = f[np.isfinite(f)]
     return zooms

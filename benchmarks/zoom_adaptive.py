@@ -66,14 +66,17 @@ def main(argv=None) -> int:
         rows = zoom_rows(table, args.top, settle)
         print(f"\n## {name}: {table.sizes['impact']} impacts, {rows.size} zoomed rows")
         for adaptive in (False, True):  # (compiled kernels loaded before the timings)
-            add_zoom_forces(run, table, zoom_top=1, settle_time=settle, adaptive=adaptive)
+            add_zoom_forces(run, table, zoom_top=1, settle_time=settle, adaptive=adaptive,
+                            loaded="zoom")
         results = {}
         cpus = {key: [] for key in variants}
         for _ in range(args.repeat):  # (variants alternated: a shared machine's load drifts)
             for kind, n in variants:
                 start = time.process_time()
+                # (loaded balls zoomed all the same: this compares the zoom's steps)
                 out = add_zoom_forces(run, table, zoom_top=args.top, steps_per_contact=n,
-                                      settle_time=settle, adaptive=kind == "adaptive")
+                                      settle_time=settle, adaptive=kind == "adaptive",
+                                      loaded="zoom")
                 cpus[kind, n].append(time.process_time() - start)
                 results[kind, n] = (out.isel(impact=rows), float(np.median(cpus[kind, n])))
         ref_key = ("fixed", max(args.fixed))
