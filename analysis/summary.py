@@ -742,9 +742,13 @@ def _parameters(ds: xr.Dataset, axes=None) -> dict:
     return out
 
 
-def _entry(run_path, impact_path, settings: dict, axes=None) -> tuple[dict, dict]:
-    """(parameters, numbers) of one run: stored in its table, else computed from the files."""
+def _entry(run_path, impact_path, settings: dict, axes=None, own=()) -> tuple[dict, dict]:
+    """(parameters, numbers) of one run: stored in its table, else computed from the files;
+    the ``analysis`` keys ``own`` from the run file's own attributes (:func:`summarize`)."""
     with _READ_LOCK:
+        if own:
+            with xr.open_dataset(run_path) as ds:
+                settings = _own_settings(ds.attrs, settings, own)
         table = None
         if impact_path is not None:
             with xr.open_dataset(impact_path) as ds:
@@ -761,6 +765,17 @@ def _entry(run_path, impact_path, settings: dict, axes=None) -> tuple[dict, dict
         if missing:
             raise ValueError(f"{impact_path}: scalar coordinate {missing[0]} is missing")
     return parameters, point_numbers(run, table, settings)
+
+
+def _own_settings(attrs, settings: dict, own) -> dict:
+    """``settings`` with the keys ``own`` taken from a run file's ``analysis.<key>``
+    attributes where it has them (a null setting is not stored: the study's value stands)."""
+    out = dict(settings)
+    for key in own:
+        value = attrs.get(f"analysis.{key}")
+        if value is not None:
+            out[key] = value.item() if isinstance(value, np.generic) else value
+    return out
 
 
 def _checked(parameters: dict, axes, path) -> dict:
@@ -787,13 +802,13 @@ def _scheduler(scheduler, num_workers):
     return Client(scheduler), {}
 
 
-def _collect(pairs, settings, axes, scheduler, num_workers) -> list:
+def _collect(pairs, settings, axes, scheduler, num_workers, own=()) -> list:
     """:func:`_entry` of every (run, table) pair, on the chosen dask scheduler."""
     import dask
 
     context, compute_kw = _scheduler(scheduler, num_workers)
     tasks = [dask.delayed(_entry, pure=True)(str(run), None if table is None else str(table),
-                                             settings, axes) for run, table in pairs]
+                                             settings, axes, own) for run, table in pairs]
     with context:
         return list(dask.compute(*tasks, **compute_kw))
 
@@ -864,8 +879,9 @@ def _assemble(entries: list, levels: np.ndarray, models: list[int], axes=None) -
     return xr.Dataset(data, coords=coords)
 
 
-def _across_models(summary: xr.Dataset, method_tol: float) -> xr.Dataset:
-    """method_ratio, static_deflection_ratio and the method check of peak_force_flagged."""
+def _across_models(summary: xr.Dataset, method_tol) -> xr.Dataset:
+    """method_ratio, static_deflection_ratio and the method check of peak_force_flagged
+    (``method_tol``: a number, or a DataArray over the grid's axes)."""
     model = list(summary["model"].values)
 
     def of(name, code):
@@ -935,8 +951,8 @@ def _checked_settings(settings, settle, force_levels, method_tol) -> dict:
 def summarize(run_files, impact_files, scheduler=None, num_workers: int | None = None,
               settle: float | None = None, force_levels: Sequence[float] | None = None,
               settings: dict | None = None, method_tol: float | None = None,
-              models: Sequence[str] | None = None, axes: Sequence[str] | None = None
-              ) -> xr.Dataset:
+              models: Sequence[str] | None = None, axes: Sequence[str] | None = None,
+              own_settings: Sequence[str] = ()) -> xr.Dataset:
     """Summarise a study over its swept parameters and its contact models.
 
     Parameters
@@ -969,6 +985,10 @@ def summarize(run_files, impact_files, scheduler=None, num_workers: int | None =
     axes : sequence of str, optional
         The grid's axes (coordinate names, in order; ``study_axes``); default: every numeric
         scalar coordinate of the files, in the order of the first file.
+    own_settings : sequence of str, optional
+        ``analysis`` keys whose value each run takes from its own file (its attribute
+        ``analysis.<key>``) instead of ``settings``: the study's swept analysis keys (a swept
+        ``method_tol`` is then read per grid point from its axis ``analysis_method_tol``).
 
     Returns
     -------
@@ -991,8 +1011,9 @@ def summarize(run_files, impact_files, scheduler=None, num_workers: int | None =
                           strict=True))
     wanted = sorted(MODELS.index(m) for m in (models if models else
                                               [m for m, p in runs.items() if p]))
+    own = tuple(key for key in own_settings if key != "force_levels")  # (the level dimension)
     entries = _collect(pairs, settings, None if axes is None else list(axes), scheduler,
-                       num_workers)
+                       num_workers, own)
     entries = [entry for entry in entries if int(entry[1]["model"]) in wanted]
     summary = _assemble(entries, np.asarray(settings["force_levels"]), wanted, axes)
     # a failed run is missing everywhere for its model, whatever its impact table says
@@ -1002,7 +1023,10 @@ def summarize(run_files, impact_files, scheduler=None, num_workers: int | None =
             continue
         summary[name] = summary[name].where(
             ~(failed if scope == "model" else failed.sel(model=MODELS.index(scope), drop=True)))
-    summary = _across_models(summary, settings["method_tol"])
+    method_tol = settings["method_tol"]
+    if "method_tol" in own and "analysis_method_tol" in summary.coords:
+        method_tol = summary["analysis_method_tol"]  # (per grid point)
+    summary = _across_models(summary, method_tol)
     grid = [d for d in summary.dims if d not in _ORDER]
     summary = _describe(summary.transpose(*grid, *[d for d in _ORDER if d in summary.dims]))
     _provenance(summary, settings["settle"], settings["method_tol"], settings_in or {})

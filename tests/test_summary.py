@@ -491,3 +491,31 @@ def test_the_summary_file_keeps_the_analysis_settings_booleans_as_integers(study
     with xr.open_dataset(path) as stored:
         assert stored.attrs["analysis_zoom_adaptive"] == 1
         assert stored.attrs["analysis_zero_tol"] == 1e-4
+
+
+def test_a_swept_analysis_key_is_read_from_each_run(tmp_path):
+    """Two twins with the same force history, made with settle 0.5 and 2 revolutions (a swept
+    ``analysis.settle``): with ``own_settings=["settle"]`` each point's steady window starts
+    where its own run says, so the 5 kN force at 1.19 revolutions is steady at 0.5 and
+    start-up at 2; with the study's one value (1) both would read it as steady."""
+    omega0, dt = 50.0, 1e-4
+    force = np.full((5001, 16), 100.0)
+    force[1500, 8] = 5000.0  # t = 0.15 s: 1.19 revolutions
+    files = []
+    for settle in (0.5, 2.0):
+        run = make_compliant_run(force, output_dt=dt, omega0=omega0)
+        run = run.assign_coords(analysis_settle=("analysis_settle", [settle]))
+        run.attrs["analysis.settle"] = settle
+        files.append(write_netcdf(run, tmp_path / f"twin_{settle}.nc"))
+    axes = ["clearance", "mu", "omega0", "e_N", "analysis_settle"]
+    common = dict(scheduler="synchronous", settings={"settle": 1.0}, models=["compliant"],
+                  axes=axes)
+    own = summarize({"compliant": files}, {}, own_settings=["settle"], **common)
+    peak = own["peak_force"].sel(model=COMPLIANT, race=1).squeeze()
+    assert float(peak.sel(analysis_settle=0.5)) == 5000.0
+    assert float(peak.sel(analysis_settle=2.0)) == 100.0
+    rev = 2 * np.pi / omega0
+    np.testing.assert_allclose(own["settle_time"].squeeze().values, [0.5 * rev, 2 * rev],
+                               atol=dt)
+    shared = summarize({"compliant": files}, {}, **common)
+    assert (shared["peak_force"].sel(model=COMPLIANT, race=1) == 5000.0).all()

@@ -18,6 +18,7 @@ rule summarize:
         axes=AXIS_NAMES,
         scheduler=config["study"]["dask_scheduler"],
         analysis=config["analysis"],
+        own_settings=SWEPT_ANALYSIS,
         revolutions=config["study"]["revolutions"],
     threads: 2
     resources:

@@ -108,6 +108,8 @@ if workflow.is_main_process:
         print(f"WARNING: {line}", file=sys.stderr)
 PARAMS = registry()
 AXIS_NAMES = [PARAMS[key].name for key in AXES]  # coordinates and summary dimensions, in order
+# swept analysis keys: the summary reads each run's own value (analysis.summary.summarize)
+SWEPT_ANALYSIS = [key.split(".", 1)[1] for key in AXES if key.startswith("analysis.")]
 RES = config["study"]["results_dir"].rstrip("/")
 # Logs and benchmark tables are written while a job runs; they live outside the results folder,
 # so that every file under results/ is a finished product.

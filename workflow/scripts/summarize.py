@@ -26,7 +26,7 @@ with job_log(sm.log[0]):
                         scheduler=sm.params.scheduler, num_workers=sm.threads,
                         settle=settings["settle"], force_levels=settings["force_levels"],
                         settings=settings, models=list(sm.params.runs),
-                        axes=list(sm.params.axes))
+                        axes=list(sm.params.axes), own_settings=list(sm.params.own_settings))
     summary.attrs["study_axes"] = " ".join(sm.params.axes)
     if sm.params.revolutions is not None:
         summary.attrs["study_revolutions"] = float(sm.params.revolutions)
