@@ -351,3 +351,12 @@ def test_a_fixed_clearance_class_replaces_a_swept_clearance_list():
         assert run.point["model.clearance"] == c3
         # as the simulate job sees it, after validating the run's configuration again
         assert simcore.validate_config(run.config)["model"]["clearance"] == c3
+
+
+def test_a_study_without_nonsmooth_runs_is_refused_naming_the_key():
+    """The twins and the reference run's figures are made from the nonsmooth runs: a study of
+    compliant runs alone stops before any job; the order of the models does not matter."""
+    with pytest.raises(simcore.ConfigError, match=r"^study\.models: \['compliant'\] is not"):
+        plan.study_axes(_study("study.models=[compliant]"))
+    runs = plan.plan_runs(_study("study.models=[compliant, nonsmooth]"))
+    assert {run.model for run in runs} == {"nonsmooth", "compliant"}

@@ -111,6 +111,11 @@ def study_axes(cfg: Mapping[str, Any]) -> dict[str, list]:
         swept = sweep_axes(cfg.get("sweep", {}))
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
+    models = list(cfg["study"].get("models", ["nonsmooth"]))
+    if "nonsmooth" not in models:
+        raise ConfigError(f"study.models: {models!r} is not allowed; allowed: a list with "
+                          "nonsmooth (each twin and the reference run's figures are made from "
+                          "a grid point's nonsmooth run)")
     if "solver.t_end" in swept and cfg["study"].get("revolutions") is not None:
         raise ConfigError("sweep.solver.t_end: not allowed while study.revolutions sets each "
                           "run's length; allowed: study.revolutions: null")

@@ -217,9 +217,10 @@ def _reference_point():
 
 REFERENCE = _reference_point()
 REFERENCE_NAME = plan.run_name(REFERENCE)
-REFERENCE_MARKER = MARKER.format(batch=BATCH_OF[(REFERENCE_NAME, MODELS[0])])
+# (the reference run's figures read the nonsmooth run, whatever the order of study.models)
+REFERENCE_MARKER = MARKER.format(batch=BATCH_OF[(REFERENCE_NAME, "nonsmooth")])
 REFERENCE_FILES = dict(zip(("run", "impacts"), next(
-    run.paths(RES) for run in RUNS if run.name == REFERENCE_NAME and run.model == MODELS[0]),
+    run.paths(RES) for run in RUNS if run.name == REFERENCE_NAME and run.model == "nonsmooth"),
     strict=True))
 
 
