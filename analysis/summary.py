@@ -1065,7 +1065,18 @@ def _where(da: xr.DataArray) -> str:
     if not np.isfinite(values).any():
         return ""
     idx = np.unravel_index(np.nanargmax(values), values.shape)
-    return ", ".join(f"{d}={float(da[d].values[i]):g}" for d, i in zip(da.dims, idx, strict=True))
+    return ", ".join(f"{d}={_axis_value(da[d], i)}" for d, i in zip(da.dims, idx, strict=True))
+
+
+def _axis_value(coord: xr.DataArray, i: int) -> str:
+    """The value of a grid axis at index ``i``: a category's name (``flag_meanings``), else the
+    number."""
+    value = coord.values[i]
+    names = str(coord.attrs.get("flag_meanings", "")).split()
+    codes = list(np.asarray(coord.attrs.get("flag_values", range(len(names)))).ravel())
+    if names and value in codes and len(codes) == len(names):
+        return names[codes.index(value)]
+    return f"{float(value):g}"
 
 
 def _table_rows(summary: xr.Dataset, models: list[int]) -> list:

@@ -519,3 +519,16 @@ def test_a_swept_analysis_key_is_read_from_each_run(tmp_path):
                                atol=dt)
     shared = summarize({"compliant": files}, {}, **common)
     assert (shared["peak_force"].sel(model=COMPLIANT, race=1) == 5000.0).all()
+
+
+def test_the_table_names_a_category_axis_by_its_name_not_its_code():
+    """"largest at" of the summary table: a category axis (codes with ``flag_values`` /
+    ``flag_meanings``, as a swept clearance class) by name, a number as a number."""
+    from analysis.summary import _where
+
+    cls = xr.DataArray(np.array([0, 1, 2], np.int8), dims="clearance_class",
+                       attrs={"flag_values": np.array([0, 1, 2], np.int8),
+                              "flag_meanings": "CN C3 C4"})
+    da = xr.DataArray([[1.0, 5.0, 2.0]], dims=("mu", "clearance_class"),
+                      coords={"mu": [0.01], "clearance_class": cls})
+    assert _where(da) == "mu=0.01, clearance_class=C3"
