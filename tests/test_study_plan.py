@@ -360,3 +360,15 @@ def test_a_study_without_nonsmooth_runs_is_refused_naming_the_key():
         plan.study_axes(_study("study.models=[compliant]"))
     runs = plan.plan_runs(_study("study.models=[compliant, nonsmooth]"))
     assert {run.model for run in runs} == {"nonsmooth", "compliant"}
+
+
+def test_a_study_whose_runs_end_in_their_start_up_is_refused():
+    """With study.revolutions null and a constant drive, a run of 0.05 s at 100 rad/s turns
+    0.8 revolutions, not more than analysis.settle (1): its summary would hold nothing steady,
+    so the study stops before any job, naming the keys."""
+    cfg = _study("study.revolutions=null", "solver.t_end=0.05", sweep={"omega0": [100.0]})
+    with pytest.raises(simcore.ConfigError, match=r"solver\.t_end: 0\.05 s is 0\.796 crank "
+                                                   r"revolutions, not more than analysis\.settle"):
+        plan.check_runs(plan.plan_runs(cfg))
+    longer = _study("study.revolutions=null", "solver.t_end=0.07", sweep={"omega0": [100.0]})
+    plan.check_runs(plan.plan_runs(longer))  # (1.11 revolutions)

@@ -377,6 +377,7 @@ def check_runs(runs: list[Run]) -> list[str]:
     for run in runs:
         try:
             check_consistency(run.config)
+            _check_steady_window(run.config)
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 found = check_run_of_config(run.config)
@@ -386,6 +387,21 @@ def check_runs(runs: list[Run]) -> list[str]:
             if text not in messages:
                 messages.append(text)
     return messages
+
+
+def _check_steady_window(cfg: Mapping[str, Any]) -> None:
+    """Refuse a constant-drive run that ends within its start-up (``analysis.settle``): its
+    summary would hold no steady number. (A free crank slows down by an amount the run
+    itself finds.)"""
+    model, solver, settle = cfg["model"], cfg["solver"], cfg["analysis"]["settle"]
+    if model["drive"] != "constant":
+        return
+    revolutions = solver["t_end"] * abs(model["omega0"]) / (2.0 * math.pi)
+    if revolutions <= settle:
+        raise ConfigError(f"solver.t_end: {solver['t_end']!r} s is {revolutions:.3g} crank "
+                          f"revolutions, not more than analysis.settle ({settle}); allowed: a "
+                          "run longer than its start-up (raise solver.t_end, or lower "
+                          "analysis.settle)")
 
 
 def label(point: Mapping[str, Any]) -> str:
