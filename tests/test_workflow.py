@@ -63,6 +63,15 @@ def test_dry_run_smoke_study():
     assert job_counts(out)["simulate"] == 4
 
 
+def test_a_setting_null_by_default_can_be_swept():
+    """analysis.life_load_rating is null unless given: sweeping it plans the study (the
+    reference point is chosen over the other axes)."""
+    proc = snakemake("-n", "--forceall", "--configfile", "config/smoke.yaml", "--config",
+                     "sweep={'analysis.life_load_rating': [10000.0, 20000.0]}")
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    assert "study: 8 grid points x 2 models" in proc.stdout + proc.stderr
+
+
 def test_batches_are_sized_by_work_whatever_the_axes():
     """The same 8 runs along other axes: one job per run when each run exceeds
     study.batch_seconds, one job for all (at least four) when they fit in it."""

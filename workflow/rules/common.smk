@@ -205,6 +205,8 @@ def _reference_point():
             param = PARAMS[key]
             section, name = key.split(".", 1)
             target = config[section][name]
+            if target is None:
+                continue  # (a setting null in the model section: no value to be near)
             if param.kind == "category":
                 distance += 0.0 if value == target else 1.0
             else:
