@@ -68,10 +68,13 @@ carry no fill value.
 from __future__ import annotations
 
 import datetime
+import hashlib
 import json
 import threading
 from contextlib import nullcontext
 from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -661,9 +664,21 @@ def _levels(force_levels) -> np.ndarray:
     return np.asarray(sorted(float(v) for v in force_levels), dtype=float)
 
 
+@lru_cache(maxsize=1)
+def _code_fingerprint() -> str:
+    """A digest of the analysis package's sources: numbers stored by other code (a table made
+    before an edit of the analysis) are computed again, not reused."""
+    digest = hashlib.sha1()
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        digest.update(path.name.encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
 def _settings_key(settings: dict) -> str:
-    """The settings the numbers depend on, as a canonical string."""
-    canon = {}
+    """The settings the numbers depend on, and the code that computes them, as a canonical
+    string."""
+    canon = {"code": _code_fingerprint()}
     for key in _NUMBER_SETTINGS:
         value = settings.get(key)
         if key == "force_levels":

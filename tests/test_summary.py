@@ -532,3 +532,18 @@ def test_the_table_names_a_category_axis_by_its_name_not_its_code():
     da = xr.DataArray([[1.0, 5.0, 2.0]], dims=("mu", "clearance_class"),
                       coords={"mu": [0.01], "clearance_class": cls})
     assert _where(da) == "mu=0.01, clearance_class=C3"
+
+
+def test_numbers_stored_by_other_analysis_code_are_computed_again(monkeypatch):
+    """A table's stored numbers carry the digest of the analysis code that computed them; after
+    an edit of the analysis (another digest) they are not reused."""
+    from analysis import summary as module
+
+    numbers = {"model": NONSMOOTH, "failed": 0.0}
+    for name, (_, scope, _, _) in module._VARIABLES.items():
+        if scope in ("model", "nonsmooth"):
+            numbers.setdefault(name, 1.0)
+    attrs = module.stored_attributes(numbers, {"settle": 1.0})
+    assert module._from_stored(attrs, {"settle": 1.0}) is not None
+    monkeypatch.setattr(module, "_code_fingerprint", lambda: "edited")
+    assert module._from_stored(attrs, {"settle": 1.0}) is None
