@@ -678,21 +678,14 @@ def figure_layout(summary_ds: xr.Dataset, figure_axes=None, figure_fixed=None,
         One line naming the setting: an axis that is not a grid axis, named twice, or held at a
         value the grid does not have.
     """
+    from simcore.study.plan import check_figure_settings
+
     grid = grid_axes(summary_ds)
     swept = [a for a in grid if summary_ds.sizes[a] > 1]
     held = {a: float(summary_ds[a].values[0]) for a in grid if a not in swept}
     fixed_in = dict(figure_fixed or {})
-    for name in list(figure_axes or []) + list(fixed_in):
-        if name not in grid:
-            raise ValueError(f"study.figure_axes: {name!r} is not allowed; allowed: the swept "
-                             f"axes {', '.join(grid)}")
-    if figure_axes:
-        axes = list(figure_axes)
-        if len(set(axes)) != len(axes) or not 1 <= len(axes) <= 4 or set(axes) & set(fixed_in):
-            raise ValueError(f"study.figure_axes: {axes!r} is not allowed; allowed: 1 to 4 "
-                             "different swept axes, none of them in study.figure_fixed")
-        axes = [a for a in axes if a in swept]
-    else:
+    axes = check_figure_settings({a: summary_ds.sizes[a] for a in grid}, figure_axes, fixed_in)
+    if not figure_axes:
         axes = [a for a in swept if a not in fixed_in][:4]
     fixed = {}
     for a in swept:

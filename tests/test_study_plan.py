@@ -372,3 +372,18 @@ def test_a_study_whose_runs_end_in_their_start_up_is_refused():
         plan.check_runs(plan.plan_runs(cfg))
     longer = _study("study.revolutions=null", "solver.t_end=0.07", sweep={"omega0": [100.0]})
     plan.check_runs(plan.plan_runs(longer))  # (1.11 revolutions)
+
+
+def test_figure_settings_are_checked_on_the_grid_before_any_job():
+    """study.figure_axes naming only axes of one value, or an axis both drawn and held, is
+    refused naming the key; otherwise the swept named axes come back in order."""
+    sizes = {"clearance": 2, "mu": 2, "omega0": 1, "e_N": 1}
+    assert plan.check_figure_settings(sizes, ["mu", "omega0", "clearance"]) == ["mu",
+                                                                                "clearance"]
+    assert plan.check_figure_settings(sizes) == []
+    with pytest.raises(simcore.ConfigError, match=r"^study\.figure_axes: .*more than one value"):
+        plan.check_figure_settings(sizes, ["omega0", "e_N"])
+    with pytest.raises(simcore.ConfigError, match=r"^study\.figure_axes: .*study\.figure_fixed"):
+        plan.check_figure_settings(sizes, ["clearance", "mu"], {"mu": 0.0})
+    with pytest.raises(simcore.ConfigError, match=r"^study\.figure_axes: 'speed' is not"):
+        plan.check_figure_settings(sizes, ["speed"])

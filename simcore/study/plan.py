@@ -389,6 +389,42 @@ def check_runs(runs: list[Run]) -> list[str]:
     return messages
 
 
+def check_figure_settings(sizes: Mapping[str, int], figure_axes=None, figure_fixed=None
+                          ) -> list[str]:
+    """The drawn axes of the study figures (``study.figure_axes``, ``study.figure_fixed``) on
+    a grid of axes ``{name: number of values}``, checked before any job.
+
+    Returns
+    -------
+    list of str
+        The named figure axes that are swept (more than one value), in order; [] when
+        ``figure_axes`` is not given.
+
+    Raises
+    ------
+    ConfigError
+        One line: an axis not of the grid, named twice, more than 4, both drawn and held, or
+        only axes of one value.
+    """
+    fixed = dict(figure_fixed or {})
+    named = list(figure_axes or [])
+    for name in named + list(fixed):
+        if name not in sizes:
+            raise ConfigError(f"study.figure_axes: {name!r} is not allowed; allowed: the "
+                              f"swept axes {', '.join(sizes)}")
+    if not named:
+        return []
+    if len(set(named)) != len(named) or not 1 <= len(named) <= 4 or set(named) & set(fixed):
+        raise ConfigError(f"study.figure_axes: {named!r} is not allowed; allowed: 1 to 4 "
+                          "different swept axes, none of them in study.figure_fixed")
+    swept = [name for name in named if sizes[name] > 1]
+    if not swept:
+        raise ConfigError(f"study.figure_axes: {named!r} is not allowed; allowed: at least one "
+                          "axis with more than one value (swept: "
+                          + ", ".join(n for n, k in sizes.items() if k > 1) + ")")
+    return swept
+
+
 def _check_steady_window(cfg: Mapping[str, Any]) -> None:
     """Refuse a constant-drive run that ends within its start-up (``analysis.settle``): its
     summary would hold no steady number. (A free crank slows down by an amount the run

@@ -257,6 +257,11 @@ FIGURE_FIXED = {_axis_name(key, "study.figure_fixed"): _stored(key, value, "stud
                 for key, value in config["study"]["figure_fixed"].items()}
 REFERENCE_COORDS = {PARAMS[key].name: _stored(key, value, "reference")
                     for key, value in REFERENCE.items()}
+try:  # (the figures job checks them again on the summary)
+    plan.check_figure_settings({PARAMS[key].name: len(values) for key, values in AXES.items()},
+                               FIGURE_AXES, FIGURE_FIXED)
+except simcore.ConfigError as exc:
+    raise _invalid(exc) from None
 
 
 def failed_points(summary_path):
