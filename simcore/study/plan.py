@@ -38,10 +38,11 @@ MODELS = ("nonsmooth", "compliant")
 #: Folders of the run files and impact tables of each model, under ``study.results_dir``.
 FOLDERS = {"nonsmooth": ("runs", "impacts"),
            "compliant": ("runs_compliant", "impacts_compliant")}
-#: Variables of ``study.keep`` a compliant twin does not write: the restart state that only a
-#: compliant zoom reads (a twin is not zoomed) and the nonsmooth free approach speed; so its file
-#: (the same samples, plus ``F_N``) stays smaller than the nonsmooth run's.
-TWIN_DROPS = ("position", "angle", "velocity", "angular_velocity", "vn_free")
+#: Variables of ``study.keep`` a compliant twin does not write: the velocities of the restart
+#: state, which only a compliant zoom reads (a twin is not zoomed), and the nonsmooth free
+#: approach speed; so its file (the same samples, plus ``F_N``) stays smaller than the
+#: nonsmooth run's. It keeps the positions: its rating life reads the balls' places.
+TWIN_DROPS = ("velocity", "angular_velocity", "vn_free")
 #: A base axis that another key determines (``{base axis: key}``): where the key is swept, the
 #: base axis is left out of the study's axes and each run's value comes from the key
 #: (:func:`resolve_determined`), e.g. the clearance of a clearance class; where the key is set
