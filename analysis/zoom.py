@@ -407,7 +407,8 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
         End of the start-up [s]; -inf (default): the whole run is steady.
     method_tol : float
         A zoomed row whose |F_max / F_max_zoom - 1| exceeds it gets the flag bit
-        ``method_disagrees`` and ``trusted`` = 0 [-] (``analysis.method_tol``).
+        ``method_disagrees`` and ``trusted`` = 0 [-] (``analysis.method_tol``); a zoom that
+        flagged one of its steps (``zoom_flagged``) gives no verdict.
     adaptive : bool
         Adaptive steps (``analysis.zoom_adaptive``): each zoom's steps chosen by the error
         control and cut at contact onsets, at most its Hertz contact time over
@@ -471,7 +472,9 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
         "method_tol x F_max): a restart starts those contacts undeformed, so no zoom verdict "
         "(the grid point's compliant twin checks the number)",
         "flag_values": np.array([0, 1], np.int8), "flag_meanings": "no yes"})
-    disagree = method_disagrees(out["F_max"].values, np.where(at_load, np.nan, F_zoom),
+    # no verdict from a zoom that started under load or flagged one of its own steps
+    disagree = method_disagrees(out["F_max"].values,
+                                np.where(at_load | (zoom_flagged > 0), np.nan, F_zoom),
                                 method_tol)
     if "flags" in out:
         flags = np.asarray(out["flags"].values).copy()

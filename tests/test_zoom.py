@@ -201,6 +201,32 @@ def test_a_zoom_that_contradicts_the_paper_flags_the_impact_and_an_isolated_one_
     assert not np.any(loose["flags"].values & bit)
 
 
+def test_a_zoom_that_flagged_a_step_gives_no_verdict(steel_run, monkeypatch):
+    """The pinch whose zoom contradicts the paper (above) keeps its F_max_zoom but gets no
+    ``method_disagrees`` when its zoom flagged one of its own steps (not converged, energy
+    created, an integrity check): an unconverged reference decides nothing."""
+    from analysis import FLAG, KIND
+    from analysis import zoom as module
+
+    imp = analysis.extract_impacts(steel_run)
+    pinch = np.flatnonzero((imp["kind"].values == KIND["pinch"]) & np.isfinite(imp["F_max"]))
+    row = int(pinch[np.argmax(imp["F_max"].values[pinch])])
+    honest = add_zoom_forces(steel_run, imp.isel(impact=[row]), zoom_top=1, method_tol=0.2)
+    assert honest["flags"].values[0] & FLAG["method_disagrees"]
+    zoom_numbers = module._zoom_numbers
+
+    def flagged(*args, **kwargs):
+        out, steps, smallest = zoom_numbers(*args, **kwargs)
+        return {r: (force, time, 1) for r, (force, time, _) in out.items()}, steps, smallest
+
+    monkeypatch.setattr(module, "_zoom_numbers", flagged)
+    table = add_zoom_forces(steel_run, imp.isel(impact=[row]), zoom_top=1, method_tol=0.2)
+    assert table["zoom_flagged"].values[0] == 1
+    assert table["F_max_zoom"].values[0] == honest["F_max_zoom"].values[0]
+    assert not table["flags"].values[0] & FLAG["method_disagrees"]
+    assert table.attrs["n_method_disagrees"] == 0
+
+
 def test_adaptive_zoom_of_an_impact_matches_the_fine_fixed_zoom(steel_run):
     """The study's adaptive zoom (largest step and output interval t_Hertz / 5) of an isolated
     single-ball impact and of a pinch gives F_max_zoom within 1 % of a fixed zoom at t_Hertz /
