@@ -465,13 +465,8 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
                 F_zoom[row], t_zoom[row], dt_zoom[row] = force, duration, plan[1]
                 dt_smallest[row] = smallest
                 zoom_flagged[row] = flag
-    _zoom_columns(out, F_zoom, t_zoom, (dt_zoom, dt_smallest), zoom_flagged, adaptive)
-    out["zoom_loaded_start"] = ("impact", at_load.astype(np.int8), {
-        "units": "1", "long_name": "1 where the impact was chosen for a compliant zoom but its "
-        "ball carried load in the state the zoom would start from (rigid contact force above "
-        "method_tol x F_max): a restart starts those contacts undeformed, so no zoom verdict "
-        "(the grid point's compliant twin checks the number)",
-        "flag_values": np.array([0, 1], np.int8), "flag_meanings": "no yes"})
+    _zoom_columns(out, F_zoom, t_zoom, (dt_zoom, dt_smallest), (zoom_flagged, at_load),
+                  adaptive)
     # no verdict from a zoom that started under load or flagged one of its own steps
     disagree = method_disagrees(out["F_max"].values,
                                 np.where(at_load | (zoom_flagged > 0), np.nan, F_zoom),
@@ -495,10 +490,12 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
     return out
 
 
-def _zoom_columns(out: xr.Dataset, F_zoom, t_zoom, steps, zoom_flagged, adaptive) -> None:
+def _zoom_columns(out: xr.Dataset, F_zoom, t_zoom, steps, marks, adaptive) -> None:
     """The zoom columns of the impact table, each with its units and meaning; ``steps``: the
-    zooms' (largest) steps and their smallest steps taken [s]."""
+    zooms' (largest) steps and their smallest steps taken [s]; ``marks``: the rows whose zoom
+    flagged a step, and those not zoomed for a loaded ball."""
     dt_zoom, dt_smallest = steps
+    zoom_flagged, at_load = marks
     out["F_max_zoom"] = ("impact", F_zoom, {
         "units": "N", "long_name": "largest contact force of the impact's ball during the "
         "impact (the ball's contact episode that contains the impact contact's first closing) "
@@ -523,3 +520,9 @@ def _zoom_columns(out: xr.Dataset, F_zoom, t_zoom, steps, zoom_flagged, adaptive
         "(not converged, energy created, or an integrity check such as an indentation beyond "
         "solver.max_indentation, Hertz's range)", "flag_values": np.array([0, 1], np.int8),
         "flag_meanings": "no yes"})
+    out["zoom_loaded_start"] = ("impact", np.asarray(at_load, dtype=np.int8), {
+        "units": "1", "long_name": "1 where the impact was chosen for a compliant zoom but its "
+        "ball carried load in the state the zoom would start from (rigid contact force above "
+        "method_tol x F_max): a restart starts those contacts undeformed, so no zoom verdict "
+        "(the grid point's compliant twin checks the number)",
+        "flag_values": np.array([0, 1], np.int8), "flag_meanings": "no yes"})
