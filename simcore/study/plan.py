@@ -105,8 +105,9 @@ def study_axes(cfg: Mapping[str, Any]) -> dict[str, list]:
     Raises
     ------
     ConfigError
-        One line naming the sweep key (see :func:`simcore.config.parameters.sweep_axes`), or
-        ``sweep.solver.t_end`` swept while ``study.revolutions`` sets each run's length.
+        One line naming the sweep key (see :func:`simcore.config.parameters.sweep_axes`),
+        ``sweep.solver.t_end`` swept while ``study.revolutions`` sets each run's length, or
+        ``study.models`` without ``nonsmooth``.
     """
     try:
         swept = sweep_axes(cfg.get("sweep", {}))
@@ -356,8 +357,9 @@ def check_size(cfg: Mapping[str, Any], axes: Mapping[str, list], cores: int) -> 
 
 
 def check_runs(runs: list[Run]) -> list[str]:
-    """The checks that need several keys of each run (:func:`simcore.config.check_consistency`)
-    and the limits known before a run (step size, memory, contact step:
+    """The checks that need several keys of each run (:func:`simcore.config.check_consistency`,
+    a constant-drive run longer than its start-up) and the limits known before a run (step
+    size, memory, contact step:
     :func:`simcore.config.limits.check_run_of_config`), for every run of the study.
 
     Returns
