@@ -395,6 +395,7 @@ def hertz_contact_time(model: dict, speed: float | None = None) -> float:
         Impact speed [m/s] to use instead of the crank pin's (e.g. an impact's approach speed,
         for the step of a compliant zoom on it); floored at 1e-3 m/s.
     """
+    from ..kernels.hertz import hertz_impact_time
     from ..model.bearing import BearingGeometry
     from ..model.hertz import hertz_stiffness
 
@@ -406,8 +407,7 @@ def hertz_contact_time(model: dict, speed: float | None = None) -> float:
     if speed is None:
         speed = max(abs(float(model["omega0"])) * float(model["crank_length"]), 1.0)
     speed = max(float(speed), 1e-3)
-    delta_max = (5.0 * float(model["ball_mass"]) * speed ** 2 / (4.0 * stiffness)) ** 0.4
-    return 2.94 * delta_max / speed
+    return hertz_impact_time.py_func(1.0 / float(model["ball_mass"]), stiffness, speed)
 
 
 def check_contact_step(cfg: dict) -> str | None:

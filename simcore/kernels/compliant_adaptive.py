@@ -53,6 +53,7 @@ import numpy as np
 from .compliant_step import commit_step, compliant_step_into, write_sample
 from .contact import contact_rows_cached
 from .generalized_alpha import alpha_coefficients
+from .hertz import hertz_impact_time
 from .jit import loop_kernel, step_kernel
 
 #: a step's size changes at most by these factors from one step to the next ...
@@ -66,8 +67,6 @@ KEEP_LOW = 0.95
 GROWTH_MIN = 1.5
 #: a smooth stage that does not converge is redone at this fraction of its size
 FAILED_SHRINK = 0.25
-#: an undamped Hertz impact lasts this many times delta_max over the approach speed
-HERTZ_TIME = 2.94
 #: a step is redone at most this many times for the onset speeds of its closing contacts
 MAX_ONSET_REDOS = 3
 
@@ -109,8 +108,8 @@ def error_ratio(acc_n, acc1, h, c_e, weight, err_tol):
 @step_kernel
 def onset_step(k, q, ma, speed, onset_steps, hw, trig):
     """The step that resolves the onset of contact ``k`` at approach speed ``speed`` [m/s]:
-    its undamped Hertz contact time 2.94 delta_max / v, delta_max = (5 m v^2 / (4 K))^(2/5),
-    over ``onset_steps`` [s]. m is the contact's effective mass 1 / (w_N M^-1 w_N^T) at ``q``
+    its undamped Hertz contact time (:func:`~.hertz.hertz_impact_time`) over ``onset_steps``
+    [s]. m is the contact's effective mass 1 / (w_N M^-1 w_N^T) at ``q``
     (its normal row through the two bodies' masses, the joints left out), K its Hertz
     stiffness."""
     contact_rows_cached(q, k, ma.ct_type, ma.ct_body, ma.ct_geom, hw.wN, hw.wT, trig)
@@ -122,8 +121,7 @@ def onset_step(k, q, ma, speed, onset_steps, hw, trig):
         for a in range(3):
             w = hw.wN[3 * s + a]
             inv_m += w * w / ma.mdiag[3 * body + a]
-    delta = (1.25 * speed * speed / (inv_m * ma.ct_hertz[k, 0])) ** 0.4
-    return HERTZ_TIME * delta / speed / onset_steps
+    return hertz_impact_time(inv_m, ma.ct_hertz[k, 0], speed) / onset_steps
 
 
 @step_kernel

@@ -66,6 +66,20 @@ def contact_records(nc):
     return np.zeros((RECORD_ROWS, nc))
 
 
+#: an undamped Hertz impact lasts this many times its largest indentation over its approach speed
+HERTZ_TIME = 2.94
+
+
+@step_kernel
+def hertz_impact_time(inv_mass, K, speed):
+    """Duration [s] of an undamped Hertz impact at approach speed ``speed`` [m/s] of a body of
+    inverse effective mass ``inv_mass`` [1/kg] on a contact of stiffness ``K`` [N m^-1.5]:
+    2.94 delta_max / v with delta_max = (5 m v^2 / (4 K))^(2/5). (Python code calls its
+    ``py_func``: the stability limits and the zoom's step take it from here too.)"""
+    delta_max = (1.25 * speed * speed / (inv_mass * K)) ** 0.4
+    return HERTZ_TIME * delta_max / speed
+
+
 @kernel
 def normal_force(delta, delta_dot, K, chi, v_pre):
     """Hertz force with hysteresis damping and its partial derivatives.
