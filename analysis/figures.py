@@ -21,6 +21,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from simcore.model.driver import CONTACT_MODELS  # noqa: E402
+
 from .filtering import impact_masks, split_impulses, zero_threshold  # noqa: E402
 from .impacts import STUDY_PARAMETERS  # noqa: E402
 
@@ -590,7 +592,6 @@ def plot_reference(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, outdir, se
 #: grid gets a page that says so (choose study.figure_axes, or fix more axes).
 MAX_PANELS = 36
 MAX_CELLS = 30
-_MODEL_NAMES = ("nonsmooth", "compliant")
 _MODEL_TITLES = {0: "the paper's method (nonsmooth)", 1: "compliant model (reference)"}
 
 
@@ -746,10 +747,10 @@ def _study_quantities(summary_ds):
         return da if m is None else da.sel(model=m, drop=True)
 
     def suffix(m):
-        return "" if m is None else f"_{_MODEL_NAMES[m]}"
+        return "" if m is None else f"_{CONTACT_MODELS[m]}"
 
     def who(m):
-        return "" if m is None else f", {_MODEL_NAMES[m]}"
+        return "" if m is None else f", {CONTACT_MODELS[m]}"
 
     for name, what in (("peak_force", "steady peak force"),
                        ("peak_force_rev_median", "median over revolutions of the peak force")):
@@ -1078,7 +1079,7 @@ def _failed_mask(summary_ds, model):
 def _quantity_model(q: StudyQuantity):
     if q.stem in ("L10h", "L10rh"):
         return 1
-    for m, name in enumerate(_MODEL_NAMES):
+    for m, name in enumerate(CONTACT_MODELS):
         if q.stem.endswith(f"_{name}"):
             return m
     return None
@@ -1128,10 +1129,10 @@ def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
     layout = figure_layout(summary_ds, figure_axes, figure_fixed, reference)
     quantities = _study_quantities(summary_ds)
     if model is not None:
-        if model not in _MODEL_NAMES:
+        if model not in CONTACT_MODELS:
             raise ValueError(f"model: {model!r} is not allowed; allowed: None, "
-                             f"{', '.join(_MODEL_NAMES)}")
-        quantities = [q for q in quantities if _quantity_model(q) == _MODEL_NAMES.index(model)]
+                             f"{', '.join(CONTACT_MODELS)}")
+        quantities = [q for q in quantities if _quantity_model(q) == CONTACT_MODELS.index(model)]
     if not layout.x:
         return [] if index > 0 else [_single_figure(summary_ds, quantities, layout.held,
                                                     outdir / "study_single.png")]

@@ -81,6 +81,7 @@ import numpy as np
 import xarray as xr
 
 from simcore.io.variables import STAGES
+from simcore.model.driver import CONTACT_MODELS
 
 __all__ = ["summarize", "summary_table", "steady_window", "SteadyWindow", "category_codes",
            "impact_numbers", "compliant_numbers", "point_numbers", "run_model", "MODELS",
@@ -88,7 +89,7 @@ __all__ = ["summarize", "summary_table", "steady_window", "SteadyWindow", "categ
 
 #: Contact models of a grid point (code = position): 0 the paper's nonsmooth method, 1 the
 #: compliant (Hertz) reference.
-MODELS = ("nonsmooth", "compliant")
+MODELS = CONTACT_MODELS
 NONSMOOTH, COMPLIANT = 0, 1
 #: Races of the bearing (code = position: 0 inner, 1 outer).
 RACES = ("inner", "outer")

@@ -186,6 +186,19 @@ def test_solver_settings_defaults_are_the_schema_defaults():
     assert sections["solver"]["properties"]["max_halvings"]["maximum"] == MAX_HALVINGS
 
 
+def test_the_schema_names_the_contact_models_of_the_code():
+    """The schema's contact models (``model.contact_model``, ``study.models`` and its default)
+    are the models the driver runs, in the order of their codes in the files."""
+    from simcore.config import load_schema
+    from simcore.model import CONTACT_MODELS
+
+    sections = load_schema()["properties"]
+    models = sections["study"]["properties"]["models"]
+    assert tuple(sections["model"]["properties"]["contact_model"]["enum"]) == CONTACT_MODELS
+    assert tuple(models["items"]["enum"]) == CONTACT_MODELS
+    assert tuple(models["default"]) == CONTACT_MODELS
+
+
 def test_a_whole_float_for_an_integer_key_is_stored_as_an_int():
     """``n_balls: 8.0`` is valid (the schema's integer admits it) and is kept as the int 8, so
     the run file's attribute has the schema's type; 8.5 is refused naming the key."""

@@ -32,9 +32,10 @@ from typing import Any, Mapping
 
 from ..config import ConfigError, check_consistency
 from ..config.parameters import BASE_AXES, registry, run_name, sweep_axes, tidy
+from ..model.driver import CONTACT_MODELS
 
 #: Contact models a study can run at each grid point (code = position: the ``model`` axis).
-MODELS = ("nonsmooth", "compliant")
+MODELS = CONTACT_MODELS
 #: Folders of the run files and impact tables of each model, under ``study.results_dir``.
 FOLDERS = {"nonsmooth": ("runs", "impacts"),
            "compliant": ("runs_compliant", "impacts_compliant")}
