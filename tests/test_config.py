@@ -133,6 +133,32 @@ def test_written_files_get_ordinary_permissions(tmp_path, monkeypatch):
         os.umask(before)
 
 
+def test_a_written_file_reaches_the_disk_before_its_rename(tmp_path, monkeypatch):
+    """The temporary file's data are flushed (fsync) before it is renamed into place and the
+    folder after: a crash just after the write cannot leave an empty file under the name."""
+    import os
+
+    import xarray as xr
+
+    events = []
+    fsync, replace = os.fsync, os.replace
+
+    def record_fsync(fd):
+        events.append(("fsync", os.fstat(fd).st_ino))
+        fsync(fd)
+
+    def record_replace(src, dst):
+        events.append(("replace", os.stat(src).st_ino))
+        replace(src, dst)
+
+    monkeypatch.setattr(os, "fsync", record_fsync)
+    monkeypatch.setattr(os, "replace", record_replace)
+    out = simcore.write_netcdf(xr.Dataset({"a": ("x", [1.0, 2.0])}), tmp_path / "a.nc")
+    monkeypatch.undo()
+    file, folder = os.stat(out).st_ino, os.stat(tmp_path).st_ino
+    assert events == [("fsync", file), ("replace", file), ("fsync", folder)]
+
+
 @pytest.mark.parametrize("args, key", [(["--threads", "9999"], "--threads"),
                                        (["--out", "/nonexistent-dir/x.nc"], "--out")])
 def test_cli_refuses_bad_options_in_one_line(tmp_path, args, key):

@@ -37,7 +37,7 @@ from .dataset import (
     setting_attribute,
     trajectory_dataset,
 )
-from .netcdf import keep_variables, netcdf_encoding, write_netcdf
+from .netcdf import keep_variables, netcdf_encoding, replace_durably, write_netcdf
 from .read import GENERALIZED_PARTS, generalized, open_run, state_at
 from .variables import (
     CONVENTIONS,
@@ -54,7 +54,8 @@ from .variables import (
 #: The paper's four study parameters (coordinate names), axes of every study.
 BASE_PARAMETERS = tuple(PARAMETERS)
 
-__all__ = ["write_netcdf", "trajectory_dataset", "dataset_of_arrays", "failed_run_dataset",
+__all__ = ["write_netcdf", "replace_durably", "trajectory_dataset", "dataset_of_arrays",
+           "failed_run_dataset",
            "generalized", "open_run", "state_at", "parameter_coords", "study_coords",
            "history_line", "setting_attribute", "BASE_PARAMETERS",
            "keep_variables", "netcdf_encoding", "to_netcdf4", "global_attributes",

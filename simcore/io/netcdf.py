@@ -2,7 +2,9 @@
 
 :func:`write_netcdf` writes to a temporary file in the target folder and renames it into place
 (``os.replace``), so that no reader ever sees a half-written file; a failed write leaves nothing
-behind, and a full disk is reported as such.
+behind, and a full disk is reported as such. The file's data reach the disk before the rename
+and the rename before the function returns (:func:`replace_durably`), so that a machine that
+goes down just after cannot leave an empty file in the place of a written one.
 """
 
 from __future__ import annotations
@@ -63,6 +65,28 @@ def _umask() -> int:
     return mask
 
 
+def replace_durably(tmp: str | Path, path: str | Path) -> None:
+    """Rename the written file ``tmp`` to ``path`` (``os.replace``, atomic in one folder), its
+    data flushed to the disk first and the folder's entry after: without the first, a file
+    system that orders metadata before data may keep the rename and lose the data."""
+    fd = os.open(tmp, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+    os.replace(tmp, path)
+    try:
+        folder = os.open(Path(path).parent, os.O_RDONLY)
+    except OSError:  # a folder that cannot be opened (not on Linux): the rename stands
+        return
+    try:
+        os.fsync(folder)
+    except OSError:
+        pass
+    finally:
+        os.close(folder)
+
+
 def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4, keep=None) -> Path:
     """Write ``ds`` to ``path`` atomically, with zlib compression of the data variables.
 
@@ -104,7 +128,7 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4, keep=None
         # mkstemp creates the file for its owner only; give it the permissions of a file
         # opened the ordinary way (0666 less the umask)
         os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
+        replace_durably(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)

@@ -50,13 +50,15 @@ sm = snakemake  # noqa: F821  (injected by Snakemake)
 
 def write_marker(path, runs):
     """The batch's marker: its runs' files and fingerprints, written atomically."""
+    from simcore.io import replace_durably
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     done = [{key: run[key] for key in ("run", "table", "model", "fingerprint")} for run in runs]
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     with os.fdopen(fd, "w") as fh:
         json.dump({"runs": done}, fh, indent=1)
-    os.replace(tmp, path)
+    replace_durably(tmp, path)
 
 
 open(sm.log.impacts, "w").close()  # a new impacts log; each table appends its lines
