@@ -132,7 +132,8 @@ VARIABLES: dict[str, RunVariable] = {
         TIME, "N m", "torque of the constant-speed drive (0 for the free drive)", "float32",
         "Torque of the prescribed crank angle."),
     "iterations": RunVariable(
-        ("time", "stage"), "1", "Newton iterations of each sub-problem of the step", "int16",
+        ("time", "stage"), "1", "Newton iterations of each sub-problem of the step (a "
+        "velocity problem's Gauss-Seidel fallback adds its sweeps)", "int16",
         "Solver effort per stage (stored as int32 when a count exceeds int16).",
         "largest Newton iterations per step in the output interval (smooth: "
         "generalized-alpha step with contact forces, position: joint projection, "
