@@ -129,7 +129,8 @@ _VARIABLES = {
     "top3_force": (
         ("rank",), "model", "N",
         "largest forces of the steady window (both races; impacts, or compliant contact "
-        "episodes), decreasing"),
+        "episodes), decreasing; a pinch loads its ball on both races at once and gives a force "
+        "on each"),
     "startup_peak_force": (
         (), "model", "N",
         "largest force of the start-up (the first analysis.settle crank revolutions), both races"),
