@@ -57,6 +57,19 @@ def test_labels_read_back_as_strings(two_runs):
     assert float(ds.angular_velocity.sel(body="crank").isel(time=0)) == 50.0
 
 
+def test_a_file_without_velocities_opens_with_its_coordinates(two_runs, tmp_path):
+    """A study's compliant twin keeps no velocities: ``open_run`` gives it ``q`` (the stored
+    position and angle, stacked as the kernels order them) and no ``v``."""
+    with xr.open_dataset(two_runs[0]) as ds:
+        path = write_netcdf(ds.load().drop_vars(["velocity", "angular_velocity"]),
+                            tmp_path / "no_v.nc")
+    full, part = open_run(two_runs[0]), open_run(path)
+    assert "v" in full and "v" not in part
+    np.testing.assert_array_equal(part["q"].values, full["q"].values)
+    np.testing.assert_array_equal(part["q"].sel(dof="phi").values,
+                                  full["angle"].transpose("time", "body").values)
+
+
 @pytest.mark.filterwarnings("ignore:In a future version of xarray:FutureWarning")
 def test_runs_combine_by_coords_without_arguments(two_runs):
     with xr.open_mfdataset([str(p) for p in two_runs], combine="by_coords") as grid:

@@ -17,6 +17,8 @@ def generalized(ds: xr.Dataset) -> xr.Dataset:
     ``dof`` is (x, y, phi): ``q`` stacks ``position`` [m] and ``angle`` [rad], ``v`` stacks
     ``velocity`` [m s-1] and ``angular_velocity`` [rad s-1], as the kernels order them. The two
     variables mix units, so they live in memory only (the files keep the split variables).
+    Each is added where the run has its parts: a compliant twin of a study keeps no velocities
+    (``study.keep``), so its file gets ``q`` only.
     """
     def stack(lin, rot, long_name):
         lin = lin.transpose("time", "body", "axis")
@@ -27,11 +29,11 @@ def generalized(ds: xr.Dataset) -> xr.Dataset:
                                     "dof": ["x", "y", "phi"]},
                             attrs={"long_name": long_name})
 
-    q = stack(*(ds[p] for p in GENERALIZED_PARTS["q"]),
-              "positions x [m], y [m] and angle phi [rad]")
-    v = stack(*(ds[p] for p in GENERALIZED_PARTS["v"]),
-              "velocities vx, vy [m s-1] and angular velocity omega [rad s-1]")
-    return ds.assign(q=q, v=v)
+    long_names = {"q": "positions x [m], y [m] and angle phi [rad]",
+                  "v": "velocities vx, vy [m s-1] and angular velocity omega [rad s-1]"}
+    return ds.assign({name: stack(*(ds[p] for p in parts), long_names[name])
+                      for name, parts in GENERALIZED_PARTS.items()
+                      if all(p in ds for p in parts)})
 
 
 def state_at(ds: xr.Dataset, i: int) -> tuple[np.ndarray, np.ndarray]:
@@ -51,7 +53,8 @@ def state_at(ds: xr.Dataset, i: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def open_run(path: str | Path) -> xr.Dataset:
-    """Open a run file (in memory) with ``q`` and ``v`` added (:func:`generalized`)."""
+    """Open a run file (in memory) with ``q`` and ``v`` added where it has their parts
+    (:func:`generalized`)."""
     with xr.open_dataset(path) as ds:
         ds = ds.load()
     if int(ds.attrs.get("failed", 0)):
