@@ -83,6 +83,8 @@ import xarray as xr
 from simcore.io.variables import STAGES
 from simcore.model.driver import CONTACT_MODELS
 
+from .reads import LIFE_READS, SUMMARY_READS
+
 __all__ = ["summarize", "summary_table", "steady_window", "SteadyWindow", "category_codes",
            "impact_numbers", "compliant_numbers", "point_numbers", "run_model", "MODELS",
            "STAGES", "RACES", "KINDS", "N_TOP", "STORED"]
@@ -637,8 +639,6 @@ def point_numbers(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, settings: d
             for key, value in numbers.items()}
 
 
-#: Run variables the rating lives read (compliant runs).
-_LIFE_READS = ("Lambda_N", "crank_angle", "journal_x", "journal_y", "position", "angle")
 
 
 def _life_numbers(run_ds: xr.Dataset, window: SteadyWindow, settings: dict) -> dict:
@@ -646,7 +646,7 @@ def _life_numbers(run_ds: xr.Dataset, window: SteadyWindow, settings: dict) -> d
     where the run file lacks what they read or the model's geometry."""
     from .run_life import LIFE_NAMES, compliant_life
 
-    if any(name not in run_ds for name in _LIFE_READS) or "body" not in run_ds.coords:
+    if any(name not in run_ds for name in LIFE_READS) or "body" not in run_ds.coords:
         return dict.fromkeys(LIFE_NAMES, np.nan)
     try:
         return compliant_life(run_ds, window.settle_time, settings)
@@ -736,8 +736,6 @@ def _from_stored(attrs: dict, settings: dict) -> dict | None:
 #: netCDF4 is not safe for files opened from several threads at once (segmentation faults seen
 #: with netCDF4 1.7.5); files are read one at a time, the numbers computed in parallel.
 _READ_LOCK = threading.Lock()
-#: Run variables the numbers read.
-_RUN_READS = ("crank_angle", "Lambda_N", "iterations", "converged", "F_N")
 
 
 #: Attributes of a swept parameter's coordinate carried into the summary.
@@ -774,7 +772,8 @@ def _entry(run_path, impact_path, settings: dict, axes=None, own=()) -> tuple[di
                     return _checked(_parameters(ds, axes), axes, impact_path), numbers
                 table = ds.load()
         with xr.open_dataset(run_path) as ds:
-            reads = _RUN_READS + (_LIFE_READS if run_model(ds) == COMPLIANT else ())
+            model = run_model(ds)
+            reads = SUMMARY_READS[MODELS[model]] + (LIFE_READS if model == COMPLIANT else ())
             run = ds.drop_vars([name for name in ds.data_vars if name not in reads]).load()
     parameters = _checked(_parameters(run, axes), axes, run_path)
     if table is not None and table.sizes.get("impact", 0) and run_model(run) == NONSMOOTH:

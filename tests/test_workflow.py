@@ -102,6 +102,8 @@ def test_batches_are_sized_by_work_whatever_the_axes():
         ("study={'batch_axes': ['omega0']}", "study.batch_axes: unknown key"),
         ("study={'figure_axes': ['mu', 'gravity']}", "study.figure_axes: 'gravity'"),
         ("study={'figure_fixed': {'omega0': 51.0}}", "study.figure_fixed.omega0: 51.0"),
+        ("study={'keep': ['Lambda_N', 'F_N', 'position', 'angle']}",
+         "study.keep lacks 'crank_angle' (the summary (nonsmooth runs)"),
     ],
 )
 def test_bad_config_stops_before_any_job(results, override, key):

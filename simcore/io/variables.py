@@ -188,7 +188,8 @@ RUN_VARIABLES = tuple(VARIABLES)
 #: ``converged``), the compliant zoom (the restart state), the summary (``iterations``,
 #: ``crank_angle``), the figures (``slider_x``, ``journal_x``, ``journal_y``) and the README's
 #: examples read; which steps were retried (``halvings``); ``F_N`` for compliant runs; the
-#: guard contacts' load.
+#: guard contacts' load. (What a study reads back from its files, which a study's keep must
+#: hold: ``analysis.reads``.)
 DEFAULT_KEEP = ("Lambda_N", "vn_free", "position", "angle", "velocity", "angular_velocity",
                 "crank_angle", "slider_x", "journal_x", "journal_y", "iterations", "converged",
                 "halvings", "F_N", "guard_Lambda_N", "guard_F_N")

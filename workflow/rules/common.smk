@@ -15,6 +15,7 @@ from snakemake.exceptions import WorkflowError
 from snakemake.utils import validate
 
 import simcore
+from analysis.reads import check_keep
 from simcore.config.parameters import registry
 from simcore.study import plan
 
@@ -100,6 +101,7 @@ try:
     SIZE = plan.check_size(config, AXES, _cores())
     RUNS = plan.plan_runs(config, AXES)
     _WARNINGS = plan.check_runs(RUNS)  # consistency and limits of every run, before any job
+    check_keep(config["study"]["keep"], config["study"]["models"])  # what later jobs read
 except simcore.ConfigError as exc:
     raise _invalid(exc) from None
 if workflow.is_main_process:
