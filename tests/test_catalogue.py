@@ -185,3 +185,36 @@ def test_entry_without_balls_is_refused_naming_the_key(monkeypatch):
         module.model_geometry("6012")
     with pytest.raises(ValueError, match="model.bearing: 'x' is not allowed; allowed: 6012"):
         module.model_geometry("x")
+
+
+def test_a_study_naming_a_bearing_gets_its_ball_count_and_radii(tmp_path):
+    """A study file that names a catalogue bearing, merged over the study's
+    config/config.yaml as Snakemake merges them, plans every run with the entry's Z balls of
+    diameter D_w (the real 6012: 14 balls, not the paper's 8)."""
+    from simcore.config import read_study_config, validate_config
+    from simcore.model.bearing import bearing
+    from simcore.study import plan
+
+    mine = tmp_path / "mine.yaml"
+    mine.write_text('model:\n  bearing: "6012"\nsweep:\n  clearance_class: [CN, C4]\n'
+                    "  mu: [0.01]\n  omega0: [100.0]\n  e_N: [0.9]\n")
+    cfg = validate_config(read_study_config(["config/config.yaml", mine]))
+    entry = bearing("6012")
+    runs = plan.plan_runs(cfg)
+    assert len(runs) == 4
+    for run in runs:
+        model = run.config["model"]
+        assert model["n_balls"] == entry["Z"] == 14
+        assert model["ball_radius"] == pytest.approx(0.5e-3 * entry["D_w"], rel=1e-12)
+
+
+def test_a_ball_count_given_beside_a_named_bearing_is_kept_with_a_warning():
+    with pytest.warns(UserWarning, match=r"model\.n_balls = 8 is given and overrides the 14 "):
+        cfg = load_config(overrides=["model.bearing=6012", "model.n_balls=8"])
+    assert cfg["model"]["n_balls"] == 8
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert load_config(overrides=["model.bearing=6012"])["model"]["n_balls"] == 14
+        assert load_config(overrides=["model.n_balls=6"])["model"]["n_balls"] == 6

@@ -26,6 +26,7 @@ Catalogue. Data files (each value with its source): ``simcore/data/bearings.yaml
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
@@ -207,6 +208,23 @@ def catalogue_values(name: str, explicit: Mapping[str, Any]) -> dict:
     return values
 
 
+def _warn_overridden(model: Mapping[str, Any], explicit: set) -> None:
+    """Warn where a named catalogue bearing's ball count or radii are given explicitly with
+    other values: a configuration file merged under the user's (a study's config/config.yaml)
+    would otherwise change the bearing without a word."""
+    entry = bearing(model["bearing"])
+    d_w, d_pw = entry.get("D_w"), entry.get("D_pw")
+    own = {"n_balls": entry.get("Z"),
+           "ball_radius": None if d_w is None else 0.5e-3 * d_w,
+           "inner_radius": None if d_w is None or d_pw is None else 0.5e-3 * (d_pw - d_w)}
+    for key, value in own.items():
+        if key in explicit and value is not None and not math.isclose(
+                float(model[key]), float(value), rel_tol=1e-9):
+            warnings.warn(f"model.{key} = {model[key]:g} is given and overrides the "
+                          f"{value:g} of bearing {model['bearing']!r} (catalogue); leave it out "
+                          "to take the catalogue's", UserWarning, stacklevel=4)
+
+
 def resolve_model(model: Mapping[str, Any], explicit: Iterable[str]) -> dict:
     """A ``model`` section with its bearing resolved: the catalogue entry ``model.bearing``
     fixes the radii, ball count and masses not in ``explicit``, and ``model.clearance_class``
@@ -240,6 +258,8 @@ def resolve_model(model: Mapping[str, Any], explicit: Iterable[str]) -> dict:
 
     explicit = set(explicit)
     out = dict(model)
+    if "bearing" in explicit:
+        _warn_overridden(out, explicit)
     out.update(catalogue_values(out["bearing"], {k: out[k] for k in explicit if k in out}))
     if out.get("clearance_class") is not None:
         # (to 10 digits, as a study's grid point has it: simcore.study.plan.resolve_determined)
