@@ -75,8 +75,11 @@ def test_an_entry_and_its_class_and_explicit_values_winning():
     # the paper's race masses stay where the entry gives none
     assert cfg["inner_mass"] == 8e-3 and cfg["outer_inertia"] == 6.523e-6
     # an explicit ball: on the entry's pitch circle, a steel ball of its own size
-    mine = load_config(overrides=["model.bearing=6205", "model.ball_radius=0.004",
-                                  "model.n_balls=10"])["model"]
+    with pytest.warns(UserWarning, match="overrides") as caught:
+        mine = load_config(overrides=["model.bearing=6205", "model.ball_radius=0.004",
+                                      "model.n_balls=10"])["model"]
+    assert sorted(str(w.message).split(" = ")[0] for w in caught) == [
+        "model.ball_radius", "model.n_balls"]
     assert mine["n_balls"] == 10 and mine["ball_radius"] == 0.004
     assert mine["inner_radius"] == pytest.approx(0.5 * d_pw - 0.004, rel=1e-14)
     assert mine["ball_mass"] == pytest.approx(7850.0 * math.pi * 0.008**3 / 6.0)
