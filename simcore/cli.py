@@ -72,12 +72,24 @@ def summary_lines(ds) -> list[str]:
     lines.append(f"min gap_N: {float(ds['gap_N'].min()):.3g} m")
     lines.append(bearing_line(ds))
     if "F_N" in ds:
-        F = ds["F_N"]
-        k = np.unravel_index(int(np.argmax(F.values)), F.shape)
-        lines.append(f"largest F_N: {F.values[k]:.4g} N at t = {float(ds.time[k[0]]):.6g} s, "
-                     f"contact {int(ds.contact[k[1]])} (ball {int(ds.ball[k[1]])}, "
-                     f"{ds.race.values[k[1]]} race)")
+        lines.append(largest_force_line(ds, "a longer solver.t_end"))
     return lines
+
+
+def largest_force_line(ds, longer: str) -> str:
+    """The largest ``F_N`` of a compliant run, its time and contact, in one line; marked where
+    it is the last sample and still rising, so that the true peak lies after the run (``longer``
+    names the setting that would reach it)."""
+    import numpy as np
+
+    F = np.asarray(ds["F_N"].values, dtype=float)
+    k = np.unravel_index(int(np.argmax(F)), F.shape)
+    line = (f"largest F_N: {F[k]:.4g} N at t = {float(ds.time[k[0]]):.6g} s, contact "
+            f"{int(ds.contact[k[1]])} (ball {int(ds.ball[k[1]])}, {ds.race.values[k[1]]} race)")
+    if k[0] == F.shape[0] - 1 and F.shape[0] > 1 and F[k] > F[k[0] - 1, k[1]]:
+        line += (f"; NOT the peak: the force still rises at the run's last sample (the peak "
+                 f"comes later: {longer})")
+    return line
 
 
 def bearing_line(ds) -> str:
@@ -146,14 +158,9 @@ def _zoom_main(args) -> int:
         print(f"error: --out: cannot write {args.out}: {exc}", file=sys.stderr)
         return 4
     if not args.quiet:
-        import numpy as np
-
-        F = ds["F_N"]
-        k = np.unravel_index(int(np.argmax(F.values)), F.shape)
         print(f"zoom from t = {ds.attrs['zoom_start_time']:.6g} s, {ds.sizes['time'] - 1} "
               f"samples of {ds.attrs['solver.output_dt']:.3g} s")
-        print(f"largest F_N: {F.values[k]:.4g} N at t = {float(ds.time[k[0]]):.6g} s, contact "
-              f"{int(ds.contact[k[1]])} (ball {int(ds.ball[k[1]])}, {ds.race.values[k[1]]} race)")
+        print(largest_force_line(ds, "a longer --window"))
         print(f"wall time: {time.perf_counter() - start:.2f} s")
         print(f"written: {args.out}")
     return 0

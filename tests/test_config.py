@@ -233,3 +233,26 @@ def test_a_whole_float_for_an_integer_key_is_stored_as_an_int():
     assert type(cfg["solver"]["max_iter"]) is int
     with pytest.raises(ConfigError, match=r"^model\.n_balls: 8\.5 is not allowed"):
         load_config(overrides=["model.n_balls=8.5"])
+
+
+def test_the_largest_force_line_says_when_the_run_ends_before_the_peak():
+    """A force still rising at the last sample is not called the peak; one that has turned is
+    reported plainly."""
+    import numpy as np
+    import xarray as xr
+
+    from simcore.cli import largest_force_line
+
+    def run(force):
+        f = np.zeros((len(force), 2))
+        f[:, 1] = force
+        return xr.Dataset({"F_N": (("time", "contact"), f)},
+                          coords={"time": np.arange(len(force)) * 1e-6, "contact": [0, 1],
+                                  "ball": ("contact", [0, 0]),
+                                  "race": ("contact", ["inner", "outer"])})
+
+    rising = largest_force_line(run([0.0, 1.0, 2.0, 3.0]), "a longer --window")
+    assert rising.startswith("largest F_N: 3 N at t = 3e-06 s, contact 1 (ball 0, outer race)")
+    assert "NOT the peak" in rising and rising.endswith("a longer --window)")
+    turned = largest_force_line(run([0.0, 2.0, 3.0, 1.0]), "a longer --window")
+    assert turned == "largest F_N: 3 N at t = 2e-06 s, contact 1 (ball 0, outer race)"
