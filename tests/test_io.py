@@ -250,3 +250,29 @@ def test_zoom_from_the_default_file_agrees_with_the_zoom_from_memory(short_paper
     for name in ("F_max_zoom", "contact_time_zoom"):
         np.testing.assert_allclose(from_file[name].values[zoomed], memory[name].values[zoomed],
                                    rtol=1e-3, err_msg=name)
+
+
+@pytest.mark.filterwarnings("ignore:In a future version of xarray:FutureWarning")
+def test_runs_of_a_class_sweep_combine_into_one_grid():
+    """The clearance of a swept clearance class is not an axis: each run keeps it as a scalar
+    coordinate, so ``combine_by_coords`` makes the study's grid (no clearance dimension, no
+    empty cells) with the clearance along the class axis."""
+    from simcore.io import parameter_coords, study_coords
+
+    axes = ["model.mu", "model.omega0", "model.e_N", "model.clearance_class"]
+    runs = []
+    for cls, clearance in (("CN", 9e-6), ("C4", 2.6e-5)):
+        ds = xr.Dataset({"Lambda_N": ("time", [0.0, 1.0])}, coords={"time": [0.0, 1e-4]})
+        ds = ds.assign_coords(parameter_coords({"clearance": clearance, "mu": 0.01,
+                                                "omega0": 100.0, "e_N": 0.9}))
+        runs.append(study_coords(ds, {"model.clearance_class": cls, "model.mu": 0.01,
+                                      "model.omega0": 100.0, "model.e_N": 0.9}, axes))
+    grid = xr.combine_by_coords(runs, combine_attrs="drop_conflicts")
+    assert "clearance" not in grid.dims and grid.sizes["clearance_class"] == 2
+    assert grid["clearance"].dims == ("clearance_class",)
+    np.testing.assert_array_equal(grid["clearance"].values, [9e-6, 2.6e-5])
+    assert np.isfinite(grid["Lambda_N"].values).all()
+    # a study that sweeps the clearance itself keeps it as an axis
+    kept = study_coords(runs[0].expand_dims("clearance").assign_coords(
+        clearance=("clearance", [9e-6])), {"model.clearance": 9e-6}, ["model.clearance"])
+    assert "clearance" in kept.dims

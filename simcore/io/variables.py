@@ -281,5 +281,12 @@ def study_coords(ds, point: dict, axes, length_one: bool = True):
     from ..config.parameters import parameter
 
     ds = ds.assign_coords(parameter_coords(point, length_one=length_one))
-    ds.attrs["study_axes"] = " ".join(parameter(key).name for key in axes)
+    names = [parameter(key).name for key in axes]
+    for name in PARAMETERS:
+        if name in ds.dims and name not in names:
+            # a run's parameter that is not an axis of the study (the clearance of a swept
+            # clearance class) is a scalar coordinate, not a dimension: the runs then combine
+            # into the study's grid, this coordinate along the axis that sets it
+            ds = ds.squeeze(name)
+    ds.attrs["study_axes"] = " ".join(names)
     return ds
