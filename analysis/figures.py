@@ -1138,8 +1138,10 @@ def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
                                                     outdir / "study_single.png")]
     swept = [a for a in grid_axes(summary_ds) if summary_ds.sizes[a] > 1]
     paths = []
+    by_clearance = "clearance" in swept or ("clearance_class" in swept
+                                            and "clearance" in summary_ds.coords)
     if index == 0 and model in (None, "compliant") and "L10h" in summary_ds \
-            and "clearance" in swept and bool(summary_ds["L10h"].notnull().any()):
+            and by_clearance and bool(summary_ds["L10h"].notnull().any()):
         paths.append(plot_life(summary_ds, outdir / "life_clearance_speed.png", layout))
     for q in quantities[index::parts]:
         paths += _quantity_figures(summary_ds, q, layout, swept, outdir)
@@ -1218,7 +1220,8 @@ def plot_life(summary_ds: xr.Dataset, path, layout: FigureLayout | None = None,
     Parameters
     ----------
     summary_ds : xarray.Dataset
-        A study summary with ``L10h``, ``L10rh`` and a ``clearance`` axis.
+        A study summary with ``L10h``, ``L10rh`` and a ``clearance`` axis, or a
+        ``clearance_class`` axis with the clearance of each class as a coordinate.
     path : str or Path
         Output file.
     layout : FigureLayout, optional
@@ -1234,7 +1237,7 @@ def plot_life(summary_ds: xr.Dataset, path, layout: FigureLayout | None = None,
     """
     layout = layout or figure_layout(summary_ds)
     bore = float(bore or summary_ds.attrs.get("bearing_bore_mm", DEFAULT_BORE))
-    keep = {"clearance", "omega0"}
+    keep = {"clearance", "clearance_class", "omega0"}  # (a class: its clearance along it)
     at = {}  # every other axis held: where the layout holds it, else at its middle value
     for d in grid_axes(summary_ds):
         if d not in keep:

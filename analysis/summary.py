@@ -747,14 +747,28 @@ def _parameters(ds: xr.Dataset, axes=None) -> dict:
     coordinates: ``axes`` where given, else every such numeric coordinate (a category is its
     int8 code)."""
     out = {}
+    companions = _companions(axes) if axes is not None else {}
     for name, var in ds.coords.items():
-        if (axes is not None and name not in axes) or name in _STRUCTURAL \
+        if (axes is not None and name not in axes and name not in companions) \
+                or name in _STRUCTURAL \
                 or np.asarray(var.values).dtype.kind not in "fiub":
             continue
         if var.ndim == 0 or (var.ndim == 1 and var.dims == (name,) and var.size == 1):
             attrs = {k: var.attrs[k] for k in _AXIS_ATTRS if k in var.attrs}
             out[name] = (float(np.asarray(var.values).item()), attrs)
     return out
+
+
+def _companions(axes) -> dict:
+    """{coordinate: the axis that sets it} for the study's parameters that another of its axes
+    determines (the clearance of a swept clearance class,
+    :data:`simcore.study.plan.DETERMINED`): a coordinate along that axis in the summary."""
+    from simcore.config.parameters import registry
+    from simcore.study.plan import DETERMINED
+
+    params = registry()
+    pairs = {params[key].name: params[by].name for key, by in DETERMINED.items()}
+    return {name: by for name, by in pairs.items() if by in axes and name not in axes}
 
 
 def _entry(run_path, impact_path, settings: dict, axes=None, own=()) -> tuple[dict, dict]:
@@ -886,6 +900,10 @@ def _assemble(entries: list, levels: np.ndarray, models: list[int], axes=None) -
         if "flag_values" in attrs.get(name, {}):  # a category: its int8 code
             values = values.astype(np.int8)
         coords[name] = (name, values, attrs.get(name) or _known_attrs(name))
+    for name, by in _companions(names).items():  # e.g. the clearance of each class
+        value_at = {p[by][0]: p[name][0] for p, _ in entries if name in p and by in p}
+        coords[name] = (by, np.array([value_at.get(v, np.nan) for v in axis_values[by]]),
+                        attrs.get(name) or _known_attrs(name))
     coords.update(model=np.array(models, dtype=np.int8),
                   race=np.arange(len(RACES), dtype=np.int8),
                   kind=np.arange(len(KINDS), dtype=np.int8), level=levels,

@@ -197,6 +197,47 @@ def test_life_figure_marks_the_clearance_classes(tmp_path):
         plot_life(ds.drop_vars("L10h"), tmp_path / "none.png")
 
 
+def test_a_class_sweep_gets_the_life_figure_over_its_clearances(tmp_path):
+    """A summary whose clearance axis is a clearance class (the clearance of each class a
+    coordinate along it) draws the life figure, its points at the classes' clearances."""
+    ds = _summary((3, 1, 2, 1))
+    clearance = ds["clearance"].values
+    ds = ds.rename({"clearance": "clearance_class"}).assign_coords(
+        clearance_class=("clearance_class", np.array([1, 2, 3], "i1"), {
+            "flag_values": np.array([0, 1, 2, 3, 4], "i1"),
+            "flag_meanings": "C2 CN C3 C4 C5"}))
+    ds = ds.assign_coords(clearance=("clearance_class", clearance, {"units": "m"}))
+    paths = plot_study(ds, tmp_path, part=(0, 8))
+    assert paths[0].name == "life_clearance_speed.png"
+    fig_lines = _life_lines(ds, tmp_path)
+    assert len(fig_lines) == 4  # two speeds, two lives
+    assert all(np.array_equal(x, clearance * 1e6) for x in fig_lines)
+    # without the clearances there is nothing to draw it over
+    assert all(p.name != "life_clearance_speed.png"
+               for p in plot_study(ds.drop_vars("clearance"), tmp_path / "b", part=(0, 8)))
+
+
+def _life_lines(ds, tmp_path):
+    """The x data [µm] of every line of lives in the life figure of ``ds``."""
+    from unittest import mock
+
+    import matplotlib.axes
+
+    from analysis.figures import plot_life
+
+    xs = []
+    real = matplotlib.axes.Axes.plot
+
+    def spy(self, x, *args, **kwargs):
+        if args[1:2] == ("o-",):  # the lives (not the class bands)
+            xs.append(np.asarray(x, dtype=float))
+        return real(self, x, *args, **kwargs)
+
+    with mock.patch.object(matplotlib.axes.Axes, "plot", spy):
+        plot_life(ds, tmp_path / "spy.png")
+    return xs
+
+
 def test_study_figures_command_takes_the_layout(tmp_path, capsys):
     from analysis.__main__ import main
     from simcore.io import write_netcdf

@@ -547,3 +547,21 @@ def test_numbers_stored_by_other_analysis_code_are_computed_again(monkeypatch):
     assert module._from_stored(attrs, {"settle": 1.0}) is not None
     monkeypatch.setattr(module, "_code_fingerprint", lambda: "edited")
     assert module._from_stored(attrs, {"settle": 1.0}) is None
+
+
+def test_the_clearance_of_a_swept_class_is_a_coordinate_along_the_class_axis():
+    """A class sweep's summary has no clearance axis but the clearance of each class [m]
+    along the class axis, read from the runs."""
+    from analysis.summary import _assemble, _parameters
+
+    axes = ["mu", "clearance_class"]
+    entries = []
+    for code, clearance in ((3, 2.6e-5), (1, 9e-6)):
+        table = xr.Dataset(coords={"mu": 0.01, "clearance_class": np.int8(code),
+                                   "clearance": clearance, "e_N": 0.9})
+        entries.append((_parameters(table, axes), {"model": 0}))
+    assert set(entries[0][0]) == {"mu", "clearance_class", "clearance"}
+    summary = _assemble(entries, np.array([100.0]), [0], axes)
+    assert "clearance" not in summary.dims and summary["clearance"].dims == ("clearance_class",)
+    np.testing.assert_array_equal(summary["clearance_class"].values, [1, 3])
+    np.testing.assert_array_equal(summary["clearance"].values, [9e-6, 2.6e-5])
