@@ -256,3 +256,12 @@ def test_the_largest_force_line_says_when_the_run_ends_before_the_peak():
     assert "NOT the peak" in rising and rising.endswith("a longer --window)")
     turned = largest_force_line(run([0.0, 2.0, 3.0, 1.0]), "a longer --window")
     assert turned == "largest F_N: 3 N at t = 2e-06 s, contact 1 (ball 0, outer race)"
+
+
+@pytest.mark.parametrize("key, what", [("model.bearing", "not allowed as a sweep axis"),
+                                       ("analysis.force_levels", "not allowed as a sweep axis"),
+                                       ("bearing", "not allowed as a sweep axis"),
+                                       ("model.bogus", "unknown key")])
+def test_a_setting_that_cannot_be_swept_is_not_called_unknown(key, what):
+    with pytest.raises(simcore.ConfigError, match=rf"^sweep\.{key}: {what}"):
+        simcore.validate_config({"sweep": {key: ["6012"]}})

@@ -215,6 +215,14 @@ def _fill_defaults(config: dict, schema: Mapping[str, Any]) -> None:
             _fill_defaults(config[key], sub)
 
 
+def _is_setting(name: str, root: Mapping[str, Any]) -> bool:
+    """Whether ``name`` (``section.key``, or a ``model`` key alone) is a key of the
+    configuration's sections."""
+    section, _, key = name.rpartition(".")
+    props = root.get("properties", {}).get(section or "model", {}).get("properties", {})
+    return key in props
+
+
 def _format_error(error, root: Mapping[str, Any]) -> str:
     path = ".".join(str(p) for p in error.absolute_path) or "<config>"
     if error.validator == "additionalProperties":
@@ -224,7 +232,10 @@ def _format_error(error, root: Mapping[str, Any]) -> str:
         extra = sorted((k for k in error.instance if k not in allowed), key=str)
         where = path + "." if path != "<config>" else ""
         if path == "sweep":
-            return (f"sweep.{extra[0]}: unknown key; allowed: a numeric, boolean or enumerated "
+            what = ("not allowed as a sweep axis (a setting that is not a number, a boolean or "
+                    "one of a set of names)" if _is_setting(str(extra[0]), root)
+                    else "unknown key")
+            return (f"sweep.{extra[0]}: {what}; allowed: a numeric, boolean or enumerated "
                     "key of model, solver or analysis as section.key (e.g. "
                     "model.cage_stiffness, solver.dt), or a model key alone (e.g. clearance)")
         return (f"{where}{extra[0]}: unknown key; allowed keys here: " + ", ".join(allowed))
