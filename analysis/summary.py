@@ -127,7 +127,10 @@ _VARIABLES = {
         "spread of the steady crank revolutions' largest forces, (largest - smallest) / median, "
         "per race (missing with fewer than two revolutions or a median of 0 N)"),
     "p_max": (
-        ("race",), "model", "Pa", "largest Hertz contact pressure in the steady window, per race"),
+        ("race",), "model", "Pa",
+        "largest Hertz contact pressure in the steady window, per race (of the simulation's "
+        "in-plane sphere contacts; a real groove, analysis.groove_conformity, spreads the "
+        "load over an ellipse and gives less)"),
     "top3_force": (
         ("rank",), "model", "N",
         "largest forces of the steady window (both races; impacts, or compliant contact "
