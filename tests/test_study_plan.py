@@ -90,7 +90,8 @@ def test_every_registered_unit_is_written_in_udunits_form():
     ({"model.drive": ["fast"]}, "sweep.model.drive.0: 'fast' is not allowed"),
     ({"n_balls": [8.5]}, "sweep.n_balls.0"),
     ({"solver.dt": []}, "sweep.solver.dt"),
-    ({"analysis.force_levels": [[1.0]]}, "sweep.analysis.force_levels: unknown key"),
+    ({"analysis.force_levels": [[1.0]]},
+     "sweep.analysis.force_levels: not allowed as a sweep axis"),
 ])
 def test_a_bad_sweep_key_or_value_is_refused_in_one_line(sweep, words):
     with pytest.raises(simcore.ConfigError) as err:
