@@ -167,12 +167,16 @@ def _check_study(results: Path) -> xr.Dataset:
                 point = {key: run[key].item() for key in axes}
                 assert run["model"].item() == meanings.index(model)
                 failed = int(run.attrs.get("failed", 0))
+                if not failed:  # the settings every point shares, as the runs have them
+                    for key in {"bearing", "n_balls", "youngs_modulus", "drive"} - set(axes):
+                        assert s.attrs[f"model_{key}"] == run.attrs[f"model.{key}"], key
             at = dict(point, model=meanings.index(model))
             assert float(s["failed"].sel(at)) == failed
             assert bool(s["wall_time_s"].sel(at).isnull()) == bool(failed)
     assert list((results / "figures").glob("*.png"))
     assert not list(results.rglob(".*.tmp")), "a temporary file was left behind"
     assert s["failed"].size == n_runs
+    assert not {f"model_{name}" for name in axes} & set(s.attrs)  # (swept: not one value)
     return s
 
 

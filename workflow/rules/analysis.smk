@@ -19,6 +19,7 @@ rule summarize:
         scheduler=config["study"]["dask_scheduler"],
         analysis=config["analysis"],
         own_settings=SWEPT_ANALYSIS,
+        fixed_model=FIXED_MODEL,
         revolutions=config["study"]["revolutions"],
     threads: 2
     resources:

@@ -28,6 +28,10 @@ with job_log(sm.log[0]):
                         settings=settings, models=list(sm.params.runs),
                         axes=list(sm.params.axes), own_settings=list(sm.params.own_settings))
     summary.attrs["study_axes"] = " ".join(sm.params.axes)
+    from simcore.io import setting_attribute
+
+    for key, value in sm.params.fixed_model.items():  # what every grid point shares
+        summary.attrs[f"model_{key}"] = setting_attribute(value)
     if sm.params.revolutions is not None:
         summary.attrs["study_revolutions"] = float(sm.params.revolutions)
     simcore.write_netcdf(summary, sm.output[0])
