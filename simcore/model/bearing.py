@@ -212,14 +212,14 @@ def _warn_overridden(model: Mapping[str, Any], explicit: set) -> None:
     """Warn where a named catalogue bearing's ball count or radii are given explicitly with
     other values: a configuration file merged under the user's (a study's config/config.yaml)
     would otherwise change the bearing without a word."""
-    entry = bearing(model["bearing"])
-    d_w, d_pw = entry.get("D_w"), entry.get("D_pw")
-    own = {"n_balls": entry.get("Z"),
-           "ball_radius": None if d_w is None else 0.5e-3 * d_w,
-           "inner_radius": None if d_w is None or d_pw is None else 0.5e-3 * (d_pw - d_w)}
-    for key, value in own.items():
-        if key in explicit and value is not None and not math.isclose(
-                float(model[key]), float(value), rel_tol=1e-9):
+    try:
+        own = model_geometry(model["bearing"])
+    except ValueError:  # an entry that lacks D_w, Z or D_pw: explicit values stand in, unchecked
+        return
+    for key in ("n_balls", "ball_radius", "inner_radius"):
+        value = own[key]
+        if key in explicit and not math.isclose(float(model[key]), float(value),
+                                                rel_tol=1e-9):
             warnings.warn(f"model.{key} = {model[key]:g} is given and overrides the "
                           f"{value:g} of bearing {model['bearing']!r} (catalogue); leave it out "
                           "to take the catalogue's", UserWarning, stacklevel=4)
