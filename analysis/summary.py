@@ -642,8 +642,6 @@ def point_numbers(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, settings: d
             for key, value in numbers.items()}
 
 
-
-
 def _life_numbers(run_ds: xr.Dataset, window: SteadyWindow, settings: dict) -> dict:
     """The rating lives of a compliant run (:func:`analysis.run_life.compliant_life`); missing
     where the run file lacks what they read or the model's geometry."""
