@@ -769,14 +769,17 @@ def _study_quantities(summary_ds):
     if "static_deflection_ratio" in s and bool(s["static_deflection_ratio"].notnull().any()):
         out.append(StudyQuantity("static_deflection_ratio", s["static_deflection_ratio"],
                                  "static deflection of a ball / clearance", "max"))
-    if "p_max" in s and bool(s["p_max"].notnull().any()):
+    for name, what in (("p_max", "peak contact pressure p_max"),
+                       ("p_max_groove", "peak contact pressure in a real groove")):
+        if name not in s or not bool(s[name].notnull().any()):
+            continue
         for r in (1, 0):
             for m in models:
-                da = per_model(s["p_max"], m).isel(race=r) / 1e6
+                da = per_model(s[name], m).isel(race=r) / 1e6
                 if bool(da.notnull().any()):
-                    out.append(StudyQuantity(f"p_max_{RACE_NAMES[r]}{suffix(m)}", da,
-                                             f"peak contact pressure p_max, {RACE_NAMES[r]} "
-                                             f"race{who(m)} [MPa]", "max"))
+                    out.append(StudyQuantity(f"{name}_{RACE_NAMES[r]}{suffix(m)}", da,
+                                             f"{what}, {RACE_NAMES[r]} race{who(m)} [MPa]",
+                                             "max"))
     if "startup_peak_force" in s:
         for m in models:
             out.append(StudyQuantity(f"startup_peak_force{suffix(m)}",

@@ -133,9 +133,10 @@ def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave", groove_conformity=N
         Effective radius of the outer-race contact: ``"concave"`` r_B r_C/(r_C - r_B) (correct for
         a ball inside the race) or ``"paper"`` r_B r_C/(r_B + r_C) (the paper's printed form).
         Not used with a groove conformity.
-    groove_conformity : float or None
-        Groove radius over ball diameter (e.g. 0.52): elliptical Hamrock-Brewe contacts. None:
-        the in-plane sphere contacts of the simulation (circular Hertz).
+    groove_conformity : float, (float, float) or None
+        Groove radius over ball diameter (e.g. 0.52), one for both races or (inner, outer):
+        elliptical Hamrock-Brewe contacts. None: the in-plane sphere contacts of the simulation
+        (circular Hertz).
 
     Returns
     -------
@@ -162,8 +163,10 @@ def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave", groove_conformity=N
             a, d, p = hertz_circular(F, R[race], E_star)
             return a, a, d, p
     else:
-        ell = {0: elliptical_contact(*groove_radii(r_b, r_a, groove_conformity, "inner"), E_star),
-               1: elliptical_contact(*groove_radii(r_b, r_c, groove_conformity, "outer"), E_star)}
+        f_in, f_out = (groove_conformity, groove_conformity) if np.ndim(groove_conformity) == 0 \
+            else groove_conformity
+        ell = {0: elliptical_contact(*groove_radii(r_b, r_a, f_in, "inner"), E_star),
+               1: elliptical_contact(*groove_radii(r_b, r_c, f_out, "outer"), E_star)}
         K_in, K_out = ell[0].K, ell[1].K
 
         def stress(F, race):

@@ -131,6 +131,12 @@ _VARIABLES = {
         "largest Hertz contact pressure in the steady window, per race (of the simulation's "
         "in-plane sphere contacts; a real groove, analysis.groove_conformity, spreads the "
         "load over an ellipse and gives less)"),
+    "p_max_groove": (
+        ("race",), "model", "Pa",
+        "Hertz contact pressure of a real deep-groove race at peak_force, per race: elliptical "
+        "contact with the groove conformities analysis.life_conformity (inner, outer); the "
+        "pressure to hold against a bearing's limits (ISO 76: 4,200 MPa static; ISO 281's "
+        "fatigue load limit: 1,500 MPa)"),
     "top3_force": (
         ("rank",), "model", "N",
         "largest forces of the steady window (both races; impacts, or compliant contact "
@@ -558,6 +564,25 @@ def _geometry(run_ds: xr.Dataset, settings: dict):
         return None
 
 
+def _groove_pressure(run_ds: xr.Dataset, settings: dict, peak_force) -> np.ndarray:
+    """Per race the pressure of an elliptical groove contact (conformities
+    ``life_conformity``, the rating life's) at the race's ``peak_force`` [Pa]; NaN where the
+    force is missing or the run lacks the model's radii or material."""
+    from .impacts import run_geometry
+    from .run_life import DEFAULT_CONFORMITY
+
+    pressure = np.full(len(RACES), np.nan)
+    try:
+        geo = run_geometry(run_ds, groove_conformity=tuple(
+            float(f) for f in settings.get("life_conformity") or DEFAULT_CONFORMITY))
+    except ValueError:
+        return pressure
+    for r, force in enumerate(np.asarray(peak_force, dtype=float)):
+        if np.isfinite(force) and force > 0:
+            pressure[r] = float(np.asarray(geo["stress"](np.array([force]), r)[3]).ravel()[0])
+    return pressure
+
+
 def _deflection_ratio(geo, peak_force, clearance) -> float:
     """Deflection of a ball's two contacts in series under the larger race peak, over the
     clearance (NaN without geometry, force or clearance)."""
@@ -635,6 +660,7 @@ def point_numbers(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, settings: d
                                       levels=levels))
         numbers["zero_threshold"] = np.float64(
             np.nan if impacts_ds is None else impacts_ds.attrs.get("zero_threshold", np.nan))
+    numbers["p_max_groove"] = _groove_pressure(run_ds, settings, numbers["peak_force"])
     clearance = _clearance(run_ds)
     numbers["ball_deflection_ratio"] = np.float64(
         _deflection_ratio(geo, numbers["peak_force"], clearance))
@@ -1128,7 +1154,9 @@ def _table_rows(summary: xr.Dataset, models: list[int]) -> list:
                                      "peak force", "kN", 1e-3),
                                     ("peak_force_rev_spread", "spread over revolutions of the "
                                      "peak force, (largest - smallest) / median", "1", 1.0),
-                                    ("p_max", "peak contact pressure p_max", "MPa", 1e-6)):
+                                    ("p_max", "peak contact pressure p_max", "MPa", 1e-6),
+                                    ("p_max_groove", "peak contact pressure in a real groove",
+                                     "MPa", 1e-6)):
         for r in (1, 0):
             for m in models if name in summary else ():
                 rows.append((f"{what}, {RACES[r]} race, {MODELS[m]}", unit,

@@ -134,6 +134,26 @@ def _hertz(force, race, clearance):
     return 3 * force / (2 * np.pi * a**2), 4 / 3 * E_star * np.sqrt(R)
 
 
+def _groove_hertz(force, race, clearance, conformity):
+    """p_max [Pa] of the elliptical contact of a ball in a groove of radius conformity times
+    the ball's diameter, on the paper's radii, from Hamrock and Brewe's closed forms (1983):
+    ellipticity k = alpha^(2/pi), elliptic integral E = 1 + (pi/2 - 1)/alpha (alpha = R_y/R_x),
+    semi-axes a = (6 k^2 E F R/(pi E'))^(1/3), b = (6 E F R/(pi k E'))^(1/3), p = 3F/(2 pi a b)."""
+    E, nu = PAPER_MODEL["model.youngs_modulus"], PAPER_MODEL["model.poisson_ratio"]
+    r_b, r_a = PAPER_MODEL["model.ball_radius"], PAPER_MODEL["model.inner_radius"]
+    r_c = r_a + 2 * r_b + clearance
+    R_x = r_b * r_a / (r_a + r_b) if race == "inner" else r_b * r_c / (r_c - r_b)
+    r_g = 2 * conformity * r_b
+    R_y = r_b * r_g / (r_g - r_b)
+    R = 1 / (1 / R_x + 1 / R_y)
+    alpha = R_y / R_x
+    k, ell = alpha ** (2 / np.pi), 1 + (np.pi / 2 - 1) / alpha
+    E_prime = E / (1 - nu**2)
+    a = (6 * k**2 * ell * force * R / (np.pi * E_prime)) ** (1 / 3)
+    b = (6 * ell * force * R / (np.pi * k * E_prime)) ** (1 / 3)
+    return 3 * force / (2 * np.pi * a * b)
+
+
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
     """A 2 x 2 grid: new-format table, old-format table, a failed run, an empty table; compliant
@@ -266,6 +286,21 @@ def test_compliant_twin_against_its_hand_built_forces(study):
     for r, race in enumerate(("inner", "outer")):
         expected, _ = _hertz(float(at["peak_force"][r]), race, 1e-4)
         assert float(at["p_max"][r]) == pytest.approx(expected, rel=1e-12)
+
+
+def test_groove_pressure_is_hamrock_brewe_at_the_peak_with_the_life_conformities(study):
+    """p_max_groove: the elliptical contact of a real groove (conformities 0.52 inner, 0.53
+    outer, analysis.life_conformity's default) at each race's steady peak; below the in-plane
+    p_max, whose sphere contact is far less conforming. A run without the model's radii (the
+    hand-made nonsmooth files) has none."""
+    s, _ = study
+    at = s.sel(NEW).sel(TWIN)
+    for r, (race, f) in enumerate((("inner", 0.52), ("outer", 0.53))):
+        expected = _groove_hertz(float(at["peak_force"][r]), race, 1e-4, f)
+        assert float(at["p_max_groove"][r]) == pytest.approx(expected, rel=1e-12)
+        assert float(at["p_max_groove"][r]) < float(at["p_max"][r])
+    assert s["p_max_groove"].attrs["units"] == "Pa"
+    assert bool(s["p_max_groove"].sel(NEW).sel(PAPER).isnull().all())
 
 
 def test_method_ratio_and_the_method_check(study):
