@@ -256,6 +256,24 @@ def test_a_study_larger_than_max_runs_stops_with_its_count_and_estimate():
     assert "= 12 runs" in plan.check_size(cfg, axes, cores=2)
 
 
+def test_the_size_line_counts_the_summary_and_figures_after_the_runs():
+    """The jobs after the simulations: the summary (a start and each run), then the grid's
+    figures (a pairs figure per quantity from three swept axes: 3 pairs of 3 axes, 6 of 4)
+    beside the reference run's on a second core, one after the other on one core."""
+    cost = plan.Cost(summary_job=1.0, summary_per_run=0.5, grid_figures=3.0, per_axis_pair=2.0,
+                     reference_figures=10.0)
+    assert plan.downstream_seconds(4, 2, 2, cost) == 1.0 + 2.0 + 10.0
+    assert plan.downstream_seconds(4, 2, 1, cost) == 1.0 + 2.0 + 3.0 + 10.0
+    assert plan.downstream_seconds(4, 3, 2, cost) == 1.0 + 2.0 + max(3.0 + 3 * 2.0, 10.0)
+    assert plan.downstream_seconds(4, 4, 2, cost) == 1.0 + 2.0 + 3.0 + 6 * 2.0
+    # only axes with more than one value are swept: omega0 and e_N hold one here
+    cfg = _study(sweep={"clearance": [1e-4, 2e-4], "mu": [0.0, 0.01], "omega0": [50.0],
+                        "e_N": [0.9]})
+    _, line = plan.size_line(cfg, plan.study_axes(cfg), 2, cost)
+    assert line.endswith(f"then {plan.duration(1.0 + 8 * 0.5 + 10.0)} for the summary and "
+                         "figures"), line
+
+
 def test_every_run_is_checked_before_any_job():
     cfg = _study("model.cage_damping=0.0", sweep={"cage_stiffness": [1e5, 1e9]})
     with pytest.raises(simcore.ConfigError) as err:

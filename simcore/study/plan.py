@@ -69,6 +69,12 @@ class Cost:
     per_job: float = 1.0            # process start, imports, Numba cache load of a job [s]
     adaptive_share: float = 0.5     # an adaptive twin's integration over the same twin's at
                                     # the fixed step of twin_step [-]
+    # the jobs after the simulations (the rules' benchmark files, logs/<results>/*.tsv):
+    summary_job: float = 1.0        # the summary job's start [s]
+    summary_per_run: float = 0.065  # reading one run's numbers into the summary [s]
+    grid_figures: float = 3.0       # the grid's heat maps, two swept axes [s]
+    per_axis_pair: float = 2.0      # ... and per pair of axes where three or more are swept
+    reference_figures: float = 5.5  # the reference run's figures (beside the grid's) [s]
 
 
 COST = Cost()
@@ -316,6 +322,18 @@ def duration(seconds: float) -> str:
     return f"{hours} h {minutes:02d} min"
 
 
+def downstream_seconds(n_runs: int, n_swept: int, cores: int, cost: Cost = COST) -> float:
+    """Wall time of the jobs after the simulations [s]: the summary of ``n_runs`` runs, then
+    the grid's figures (a pairs figure per quantity where ``n_swept`` >= 3 axes have more than
+    one value) beside the reference run's figures on a second core."""
+    pairs = n_swept * (n_swept - 1) // 2 if n_swept >= 3 else 0
+    grid_figures = cost.grid_figures + cost.per_axis_pair * pairs
+    summary = cost.summary_job + cost.summary_per_run * n_runs
+    if int(cores) >= 2:
+        return summary + max(grid_figures, cost.reference_figures)
+    return summary + grid_figures + cost.reference_figures
+
+
 def job_count(work: float, n_runs: int, batch_seconds: float,
               min_jobs: int = MIN_JOBS) -> int:
     """Jobs of about ``batch_seconds`` for ``work`` seconds of ``n_runs`` runs (at least
@@ -333,10 +351,13 @@ def size_line(cfg: Mapping[str, Any], axes: Mapping[str, list], cores: int,
     work = sum(point_seconds(cfg, point, models, cost) for point in grid(axes))
     n_jobs = job_count(work, n_runs, cfg["study"]["batch_seconds"])
     wall = (work + n_jobs * cost.per_job) / max(1, min(int(cores), n_jobs))
+    after = downstream_seconds(n_runs, sum(len(values) > 1 for values in axes.values()), cores,
+                               cost)
     line = (f"{points:,} grid point{'s' if points != 1 else ''} x {len(models)} "
             f"model{'s' if len(models) != 1 else ''} ({', '.join(models)}) = {n_runs:,} runs "
             f"in {n_jobs:,} jobs, estimated {duration(work)} of work: about {duration(wall)} "
-            f"on {cores} core{'s' if cores != 1 else ''}")
+            f"on {cores} core{'s' if cores != 1 else ''}, then {duration(after)} for the "
+            "summary and figures")
     return n_runs, line
 
 
