@@ -129,8 +129,8 @@ _VARIABLES = {
     "p_max": (
         ("race",), "model", "Pa",
         "largest Hertz contact pressure in the steady window, per race (of the simulation's "
-        "in-plane sphere contacts; a real groove, analysis.groove_conformity, spreads the "
-        "load over an ellipse and gives less)"),
+        "in-plane sphere contacts; a real groove spreads the load over an ellipse and gives "
+        "less: p_max_groove)"),
     "p_max_groove": (
         ("race",), "model", "Pa",
         "Hertz contact pressure of a real deep-groove race at peak_force, per race: elliptical "
