@@ -505,11 +505,7 @@ def compliant_numbers(run_ds: xr.Dataset, window: SteadyWindow, levels: Sequence
     contact, _, _, peak_index, episode_force = episode_peaks(force)
     steady = time[peak_index] > window.settle_time
     levels = np.asarray(levels, dtype=float)
-    pressure = np.full(len(RACES), np.nan)
-    if stress is not None:
-        for r in range(len(RACES)):
-            if np.isfinite(peak[r]):
-                pressure[r] = float(np.asarray(stress(np.array([peak[r]]), r)[3]).ravel()[0])
+    pressure = np.full(len(RACES), np.nan) if stress is None else race_pressures(stress, peak)
     return {
         "peak_force": peak,
         "peak_force_rev_median": median,
@@ -571,15 +567,22 @@ def _groove_pressure(run_ds: xr.Dataset, settings: dict, peak_force) -> np.ndarr
     from .impacts import run_geometry
     from .run_life import DEFAULT_CONFORMITY
 
-    pressure = np.full(len(RACES), np.nan)
     try:
         geo = run_geometry(run_ds, groove_conformity=tuple(
             float(f) for f in settings.get("life_conformity") or DEFAULT_CONFORMITY))
     except ValueError:
-        return pressure
-    for r, force in enumerate(np.asarray(peak_force, dtype=float)):
-        if np.isfinite(force) and force > 0:
-            pressure[r] = float(np.asarray(geo["stress"](np.array([force]), r)[3]).ravel()[0])
+        return np.full(len(RACES), np.nan)
+    return race_pressures(geo["stress"], peak_force)
+
+
+def race_pressures(stress, force) -> np.ndarray:
+    """Per race the Hertz pressure p_max [Pa] of ``stress`` ((F [N], race code) -> (a, b,
+    delta, p_max), ``run_geometry(...)["stress"]``) at that race's ``force`` [N]; NaN where
+    the force is missing or not positive."""
+    pressure = np.full(len(RACES), np.nan)
+    for r, f in enumerate(np.asarray(force, dtype=float)):
+        if np.isfinite(f) and f > 0:
+            pressure[r] = float(np.asarray(stress(np.array([f]), r)[3]).ravel()[0])
     return pressure
 
 
