@@ -736,6 +736,12 @@ def _fmt_axis(ds, dim, value):
     return f"{dim} = {value * fac:.4g}{unit_txt}"
 
 
+#: the bearing's ratings of the compliant twins drawn over the grid (stem: label)
+_BEARING_RATINGS = {"L10h": "ISO 281 rating life L10 [h]",
+                    "L10rh": "reference rating life L10r (ball loads) [h]",
+                    "static_safety_factor": "ISO 76 static safety factor s0 = C0 / P0"}
+
+
 def _study_quantities(summary_ds):
     """The quantities of the study figures (:class:`StudyQuantity`), for each model where the
     summary has a ``model`` dimension."""
@@ -793,10 +799,9 @@ def _study_quantities(summary_ds):
                 out.append(StudyQuantity(f"above_{level:g}N_per_rev{suffix(m)}", da,
                                          f"{what} per revolution with force ≥ "
                                          f"{_fmt_force(level)} (both races){who(m)}", "mean"))
-    for name, what in (("L10h", "ISO 281 rating life L10"),
-                       ("L10rh", "reference rating life L10r (ball loads)")):
+    for name, what in _BEARING_RATINGS.items():
         if name in s and bool(s[name].notnull().any()):
-            out.append(StudyQuantity(name, s[name], f"{what}, compliant model [h]", "min"))
+            out.append(StudyQuantity(name, s[name], f"{what}, compliant model", "min"))
     if "impacts_per_rev" in s:
         da = s["impacts_per_rev"].sum(["race", "kind"], min_count=1)
         if "model" in da.dims:
@@ -1080,7 +1085,7 @@ def _failed_mask(summary_ds, model):
 
 
 def _quantity_model(q: StudyQuantity):
-    if q.stem in ("L10h", "L10rh"):
+    if q.stem in _BEARING_RATINGS:
         return 1
     for m, name in enumerate(CONTACT_MODELS):
         if q.stem.endswith(f"_{name}"):

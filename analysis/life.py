@@ -45,13 +45,21 @@ from ._checks import positive
 __all__ = ["LIFE_EXPONENT", "WEIBULL_SLOPE", "RATING_FACTOR", "equivalent_load",
            "revolution_weights", "basic_rating_life", "life_hours", "raceway_capacity",
            "reference_cycles_per_revolution", "bearing_capacity_lp", "RacewayLife",
-           "reference_life_static", "reference_life_history", "combine_races"]
+           "reference_life_static", "reference_life_history", "combine_races",
+           "STATIC_PRESSURE", "static_load_rating"]
 
 LIFE_EXPONENT = 3.0          # p of L10 = (C/P)^p, ball bearings (ISO 281)
 WEIBULL_SLOPE = 10.0 / 9.0   # e of the Lundberg-Palmgren survival, ball bearings
 RATING_FACTOR = 1.3          # b_m of ISO 281:2007, radial ball bearings
 LP_CONSTANT = 98.1           # Lundberg-Palmgren raceway constant, point contact [N, mm]
 RACES = ("inner", "outer")
+#: contact pressure at the centre of the most heavily loaded contact on which ISO 76 bases the
+#: basic static load rating C0 of a ball bearing (self-aligning ones excepted) [Pa]
+STATIC_PRESSURE = 4.2e9
+#: Stribeck's share of the most heavily loaded ball, Q_max = 5 F_r / Z, as ISO 76 takes it [-]
+STRIBECK_FACTOR = 5.0
+#: bearing steel, for the static rating whatever the simulated material [Pa], [-]
+STEEL_E, STEEL_NU = 2.08e11, 0.3
 
 
 def _race(race):
@@ -125,6 +133,47 @@ def life_hours(L10: float, speed: float) -> float:
     """A life in 10^6 revolutions as hours at the relative speed ``speed`` [rad/s]."""
     speed = positive("speed", abs(float(speed)))
     return float(L10) * 1e6 / (speed / (2.0 * np.pi)) / 3600.0
+
+
+# -- static load rating (ISO 76) ------------------------------------------------------------------
+def static_load_rating(ball_diameter: float, pitch_diameter: float, n_balls: int,
+                       conformity_inner: float, conformity_outer: float,
+                       pressure: float = STATIC_PRESSURE) -> float:
+    """Basic static radial load rating C0 of a deep-groove ball bearing [N], from its
+    definition in ISO 76: the radial load under which the most heavily loaded ball,
+    Q_max = 5 C0 / Z (Stribeck), presses the more stressed raceway with ``pressure`` at the
+    centre of its contact. The contacts are elliptical Hertz contacts of the grooves
+    (:func:`analysis.contact_stress.elliptical_contact`) in bearing steel (E = 208 GPa,
+    nu = 0.3); their pressure grows as Q^(1/3).
+
+    Parameters
+    ----------
+    ball_diameter, pitch_diameter : float
+        D_w, D_pw [m].
+    n_balls : int
+        Z.
+    conformity_inner, conformity_outer : float
+        Groove radius over ball diameter of each race [-], > 0.5.
+    pressure : float
+        [Pa] (default 4,200 MPa, ISO 76's for ball bearings).
+    """
+    from .contact_stress import contact_modulus, elliptical_contact, groove_radii
+
+    r_b = positive("ball_diameter", ball_diameter) / 2.0
+    r_p = positive("pitch_diameter", pitch_diameter) / 2.0
+    if not r_p > r_b:
+        raise ValueError("ball_diameter / pitch_diameter: allowed: in (0, 1)")
+    Z = int(n_balls)
+    if Z < 1:
+        raise ValueError(f"n_balls: {n_balls!r} is not allowed; allowed: >= 1")
+    E_star = contact_modulus(STEEL_E, STEEL_NU)
+    ball_load = np.inf
+    for race, r_race, f in (("inner", r_p - r_b, conformity_inner),
+                            ("outer", r_p + r_b, conformity_outer)):
+        contact = elliptical_contact(*groove_radii(r_b, r_race, f, race), E_star)
+        p_1N = float(np.asarray(contact.at(np.array([1.0]))[3]).ravel()[0])
+        ball_load = min(ball_load, (positive("pressure", pressure) / p_1N) ** 3)
+    return Z * ball_load / STRIBECK_FACTOR
 
 
 # -- Lundberg-Palmgren raceway capacities -------------------------------------------------------

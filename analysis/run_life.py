@@ -40,7 +40,8 @@ __all__ = ["compliant_life", "ring_geometry", "LIFE_NAMES", "DEFAULT_CONFORMITY"
 #: usual values of deep-groove ball bearings, docs/life.md).
 DEFAULT_CONFORMITY = (0.52, 0.53)
 #: The numbers :func:`compliant_life` returns.
-LIFE_NAMES = ("L10", "L10r", "L10h", "L10rh", "equivalent_load", "load_rating")
+LIFE_NAMES = ("L10", "L10r", "L10h", "L10rh", "equivalent_load", "load_rating",
+              "static_load_rating", "static_equivalent_load", "static_safety_factor")
 
 
 def _attr(run_ds, key, default=None):
@@ -68,8 +69,15 @@ def ring_geometry(run_ds: xr.Dataset, settings: dict) -> dict:
         C, source = bearing(str(_attr(run_ds, "bearing"))).get("C"), "catalogue"
     if C is None:
         C, source = life.bearing_capacity_lp(Q_ci, Q_ce, n_balls), "Lundberg-Palmgren"
+    C0 = None
+    if _attr(run_ds, "bearing") is not None:
+        from simcore.model.bearing import bearing
+
+        C0 = bearing(str(_attr(run_ds, "bearing"))).get("C0")
+    if C0 is None:
+        C0 = life.static_load_rating(D_w, D_pw, n_balls, f_i, f_e)
     return {"D_w": D_w, "D_pw": D_pw, "n_balls": n_balls, "conformity": (f_i, f_e),
-            "Q_ci": Q_ci, "Q_ce": Q_ce, "C": float(C), "C_source": source}
+            "Q_ci": Q_ci, "Q_ce": Q_ce, "C": float(C), "C_source": source, "C0": float(C0)}
 
 
 def _stored(values) -> np.ndarray:
@@ -116,12 +124,15 @@ def compliant_life(run_ds: xr.Dataset, settle_time: float, settings: dict) -> di
     -------
     dict of float
         ``L10``, ``L10r`` [10^6 rev], ``L10h``, ``L10rh`` [h], ``equivalent_load`` P [N],
-        ``load_rating`` C [N]; NaN where the window holds fewer than two samples or the crank
-        does not turn.
+        ``load_rating`` C [N], ``static_load_rating`` C0 [N] (the catalogue's where the run
+        names a bearing that has one, else :func:`analysis.life.static_load_rating`),
+        ``static_equivalent_load`` P0, the largest transmitted radial load of the window [N],
+        and ``static_safety_factor`` s0 = C0 / P0 (ISO 76); NaN where the window holds fewer
+        than two samples or the crank does not turn.
     """
     geo = ring_geometry(run_ds, settings)
     nan = dict.fromkeys(LIFE_NAMES, np.nan)
-    nan["load_rating"] = geo["C"]
+    nan["load_rating"], nan["static_load_rating"] = geo["C"], geo["C0"]
     time = np.asarray(run_ds["time"].values, dtype=float)
     steady = time > settle_time
     theta = np.asarray(run_ds["crank_angle"].values, dtype=float)
@@ -150,6 +161,9 @@ def compliant_life(run_ds: xr.Dataset, settle_time: float, settings: dict) -> di
         lives[race], _ = life.reference_life_history(load[race][steady], psi[steady],
                                                      revolutions, Q_c, u)
     L10r = life.combine_races(lives["inner"], lives["outer"])
+    P0 = float(F_r.max())  # the largest transmitted load: ISO 76's P0 of a pure radial load
     return {"L10": L10, "L10r": L10r, "L10h": life.life_hours(L10, speed),
             "L10rh": life.life_hours(L10r, speed), "equivalent_load": P,
-            "load_rating": geo["C"]}
+            "load_rating": geo["C"], "static_load_rating": geo["C0"],
+            "static_equivalent_load": P0,
+            "static_safety_factor": np.inf if P0 == 0.0 else geo["C0"] / P0}

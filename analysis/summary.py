@@ -200,6 +200,19 @@ _VARIABLES = {
         "dynamic equivalent load P of L10: cubic mean of the transmitted radial load, weighted "
         "by revolutions"),
     "load_rating": ((), "compliant", "N", "basic dynamic load rating C of L10"),
+    "static_load_rating": (
+        (), "compliant", "N",
+        "basic static load rating C0 (ISO 76): the catalogue's, else the radial load under "
+        "which Stribeck's most loaded ball (5 C0 / Z) presses a groove with 4,200 MPa"),
+    "static_equivalent_load": (
+        (), "compliant", "N",
+        "static equivalent load P0: the largest radial load the bearing transmits in the steady "
+        "window (mean of an output interval)"),
+    "static_safety_factor": (
+        (), "compliant", "1",
+        "static safety factor s0 = C0 / P0 (ISO 76; guideline values for rotating ball "
+        "bearings 0.5-2 by the running quality asked, at least 1.5 under pronounced shock "
+        "loads)"),
 }
 # computed over the grid from both models (not stored per run)
 _GRID_VARIABLES = {

@@ -83,6 +83,14 @@ def test_l10_is_the_cube_of_c_over_the_cubic_mean_of_the_transmitted_load(ring):
     # a load rating given in the settings is used as given
     given = compliant_life(ds, -np.inf, dict(settings, life_load_rating=30e3))
     assert given["L10"] == pytest.approx((30e3 / P) ** 3, rel=1e-9)
+    # ISO 76: P0 the largest transmitted load, s0 = C0 / P0 with C0 of the modelled ring, or
+    # the catalogue's where the run names a bearing (the file's positions are float32)
+    C0 = life.static_load_rating(D_w, D_pw, 8, 0.52, 0.53)
+    assert out["static_equivalent_load"] == pytest.approx(F.max(), rel=1e-6)
+    assert out["static_load_rating"] == pytest.approx(C0, rel=1e-12)
+    assert out["static_safety_factor"] == pytest.approx(C0 / F.max(), rel=1e-6)
+    named = compliant_life(ds.assign_attrs({"model.bearing": "6012"}), -np.inf, settings)
+    assert named["static_load_rating"] == 23.2e3
 
 
 def test_l10r_lies_between_the_static_lives_of_the_ring_positions(ring):
