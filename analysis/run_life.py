@@ -25,6 +25,10 @@ C: ``analysis.life_load_rating`` where given, else the catalogue's C of ``model.
 the run names an entry that has one, else Lundberg and Palmgren's C of the modelled ring
 (:func:`analysis.life.bearing_capacity_lp`) from its ball diameter, pitch diameter, ball count
 and the groove conformities ``analysis.life_conformity`` (catalogues do not publish them).
+
+ISO 76: ``static_safety_factor`` s0 = C0 / P0 with P0 the largest F_r of the window and C0 the
+catalogue's static rating of ``model.bearing``, else the one its definition gives the modelled
+ring (:func:`analysis.life.static_load_rating`).
 """
 
 from __future__ import annotations
@@ -55,25 +59,24 @@ def _attr(run_ds, key, default=None):
 
 def ring_geometry(run_ds: xr.Dataset, settings: dict) -> dict:
     """Ball diameter, pitch diameter [m], ball count, conformities and the raceway capacities
-    Q_ci, Q_ce [N] and C [N] (with where C comes from) of a run's bearing."""
+    Q_ci, Q_ce [N], C [N] (with where C comes from) and C0 [N] of a run's bearing."""
     r_b, r_a = float(_attr(run_ds, "ball_radius")), float(_attr(run_ds, "inner_radius"))
     n_balls = int(_attr(run_ds, "n_balls"))
     f_i, f_e = settings.get("life_conformity") or DEFAULT_CONFORMITY
     D_w, D_pw = 2.0 * r_b, 2.0 * (r_a + r_b)
     Q_ci = life.raceway_capacity(D_w, D_pw, f_i, n_balls, "inner")
     Q_ce = life.raceway_capacity(D_w, D_pw, f_e, n_balls, "outer")
-    C, source = settings.get("life_load_rating"), "analysis.life_load_rating"
-    if C is None and _attr(run_ds, "bearing") is not None:
-        from simcore.model.bearing import bearing
-
-        C, source = bearing(str(_attr(run_ds, "bearing"))).get("C"), "catalogue"
-    if C is None:
-        C, source = life.bearing_capacity_lp(Q_ci, Q_ce, n_balls), "Lundberg-Palmgren"
-    C0 = None
+    entry = {}  # the catalogue's entry, where the run names one
     if _attr(run_ds, "bearing") is not None:
         from simcore.model.bearing import bearing
 
-        C0 = bearing(str(_attr(run_ds, "bearing"))).get("C0")
+        entry = bearing(str(_attr(run_ds, "bearing")))
+    C, source = settings.get("life_load_rating"), "analysis.life_load_rating"
+    if C is None:
+        C, source = entry.get("C"), "catalogue"
+    if C is None:
+        C, source = life.bearing_capacity_lp(Q_ci, Q_ce, n_balls), "Lundberg-Palmgren"
+    C0 = entry.get("C0")
     if C0 is None:
         C0 = life.static_load_rating(D_w, D_pw, n_balls, f_i, f_e)
     return {"D_w": D_w, "D_pw": D_pw, "n_balls": n_balls, "conformity": (f_i, f_e),
