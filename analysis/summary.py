@@ -84,6 +84,7 @@ from simcore.io.variables import STAGES
 from simcore.model.driver import CONTACT_MODELS
 
 from .reads import LIFE_READS, SUMMARY_READS
+from .run_life import DEFAULT_CONFORMITY
 
 __all__ = ["summarize", "summary_table", "steady_window", "SteadyWindow", "category_codes",
            "impact_numbers", "compliant_numbers", "point_numbers", "run_model", "MODELS",
@@ -518,7 +519,7 @@ def compliant_numbers(run_ds: xr.Dataset, window: SteadyWindow, levels: Sequence
     contact, _, _, peak_index, episode_force = episode_peaks(force)
     steady = time[peak_index] > window.settle_time
     levels = np.asarray(levels, dtype=float)
-    pressure = np.full(len(RACES), np.nan) if stress is None else race_pressures(stress, peak)
+    pressure = np.full(len(RACES), np.nan) if stress is None else _race_pressures(stress, peak)
     return {
         "peak_force": peak,
         "peak_force_rev_median": median,
@@ -578,17 +579,16 @@ def _groove_pressure(run_ds: xr.Dataset, settings: dict, peak_force) -> np.ndarr
     ``life_conformity``, the rating life's) at the race's ``peak_force`` [Pa]; NaN where the
     force is missing or the run lacks the model's radii or material."""
     from .impacts import run_geometry
-    from .run_life import DEFAULT_CONFORMITY
 
     try:
         geo = run_geometry(run_ds, groove_conformity=tuple(
             float(f) for f in settings.get("life_conformity") or DEFAULT_CONFORMITY))
     except ValueError:
         return np.full(len(RACES), np.nan)
-    return race_pressures(geo["stress"], peak_force)
+    return _race_pressures(geo["stress"], peak_force)
 
 
-def race_pressures(stress, force) -> np.ndarray:
+def _race_pressures(stress, force) -> np.ndarray:
     """Per race the Hertz pressure p_max [Pa] of ``stress`` ((F [N], race code) -> (a, b,
     delta, p_max), ``run_geometry(...)["stress"]``) at that race's ``force`` [N]; NaN where
     the force is missing or not positive."""
@@ -735,7 +735,7 @@ def _settings_key(settings: dict) -> str:
         elif key == "r_eff":
             value = value or "concave"
         elif key == "life_conformity":
-            value = [float(v) for v in (value or (0.52, 0.53))]
+            value = [float(v) for v in (value or DEFAULT_CONFORMITY)]
         elif key == "life_load_rating":
             value = None if value is None else float(value)
         canon[key] = value
