@@ -24,7 +24,8 @@ mean crank speed of the window (omega0 under the constant drive).
 C: ``analysis.life_load_rating`` where given, else the catalogue's C of ``model.bearing`` where
 the run names an entry that has one, else Lundberg and Palmgren's C of the modelled ring
 (:func:`analysis.life.bearing_capacity_lp`) from its ball diameter, pitch diameter, ball count
-and the groove conformities ``analysis.life_conformity`` (catalogues do not publish them).
+and the groove conformities (:func:`conformities`: ``analysis.life_conformity``, else the
+catalogue entry's typical values, else 0.52 and 0.53; catalogues do not publish a bearing's own).
 
 ISO 76: ``static_safety_factor`` s0 = C0 / P0 with P0 the largest F_r of the window and C0 the
 catalogue's static rating of ``model.bearing``, else the one its definition gives the modelled
@@ -38,7 +39,8 @@ import xarray as xr
 
 from . import life
 
-__all__ = ["compliant_life", "ring_geometry", "LIFE_NAMES", "DEFAULT_CONFORMITY"]
+__all__ = ["compliant_life", "ring_geometry", "conformities", "LIFE_NAMES",
+           "DEFAULT_CONFORMITY"]
 
 #: Groove radius over ball diameter, inner and outer race, where the settings give none (the
 #: usual values of deep-groove ball bearings, docs/life.md).
@@ -57,20 +59,40 @@ def _attr(run_ds, key, default=None):
     return default
 
 
+def _catalogue_entry(run_ds: xr.Dataset) -> dict:
+    """The catalogue entry the run names (``model.bearing``), else an empty one."""
+    if _attr(run_ds, "bearing") is None:
+        return {}
+    from simcore.model.bearing import bearing
+
+    return bearing(str(_attr(run_ds, "bearing")))
+
+
+def conformities(run_ds: xr.Dataset, settings: dict) -> tuple[float, float]:
+    """Groove radius over ball diameter of the inner and the outer race [-]: the settings'
+    ``life_conformity`` where given, else the catalogue entry's ``f_i``, ``f_e`` where the run
+    names a bearing that gives them, else :data:`DEFAULT_CONFORMITY`."""
+    given = settings.get("life_conformity")
+    if given is not None:
+        f_i, f_e = given
+        return float(f_i), float(f_e)
+    entry = _catalogue_entry(run_ds)
+    if entry.get("f_i") is not None and entry.get("f_e") is not None:
+        return float(entry["f_i"]), float(entry["f_e"])
+    return DEFAULT_CONFORMITY
+
+
 def ring_geometry(run_ds: xr.Dataset, settings: dict) -> dict:
-    """Ball diameter, pitch diameter [m], ball count, conformities and the raceway capacities
-    Q_ci, Q_ce [N], C [N] (with where C comes from) and C0 [N] of a run's bearing."""
+    """Ball diameter, pitch diameter [m], ball count, conformities (:func:`conformities`) and
+    the raceway capacities Q_ci, Q_ce [N], C [N] (with where C comes from) and C0 [N] of a run's
+    bearing."""
     r_b, r_a = float(_attr(run_ds, "ball_radius")), float(_attr(run_ds, "inner_radius"))
     n_balls = int(_attr(run_ds, "n_balls"))
-    f_i, f_e = settings.get("life_conformity") or DEFAULT_CONFORMITY
+    f_i, f_e = conformities(run_ds, settings)
     D_w, D_pw = 2.0 * r_b, 2.0 * (r_a + r_b)
     Q_ci = life.raceway_capacity(D_w, D_pw, f_i, n_balls, "inner")
     Q_ce = life.raceway_capacity(D_w, D_pw, f_e, n_balls, "outer")
-    entry = {}  # the catalogue's entry, where the run names one
-    if _attr(run_ds, "bearing") is not None:
-        from simcore.model.bearing import bearing
-
-        entry = bearing(str(_attr(run_ds, "bearing")))
+    entry = _catalogue_entry(run_ds)
     C, source = settings.get("life_load_rating"), "analysis.life_load_rating"
     if C is None:
         C, source = entry.get("C"), "catalogue"

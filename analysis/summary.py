@@ -84,7 +84,7 @@ from simcore.io.variables import STAGES
 from simcore.model.driver import CONTACT_MODELS
 
 from .reads import LIFE_READS, SUMMARY_READS
-from .run_life import DEFAULT_CONFORMITY
+from .run_life import conformities
 
 __all__ = ["summarize", "summary_table", "steady_window", "SteadyWindow", "category_codes",
            "impact_numbers", "compliant_numbers", "point_numbers", "run_model", "MODELS",
@@ -135,7 +135,7 @@ _VARIABLES = {
     "p_max_groove": (
         ("race",), "model", "Pa",
         "Hertz contact pressure of a real deep-groove race at peak_force, per race: elliptical "
-        "contact with the groove conformities analysis.life_conformity (inner, outer); the "
+        "contact with the rating life's groove conformities (inner, outer); the "
         "pressure to hold against a bearing's limits (ISO 76: 4,200 MPa static; ISO 281's "
         "fatigue load limit: 1,500 MPa)"),
     "top3_force": (
@@ -575,14 +575,13 @@ def _geometry(run_ds: xr.Dataset, settings: dict):
 
 
 def _groove_pressure(run_ds: xr.Dataset, settings: dict, peak_force) -> np.ndarray:
-    """Per race the pressure of an elliptical groove contact (conformities
-    ``life_conformity``, the rating life's) at the race's ``peak_force`` [Pa]; NaN where the
+    """Per race the pressure of an elliptical groove contact (the rating life's conformities,
+    :func:`analysis.run_life.conformities`) at the race's ``peak_force`` [Pa]; NaN where the
     force is missing or the run lacks the model's radii or material."""
     from .impacts import run_geometry
 
     try:
-        geo = run_geometry(run_ds, groove_conformity=tuple(
-            float(f) for f in settings.get("life_conformity") or DEFAULT_CONFORMITY))
+        geo = run_geometry(run_ds, groove_conformity=conformities(run_ds, settings))
     except ValueError:
         return np.full(len(RACES), np.nan)
     return _race_pressures(geo["stress"], peak_force)
@@ -735,7 +734,7 @@ def _settings_key(settings: dict) -> str:
         elif key == "r_eff":
             value = value or "concave"
         elif key == "life_conformity":
-            value = [float(v) for v in (value or DEFAULT_CONFORMITY)]
+            value = None if value is None else [float(v) for v in value]
         elif key == "life_load_rating":
             value = None if value is None else float(value)
         canon[key] = value

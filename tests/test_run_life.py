@@ -120,3 +120,22 @@ def test_the_window_starts_after_the_settle_time(ring):
     # a steady load: the same lives over two thirds of the window (to the sampling)
     assert later["L10"] == pytest.approx(whole["L10"], rel=0.02)
     assert np.isnan(compliant_life(ds, float(ds.time[-1]), {})["L10"])
+
+
+def test_conformities_come_from_the_settings_then_the_catalogue_then_the_default(ring,
+                                                                                 monkeypatch):
+    """analysis.life_conformity where given; else the named catalogue entry's f_i, f_e (here
+    changed to tell them from the default); else 0.52, 0.53."""
+    from analysis.run_life import DEFAULT_CONFORMITY, conformities, ring_geometry
+    from simcore.model.bearing import catalogue
+
+    ds = ring[0]
+    named = ds.assign_attrs({"model.bearing": "6012"})
+    monkeypatch.setitem(catalogue()["6012"], "f_i", 0.515)
+    assert conformities(named, {"life_conformity": [0.55, 0.56]}) == (0.55, 0.56)
+    assert conformities(named, {"life_conformity": None}) == (0.515, 0.53)
+    assert conformities(ds, {}) == DEFAULT_CONFORMITY == (0.52, 0.53)
+    assert ring_geometry(named, {})["conformity"] == (0.515, 0.53)
+    # an entry without conformities (the paper's ring) falls back to the default
+    paper = ds.assign_attrs({"model.bearing": "6012-paper"})
+    assert conformities(paper, {}) == DEFAULT_CONFORMITY
