@@ -88,9 +88,9 @@ def test_a_file_with_exactly_the_needs_serves_every_reader(study_runs, model, tm
     for name in needs:  # each one is read: without it a number or a figure is lost
         less = kept.drop_vars(name)
         lost = _lost_numbers(less, table, settings, full)
-        failed = model == "nonsmooth" and name in FIGURE_READS and _figures_fail(
-            less, table, settings, tmp_path / name)
-        assert lost or failed, name
+        # (the figures are drawn only where no number is lost: either loss is enough)
+        assert lost or (model == "nonsmooth" and name in FIGURE_READS and _figures_fail(
+            less, table, settings, tmp_path / name)), name
 
 
 def test_the_default_keep_holds_what_a_study_reads():
