@@ -171,7 +171,7 @@ def static_load_rating(ball_diameter: float, pitch_diameter: float, n_balls: int
     for race, r_race, f in (("inner", r_p - r_b, conformity_inner),
                             ("outer", r_p + r_b, conformity_outer)):
         contact = elliptical_contact(*groove_radii(r_b, r_race, f, race), E_star)
-        p_1N = float(np.asarray(contact.at(np.array([1.0]))[3]).ravel()[0])
+        p_1N = float(contact.at(1.0)[3])  # the pressure under 1 N [Pa]
         ball_load = min(ball_load, (positive("pressure", pressure) / p_1N) ** 3)
     return Z * ball_load / STRIBECK_FACTOR
 
