@@ -161,6 +161,7 @@ def static_load_rating(ball_diameter: float, pitch_diameter: float, n_balls: int
 
     r_b = positive("ball_diameter", ball_diameter) / 2.0
     r_p = positive("pitch_diameter", pitch_diameter) / 2.0
+    pressure = positive("pressure", pressure)
     if not r_p > r_b:
         raise ValueError("ball_diameter / pitch_diameter: allowed: in (0, 1)")
     Z = int(n_balls)
@@ -172,7 +173,7 @@ def static_load_rating(ball_diameter: float, pitch_diameter: float, n_balls: int
                             ("outer", r_p + r_b, conformity_outer)):
         contact = elliptical_contact(*groove_radii(r_b, r_race, f, race), E_star)
         p_1N = float(contact.at(1.0)[3])  # the pressure under 1 N [Pa]
-        ball_load = min(ball_load, (positive("pressure", pressure) / p_1N) ** 3)
+        ball_load = min(ball_load, (pressure / p_1N) ** 3)
     return Z * ball_load / STRIBECK_FACTOR
 
 

@@ -72,11 +72,15 @@ def conformities(run_ds: xr.Dataset, settings: dict) -> tuple[float, float]:
     """Groove radius over ball diameter of the inner and the outer race [-]: the settings'
     ``life_conformity`` where given, else the catalogue entry's ``f_i``, ``f_e`` where the run
     names a bearing that gives them, else :data:`DEFAULT_CONFORMITY`."""
+    return _conformities(settings, _catalogue_entry(run_ds))
+
+
+def _conformities(settings: dict, entry: dict) -> tuple[float, float]:
+    """:func:`conformities` from the run's catalogue ``entry`` (:func:`_catalogue_entry`)."""
     given = settings.get("life_conformity")
     if given is not None:
         f_i, f_e = given
         return float(f_i), float(f_e)
-    entry = _catalogue_entry(run_ds)
     if entry.get("f_i") is not None and entry.get("f_e") is not None:
         return float(entry["f_i"]), float(entry["f_e"])
     return DEFAULT_CONFORMITY
@@ -88,11 +92,11 @@ def ring_geometry(run_ds: xr.Dataset, settings: dict) -> dict:
     bearing."""
     r_b, r_a = float(_attr(run_ds, "ball_radius")), float(_attr(run_ds, "inner_radius"))
     n_balls = int(_attr(run_ds, "n_balls"))
-    f_i, f_e = conformities(run_ds, settings)
+    entry = _catalogue_entry(run_ds)
+    f_i, f_e = _conformities(settings, entry)
     D_w, D_pw = 2.0 * r_b, 2.0 * (r_a + r_b)
     Q_ci = life.raceway_capacity(D_w, D_pw, f_i, n_balls, "inner")
     Q_ce = life.raceway_capacity(D_w, D_pw, f_e, n_balls, "outer")
-    entry = _catalogue_entry(run_ds)
     C, source = settings.get("life_load_rating"), "analysis.life_load_rating"
     if C is None:
         C, source = entry.get("C"), "catalogue"
