@@ -59,7 +59,7 @@ def summary_lines(ds) -> list[str]:
                      f"   ({paper_max[stage]} / {paper_mean[stage]})")
     lines.append(f"unconverged steps: {int((ds['converged'].values[1:] == 0).sum())}"
                  " (a step creating energy or breaking an integrity check counts as unconverged)")
-    if "n_retried_steps" in ds.attrs and ds.attrs.get("contact_model") != "compliant":
+    if "n_retried_steps" in ds.attrs and not ds.attrs.get("solver.adaptive", 0):
         lines.append(f"retried steps (taken again as substeps): {ds.attrs['n_retried_steps']}")
     if "energy_max_gain_J" in ds.attrs:
         lines.append(f"energy audit: largest gain of a step {ds.attrs['energy_max_gain_J']:.3g} J "

@@ -1,4 +1,4 @@
-"""Retries of a failed nonsmooth step (solver.max_halvings).
+"""Retries of a failed step (solver.max_halvings), nonsmooth and compliant with fixed steps.
 
 The case: the paper's mechanism at dt = 2e-4 s with the Newton iteration cap lowered to 5.
 Step 23 (t = 4.6 ms) then does not converge at h; taken as two steps of h/2 it does. The
@@ -6,6 +6,13 @@ checks: the run goes on unflagged and counts the retry; without retries the same
 flagged and everything before it is bit for bit the same; and the retried step's outputs are
 those of two plain steps of h/2 from the same state, computed here by the kernel apart (impulses
 summed, the state at the step's end, the drive torque averaged).
+
+The compliant case: the paper's mechanism with steel contacts (E 2.1e11 Pa) at dt = 1e-6 s
+and the iteration cap lowered to 4: the smooth stages of two steps (rows 1219 and 1505) then
+do not converge at h; taken as two steps of h/2 they do. The same checks, the retried step
+against two plain steps of h/2 from the same state: the retry's Newton starts afresh where
+the plain steps extrapolate their first iterates, so these agree to the solver's tolerance,
+not to the bit.
 """
 
 import copy
@@ -18,7 +25,7 @@ import simcore
 from simcore import kernels as nb
 from simcore.model import SolverSettings
 from simcore.model.audit import ENERGY_FLOOR_J, drive_rate
-from simcore.model.driver import _allocate, _kernel_settings, _start
+from simcore.model.driver import _allocate, _compliant_state, _kernel_settings, _start
 from simcore.model.mechanism import crank_slider
 
 DT, MAX_ITER, T_END = 2e-4, 5, 0.005
@@ -162,3 +169,94 @@ def test_a_step_that_creates_energy_is_retried_by_the_audits_criterion():
     accepted_early = halvings[1:] < 2
     assert np.all(err[accepted_early] <= 1e-5 * scale[accepted_early] + ENERGY_FLOOR_J)
     assert np.any(err[halvings[1:] == 2] > 1e-5 * scale[halvings[1:] == 2])
+
+
+# --- compliant, fixed steps ---------------------------------------------------------------------
+
+C_DT, C_MAX_ITER, C_T_END = 1e-6, 4, 0.002
+C_FAILING_ROW = 1219  # the first row whose step fails at h (found by the runs below)
+
+
+def _compliant_config(max_halvings, dt=C_DT):
+    return simcore.load_config(overrides=[
+        "model.contact_model=compliant", "model.youngs_modulus=2.1e11", f"solver.dt={dt}",
+        f"solver.t_end={C_T_END}", f"solver.max_iter={C_MAX_ITER}",
+        f"solver.max_halvings={max_halvings}", "solver.on_nonconvergence=warn"])
+
+
+@pytest.fixture(scope="module")
+def compliant_runs():
+    runs = {}
+    for m in (0, 4):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            ds = simcore.run(_compliant_config(m))
+        runs[m] = ds, [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)]
+    return runs
+
+
+def test_a_compliant_step_failing_at_h_is_retried_and_the_run_goes_on(compliant_runs):
+    ds, warned = compliant_runs[4]
+    assert ds["converged"].values.all() and not warned
+    halvings = ds["halvings"].values
+    assert halvings[C_FAILING_ROW] >= 1
+    assert ds.attrs["n_retried_steps"] == np.count_nonzero(halvings) > 0
+
+
+def test_without_retries_the_same_compliant_step_is_flagged(compliant_runs):
+    ds0, warned = compliant_runs[0]
+    ds4, _ = compliant_runs[4]
+    conv = ds0["converged"].values
+    assert np.flatnonzero(conv == 0)[0] == C_FAILING_ROW
+    assert ds0.attrs["n_retried_steps"] == 0 and not ds0["halvings"].values.any()
+    assert any(f"step {C_FAILING_ROW}" in w and "substeps" not in w for w in warned)
+    # every step before it converges at h: the same bits with and without retries
+    for name in ("position", "velocity", "F_N", "Lambda_N", "gap_N", "iterations"):
+        a = ds0[name].values[:C_FAILING_ROW]
+        b = ds4[name].values[:C_FAILING_ROW]
+        assert np.array_equal(a, b), name
+
+
+def _compliant_outputs(out):
+    return nb.CompliantOutputs(out.q, out.v, out.F_N, out.F_T, out.lambda_N, out.lambda_T,
+                               out.gap_N, out.vn_pre, out.vn_post, out.energy, out.iterations,
+                               out.converged, out.drive_torque, out.halvings)
+
+
+def test_a_retried_compliant_step_is_two_plain_half_steps():
+    """The kernel's retried step against two steps of h/2 taken apart from the same state
+    (the first with its start accelerations corrected to h/2, as the retry's): the state at
+    the step's end, the interval's largest force, its impulses and iteration counts."""
+    cfg = _compliant_config(1)
+    model, _ = crank_slider(cfg["model"])
+    settings = SolverSettings.from_config(cfg)
+    start = _start(model, settings, None, None, 0.0)
+    out = _allocate(model, settings, start, 0.0)
+    rows = _compliant_outputs(out)
+    cs = _compliant_state(start)
+    st = _kernel_settings(settings, start.drive_row, 0.0)
+    k = C_FAILING_ROW - 1  # the step k -> k + 1 that fails at h
+    args = (st, start.arrays, start.state, cs, rows, start.work)
+    assert nb.integrate_compliant_chunk(0, k, 1, 1, *args) < 0
+    state0, cs0, work0 = _clone((start.state, cs, start.work))
+    assert nb.integrate_compliant_chunk(k, k + 1, 1, 1, *args) < 0
+    assert out.halvings[k + 1] == 1 and out.converged[k + 1] == 1
+    # apart: steps 2k and 2k + 1 of a run at h/2, no retries
+    half = _allocate(model, SolverSettings.from_config(_compliant_config(0, C_DT / 2)), start,
+                     0.0)
+    assert nb.integrate_compliant_chunk(2 * k, 2 * k + 2, 1, 0, st._replace(h=st.h / 2),
+                                        start.arrays, state0, cs0, _compliant_outputs(half),
+                                        work0) < 0
+    a, b = 2 * k + 1, 2 * k + 2
+    np.testing.assert_allclose(out.q[k + 1], half.q[b], rtol=0, atol=1e-11)
+    np.testing.assert_allclose(out.v[k + 1], half.v[b], rtol=0,
+                               atol=1e-7 * np.abs(half.v[b]).max())
+    force = np.maximum(half.F_N[a], half.F_N[b])
+    assert force.max() > 0  # a contact carries load through the step
+    np.testing.assert_allclose(out.F_N[k + 1], force, rtol=0, atol=1e-6 * force.max())
+    impulse = half.lambda_N[a] + half.lambda_N[b]
+    np.testing.assert_allclose(out.lambda_N[k + 1], impulse, rtol=0,
+                               atol=1e-6 * np.abs(impulse).max())
+    assert out.energy[k + 1] == pytest.approx(half.energy[b], rel=1e-9)
+    np.testing.assert_array_equal(out.iterations[k + 1],
+                                  np.maximum(half.iterations[a], half.iterations[b]))

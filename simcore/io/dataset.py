@@ -145,7 +145,8 @@ def solver_records(traj) -> dict:
 
 
 def n_retried_steps(traj) -> int:
-    """Steps of the run taken again as substeps after a failure (halvings > 0)."""
+    """Steps of the run taken again as substeps after a failure (halvings > 0; of a compliant
+    run, the output intervals holding such a step)."""
     return 0 if traj.halvings is None else int(np.count_nonzero(traj.halvings))
 
 

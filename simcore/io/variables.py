@@ -147,8 +147,9 @@ VARIABLES: dict[str, RunVariable] = {
         TIME, "1", "times the step was halved: 0 taken whole, L taken again as 2^L substeps of "
         "dt/2^L after a failure (impulses and drive torque: the step's sums and mean; "
         "iterations: the largest of its substeps)", "int8",
-        "The retries of a failed step (docs/method.md); 0 throughout a compliant run.",
-        "0: the compliant model's steps are not halved"),
+        "The retries of a failed step (docs/method.md); a compliant run with fixed steps: the "
+        "most halvings of a step in the output interval.",
+        "0: adaptive compliant steps are not halved (the error control shrinks them)"),
     "energy_error": RunVariable(
         TIME, "J", "energy created by the step ending at time: energy change minus drive work "
         "(<= 0 when the step only dissipates)", "float32",

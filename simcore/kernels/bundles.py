@@ -51,10 +51,11 @@ CompliantState = namedtuple("CompliantState", [
 
 #: Outputs of the compliant time loop, one row per output sample (row 0: t0); drive_torque is
 #: the drive's torque averaged over the interval that ends at the row (its torque impulse over
-#: the interval's length, whatever the steps in it: the energy audit's drive work).
+#: the interval's length, whatever the steps in it: the energy audit's drive work); halvings
+#: the most halvings of a fixed step retried in the interval (0: none).
 CompliantOutputs = namedtuple("CompliantOutputs", [
     "q", "v", "F_N", "F_T", "Lambda_N", "Lambda_T", "gap_N", "vn_pre", "vn_post", "energy",
-    "iterations", "converged", "drive_torque"])
+    "iterations", "converged", "drive_torque", "halvings"])
 
 #: Settings of the compliant loop with adaptive steps (the largest step is StepSettings.h):
 #: ``out_dt`` the output interval [s], ``dt_min`` the smallest step the error control may ask

@@ -50,7 +50,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .compliant_step import commit_step, compliant_step_into, write_sample
+from .compliant_step import commit_step, compliant_step_into, start_accelerations, write_sample
 from .contact import contact_rows_cached
 from .generalized_alpha import alpha_coefficients
 from .hertz import hertz_impact_time
@@ -212,11 +212,9 @@ def _attempt(t, h, coef, st, ma, state, cs, work, aw):
     :func:`_undo` restores): the start accelerations corrected to the step's size and the
     step of :func:`~.compliant_step.compliant_step_into`. Returns its (smooth iterations,
     projection iterations, converged)."""
-    n = state.q.shape[0]
     ratio = h / aw.h[1]
-    for i in range(n):
-        a = state.acc[i]
-        aw.acc_c[i] = a if ratio == 1.0 else state.vdot[i] + ratio * (a - state.vdot[i])
+    start_accelerations(state, ratio, aw.acc_c)
+    for i in range(state.q.shape[0]):
         aw.vdot_old_save[i] = work.branches.vdot_old[i]
     for r in range(state.lam_s.shape[0]):
         aw.lam_save[r] = state.lam_s[r]

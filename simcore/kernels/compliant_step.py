@@ -64,9 +64,16 @@ from .springs import WITH_TANGENTS, smooth_forces_into, total_energy
 #: Hertz law's (:func:`~.hertz.hertz_work`), the joint projection's (:data:`ProjectionWork`)
 #: and the friction branches' (:data:`BranchWork`); ``onset`` (nc) an onset speed to use for
 #: a contact that closes in the step instead of the approach speed of the last state (NaN:
-#: none; the adaptive step's, see :func:`~.compliant_adaptive.settle_onset_speeds`).
+#: none; the adaptive step's, see :func:`~.compliant_adaptive.settle_onset_speeds`); ``retry``
+#: (:data:`RetryWork`) the fixed loop's retries of a failed step.
 CompliantWork = namedtuple("CompliantWork", ["step", "smooth", "contacts", "hertz",
-                                             "projection", "branches", "onset"])
+                                             "projection", "branches", "onset", "retry"])
+
+#: Work of the fixed-step loop's retries (:func:`_retry_in_substeps`): the start
+#: accelerations corrected to another step size (``acc_c``, n), the joint multipliers at the
+#: start of the step (``lam_save``, m) and the size of the last step taken (``h_last``, 1;
+#: 0 before the first) [s].
+RetryWork = namedtuple("RetryWork", ["acc_c", "lam_save", "h_last"])
 
 #: Work arrays of :func:`project_joints_into`: joint rows g, G (m x n), their velocity terms,
 #: the rows' supports (cols (m x 6), ncols), S = G M^-1 G^T and its LU pivots, a right-hand
@@ -125,6 +132,8 @@ def compliant_work(n, nbil, nc):
     return CompliantWork(step=step_work(n), smooth=smooth_work(n, nbil),
                          contacts=contact_records(nc), hertz=hertz_work(),
                          projection=projection_work(n, nbil), onset=np.full(nc, np.nan),
+                         retry=RetryWork(acc_c=np.zeros(n), lam_save=np.zeros(nbil),
+                                         h_last=np.zeros(1)),
                          branches=BranchWork(J2=np.zeros((n, n)), r2=np.zeros(n + nbil),
                                              current=np.zeros(nc, dtype=np.int64),
                                              assumed=np.zeros(nc, dtype=np.int64),
@@ -901,6 +910,17 @@ def _friction_branches(J, rhs, G, cv, sol, ma, v_reg, cwork, sw, bw):
 
 
 @step_kernel
+def start_accelerations(state, ratio, acc_c):
+    """The start accelerations of a step ``ratio`` times as long as the last one into
+    ``acc_c``: a_n* = v'_n + ratio (a_n - v'_n), which keeps the generalized-alpha scheme second
+    order across a change of the step's size (a_n - v'_n is (alpha_m - alpha_f) h v''(t_n) to
+    leading order; Arnold and Bruls' correction)."""
+    for i in range(acc_c.shape[0]):
+        a = state.acc[i]
+        acc_c[i] = a if ratio == 1.0 else state.vdot[i] + ratio * (a - state.vdot[i])
+
+
+@step_kernel
 def compliant_step_into(state, acc, t1, h, ratio, coef, st, ma, cs, work, velocities):
     """One compliant step of size ``h`` [s] ending at ``t1`` [s] from ``state`` (StepState: q,
     v, vdot, lam_s) with the start accelerations ``acc``: onset speeds of the open contacts
@@ -1020,10 +1040,56 @@ def write_sample(row, state, cs, out, ma, drive_row, trig, duration):
     cs.drive_impulse[0] = 0.0
 
 
+@step_kernel
+def _retry_in_substeps(t0, h, h_before, max_halvings, coef, st, ma, state, cs, work, sample):
+    """Take the step from ``t0`` [s] of size ``h`` [s], which did not converge whole, again
+    from its start as 2, 4, ... 2^``max_halvings`` substeps: a substep that does not converge is
+    taken again as two of half its size, the substeps after it keep that size, and one that
+    fails at h / 2^max_halvings is committed as not converged. ``h_before`` [s] is the size of
+    the step before, whose accelerations the state holds; ``sample``: whether the step ends at
+    an output row (the last substep then computes the open contacts' velocities). Each
+    substep is committed as a step (:func:`commit_step`): the interval's records hold the
+    largest force of the substeps, their impulses and iteration counts. Returns (whether every
+    substep converged, the halvings taken, the size of the last substep [s])."""
+    rw = work.retry
+    lam = state.lam_s
+    copy_vector(lam, rw.lam_save, lam.shape[0])  # the start's, not the failed iterate
+    level = 1
+    n = 2
+    done = 0
+    h_last = h_before
+    all_ok = True
+    while done < n:
+        hs = h / n
+        last = done == n - 1
+        ratio = hs / h_last
+        start_accelerations(state, ratio, rw.acc_c)
+        copy_vector(rw.lam_save, lam, lam.shape[0])
+        t1 = t0 + h if last else t0 + (done + 1) * hs
+        it_s, ok_s, it_p, ok_p = compliant_step_into(state, rw.acc_c, t1, hs, ratio, coef, st,
+                                                     ma, cs, work, sample and last)
+        ok = ok_s and ok_p
+        if not ok and level < max_halvings:
+            copy_vector(lam, rw.lam_save, lam.shape[0])
+            level += 1
+            n *= 2
+            done *= 2
+            continue
+        commit_step(hs, state, cs, work, it_s, it_p, ok, st.drive_row, sample and last)
+        all_ok = all_ok and ok
+        h_last = hs
+        done += 1
+    return all_ok, level, h_last
+
+
 @loop_kernel
-def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
+def integrate_compliant_chunk(k0, k1, every, max_halvings, st, ma, state, cs, out, work):
     """Advance steps k0 .. k1-1 of the compliant model by the fixed step ``st.h`` (state at
-    t0 + k0 h on entry).
+    t0 + k0 h on entry). A step whose smooth stage or joint projection does not converge is
+    taken again from its start as 2, 4, ... 2^``max_halvings`` substeps
+    (:func:`_retry_in_substeps`; ``out.halvings`` of its interval records the halvings), and
+    the step after the substeps starts from accelerations corrected to its size
+    (:func:`start_accelerations`).
 
     Every ``every`` steps the output row (k + 1) // every is written (:func:`write_sample`):
     q, v, energy (kinetic, gravitational, springs and the contacts' elastic energy) at that
@@ -1053,18 +1119,35 @@ def integrate_compliant_chunk(k0, k1, every, st, ma, state, cs, out, work):
     h = st.h
     coef = alpha_coefficients(st.rho_inf)
     first_bad = -1
+    rw = work.retry
+    lam = state.lam_s
+    h_last = rw.h_last[0] if rw.h_last[0] > 0.0 else h
     for k in range(k0, k1):
         t1 = st.t0 + (k + 1) * h
         # the open contacts' velocities are needed at the output rows only (elsewhere an
         # onset speed is computed when its contact closes)
         sample = (k + 1) % every == 0
-        it_s, ok_s, it_p, ok_p = compliant_step_into(state, state.acc, t1, h, 1.0, coef, st,
+        acc = state.acc
+        if h_last != h:  # the step after a retried one's substeps
+            start_accelerations(state, h / h_last, rw.acc_c)
+            acc = rw.acc_c
+        if max_halvings > 0:
+            copy_vector(rw.lam_save, lam, lam.shape[0])
+        it_s, ok_s, it_p, ok_p = compliant_step_into(state, acc, t1, h, h / h_last, coef, st,
                                                      ma, cs, work, sample)
         ok = ok_s and ok_p
-        commit_step(h, state, cs, work, it_s, it_p, ok, st.drive_row, sample)
+        if ok or max_halvings == 0:
+            commit_step(h, state, cs, work, it_s, it_p, ok, st.drive_row, sample)
+            h_last = h
+        else:
+            ok, level, h_last = _retry_in_substeps(t1 - h, h, h_last, max_halvings, coef, st,
+                                                   ma, state, cs, work, sample)
+            row = k // every + 1
+            out.halvings[row] = max(out.halvings[row], level)
         if not ok and first_bad < 0:
             first_bad = k
         if sample:
             write_sample((k + 1) // every, state, cs, out, ma, st.drive_row, work.smooth.trig,
                          every * h)
+    rw.h_last[0] = h_last
     return first_bad

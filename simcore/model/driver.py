@@ -101,10 +101,11 @@ class SolverSettings:
         Energy audit (:mod:`simcore.model.audit`): a step creating more than this fraction of
         the run's energy scale counts as not converged [-].
     max_halvings : int
-        Nonsmooth: a step whose sub-problems do not converge, or that creates energy by the
-        audit's criterion, is taken again from its start as 2, 4, ... 2^max_halvings substeps
-        (docs/method.md); only a step that fails at the smallest one is flagged or stops the
-        run. 0: never retried; at most :data:`MAX_HALVINGS`.
+        Fixed steps: a step whose sub-problems do not converge, or (nonsmooth) that creates
+        energy by the audit's criterion, is taken again from its start as 2, 4, ...
+        2^max_halvings substeps (docs/method.md); only a step that fails at the smallest one is
+        flagged or stops the run. 0: never retried; at most :data:`MAX_HALVINGS`. Adaptive
+        compliant steps shrink a failed step instead.
     chunk : int or None
         Steps per kernel call (the checks, the progress bar and an early stop act between
         calls); with adaptive steps, chunk // output_every output intervals per call. None:
@@ -277,7 +278,8 @@ class Trajectory:
     one row per output interval; ``lambda_N``/``lambda_T`` are the impulses over the interval,
     ``F_N`` the largest normal force in it and ``F_T`` the friction force at that peak,
     ``gap_N`` the smallest gap in it, ``vn_pre``/``vn_post`` the normal velocity at its start
-    and end (``vn_free`` = ``vn_post``: nothing jumps), ``nu_N`` zero."""
+    and end (``vn_free`` = ``vn_post``: nothing jumps), ``nu_N`` zero, ``halvings`` the most
+    halvings of a fixed step in it (:func:`simcore.kernels.compliant_step._retry_in_substeps`)."""
 
     time: np.ndarray
     q: np.ndarray
@@ -521,7 +523,7 @@ class _Loop:
             outputs = nb.CompliantOutputs(out.q, out.v, out.F_N, out.F_T, out.lambda_N,
                                           out.lambda_T, out.gap_N, out.vn_pre, out.vn_post,
                                           out.energy, out.iterations, out.converged,
-                                          out.drive_torque)
+                                          out.drive_torque, out.halvings)
             self.chunk = max(1, _chunk(settings) // every) * every
             if settings.adaptive:
                 aset = nb.AdaptiveSettings(settings.output_dt, float(settings.dt_min),
@@ -533,8 +535,8 @@ class _Loop:
                     self.cstate, outputs, start.work, self.adaptive)
             else:
                 self._advance = lambda k, k_next: nb.integrate_compliant_chunk(
-                    k, k_next, every, kset, start.arrays, start.state, self.cstate, outputs,
-                    start.work)
+                    k, k_next, every, settings.max_halvings, kset, start.arrays, start.state,
+                    self.cstate, outputs, start.work)
         else:
             self.cstate = None
             outputs = nb.ChunkOutputs(out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N,
@@ -638,7 +640,7 @@ class _Loop:
                   if it >= self.settings.max_iter]
         halvings = self.settings.max_halvings
         retried = (f"; taken again as up to {2 ** halvings} substeps (solver.max_halvings = "
-                   f"{halvings})" if halvings and not self.settings.compliant else "")
+                   f"{halvings})" if halvings else "")
         return (f"solver did not converge at step {bad + 1} (t = {self._time(bad + 1):.6g} s); "
                 f"stage(s) at the iteration cap: {', '.join(stages) or 'fallback'} "
                 f"(solver.max_iter = {self.settings.max_iter}, solver.tol = {self.settings.tol})"
