@@ -1041,8 +1041,8 @@ def write_sample(row, state, cs, out, ma, drive_row, trig, duration):
 
 
 @step_kernel
-def _retry_in_substeps(t0, h, h_before, max_halvings, coef, st, ma, state, cs, work, sample):
-    """Take the step from ``t0`` [s] of size ``h`` [s], which did not converge whole, again
+def _retry_in_substeps(t1, h, h_before, max_halvings, coef, st, ma, state, cs, work, sample):
+    """Take the step of size ``h`` [s] ending at ``t1`` [s], which did not converge whole, again
     from its start as 2, 4, ... 2^``max_halvings`` substeps: a substep that does not converge is
     taken again as two of half its size, the substeps after it keep that size, and one that
     fails at h / 2^max_halvings is committed as not converged. ``h_before`` [s] is the size of
@@ -1065,8 +1065,8 @@ def _retry_in_substeps(t0, h, h_before, max_halvings, coef, st, ma, state, cs, w
         ratio = hs / h_last
         start_accelerations(state, ratio, rw.acc_c)
         copy_vector(rw.lam_save, lam, lam.shape[0])
-        t1 = t0 + h if last else t0 + (done + 1) * hs
-        it_s, ok_s, it_p, ok_p = compliant_step_into(state, rw.acc_c, t1, hs, ratio, coef, st,
+        t_end = t1 if last else t1 - h + (done + 1) * hs
+        it_s, ok_s, it_p, ok_p = compliant_step_into(state, rw.acc_c, t_end, hs, ratio, coef, st,
                                                      ma, cs, work, sample and last)
         ok = ok_s and ok_p
         if not ok and level < max_halvings:
@@ -1140,7 +1140,7 @@ def integrate_compliant_chunk(k0, k1, every, max_halvings, st, ma, state, cs, ou
             commit_step(h, state, cs, work, it_s, it_p, ok, st.drive_row, sample)
             h_last = h
         else:
-            ok, level, h_last = _retry_in_substeps(t1 - h, h, h_last, max_halvings, coef, st,
+            ok, level, h_last = _retry_in_substeps(t1, h, h_last, max_halvings, coef, st,
                                                    ma, state, cs, work, sample)
             row = k // every + 1
             out.halvings[row] = max(out.halvings[row], level)
