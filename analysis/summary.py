@@ -322,22 +322,44 @@ class SteadyWindow:
         return np.clip(np.floor(position + 1e-9), 0, max(n - 1, 0)).astype(np.int64)
 
 
+def revolution_peak_table(window: SteadyWindow, time, race, force) -> np.ndarray:
+    """Each steady revolution's largest force per race, (revolution, race) [N]: 0 for a
+    revolution without a force on the race; no rows where the revolutions are unknown.
+
+    Parameters
+    ----------
+    window : SteadyWindow
+        The run's steady window.
+    time, race, force : array_like
+        Samples: time [s], race code (index into :data:`RACES`) and force [N]; samples of
+        the start-up, non-finite or not positive forces and unknown races are left out.
+    """
+    time = np.asarray(time, dtype=float)
+    race = np.asarray(race)
+    force = np.asarray(force, dtype=float)
+    per_rev = np.zeros((window.n_revolutions, len(RACES)))
+    sel = ((time > window.settle_time) & np.isfinite(force) & (force > 0) & (race >= 0)
+           & (race < len(RACES)))
+    if per_rev.shape[0] and sel.any():
+        np.maximum.at(per_rev, (window.revolution(time[sel]), race[sel]), force[sel])
+    return per_rev
+
+
 def _revolution_peaks(window: SteadyWindow, time, race,
                       force) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per race: the largest force of the steady window, the median over its revolutions of
-    each revolution's largest force (0 for a revolution without a force) and the spread of
-    those, (largest - smallest) / median. NaN where the window has no force on the race; the
-    median also where the revolutions are unknown, the spread also with fewer than two or a
-    median of 0."""
-    steady = (np.asarray(time) > window.settle_time) & np.isfinite(force) & (force > 0)
+    each revolution's largest force (:func:`revolution_peak_table`) and the spread of those,
+    (largest - smallest) / median. NaN where the window has no force on the race; the median
+    also where the revolutions are unknown, the spread also with fewer than two or a median
+    of 0."""
+    time = np.asarray(time, dtype=float)
+    force = np.asarray(force, dtype=float)
+    sel = (time > window.settle_time) & np.isfinite(force) & (force > 0)
     peak = np.full(len(RACES), np.nan)
     median = np.full(len(RACES), np.nan)
     spread = np.full(len(RACES), np.nan)
-    n_rev = window.n_revolutions
-    per_rev = np.zeros((max(n_rev, 1), len(RACES)))
-    sel = steady & (race >= 0) & (race < len(RACES))
-    if n_rev and sel.any():
-        np.maximum.at(per_rev, (window.revolution(np.asarray(time)[sel]), race[sel]), force[sel])
+    per_rev = revolution_peak_table(window, time, race, force)
+    n_rev = per_rev.shape[0]
     for r in range(len(RACES)):
         mine = sel & (race == r)
         if mine.any():
@@ -477,6 +499,14 @@ def impact_numbers(time, race, kind, f_max, p_max, flags, window: SteadyWindow,
     }
 
 
+def race_forces(force: np.ndarray, races: np.ndarray) -> np.ndarray:
+    """The largest force on each race per sample, (race, time) [N], from the contact forces
+    ``force`` (contact, time) [N] and each contact's race code ``races`` (into :data:`RACES`);
+    0 for a race without contacts."""
+    return np.stack([force[races == r].max(axis=0) if np.any(races == r)
+                     else np.zeros(force.shape[1]) for r in range(len(RACES))])
+
+
 def compliant_numbers(run_ds: xr.Dataset, window: SteadyWindow, levels: Sequence[float],
                       stress) -> dict:
     """Forces and counts of one compliant run, from its contact forces ``F_N``.
@@ -508,8 +538,7 @@ def compliant_numbers(run_ds: xr.Dataset, window: SteadyWindow, levels: Sequence
     force = compliant_forces(run_ds)  # (contact, time)
     time = np.asarray(run_ds["time"].values, dtype=float)
     races = race_codes(run_ds, force.shape[0]).astype(np.int64)
-    per_race = np.stack([force[races == r].max(axis=0) if np.any(races == r)
-                         else np.zeros(time.size) for r in range(len(RACES))])  # (race, time)
+    per_race = race_forces(force, races)
     sample_race = np.broadcast_to(np.arange(len(RACES))[:, None], per_race.shape)
     sample_time = np.broadcast_to(time[None, :], per_race.shape)
     peak, median, spread = _revolution_peaks(window, sample_time.ravel(), sample_race.ravel(),
