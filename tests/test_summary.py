@@ -264,6 +264,22 @@ def test_spread_over_revolutions_is_missing_without_two_revolutions_or_a_median(
     assert np.isnan(one["peak_force_rev_spread"]).all()
 
 
+def test_revolution_peak_table_against_hand_placed_samples():
+    """Three revolutions (turned 0..3 over t = 0..3 s), start-up to t = 0.2 s: each
+    revolution's largest force per race, the start-up's, non-finite and unknown-race samples
+    left out, 0 where a race has no force in a revolution."""
+    from analysis.summary import revolution_peak_table
+
+    t = np.array([0.1, 0.5, 0.7, 1.5, 2.2, 2.9, 2.5, 1.2, 0.9])
+    race = np.array([1, 1, 1, 1, 1, 0, 0, -1, 0])
+    force = np.array([900.0, 100.0, 150.0, 300.0, 200.0, 40.0, 60.0, 999.0, np.nan])
+    grid = np.linspace(0.0, 3.0, 31)
+    table = revolution_peak_table(SteadyWindow(0.2, 3.0, grid, grid), t, race, force)
+    np.testing.assert_array_equal(table, [[0.0, 150.0], [0.0, 300.0], [60.0, 200.0]])
+    unknown = revolution_peak_table(SteadyWindow(0.2, np.nan), t, race, force)
+    assert unknown.shape == (0, 2)
+
+
 def test_compliant_twin_against_its_hand_built_forces(study):
     """omega0 = 9.42 rad/s, settle 1: the revolutions of the steady window end at turned = 2, 3
     and the run's end (the tail of 0.498 revolution joins the third): t = 1.334, 2.001 s."""
