@@ -81,7 +81,7 @@ def run_table(twin: dict, label: str, tol: float | None, dt: float | None,
     window = SteadyWindow.of_run(ds, 1.0)
     table = revolution_peak_table(window, np.broadcast_to(time, per_race.shape).ravel(),
                                   sample_race.ravel(), per_race.ravel())
-    table = table[:int(np.floor(window.revolutions + 1e-9))]  # whole revolutions only
+    table = table[:int(np.floor(window.revolutions + 0.01))]  # whole revolutions only
     steps = (int(ds.attrs["n_steps_accepted"]) if tol is not None
              else int(round(solver["t_end"] / dt)))
     return {"label": label, "steps": steps, "time_s": float(ds.attrs["wall_time_s"]),
