@@ -24,7 +24,12 @@ prints per race the mean, median and 90th percentile of those, the mean's 95 % i
 20 batch means, the lag-1 autocorrelation of the revolutions (near 0: independent samples,
 the intervals hold), the change of the mean from the first half of the revolutions to the
 second (a steady state), and the differences of mean and median against the last run listed
-(the finest fixed step) with their 95 % bootstrap intervals (scipy.stats.bootstrap).
+(the finest fixed step) with their 95 % bootstrap intervals (scipy.stats.bootstrap). Then,
+per run and window length n of ``--windows`` (windows of n consecutive revolutions of one
+start, as a study with ``study.revolutions`` = n reads them), the spread of the window's
+median (the summary's ``peak_force_rev_median``: its standard deviation and 5-95 % range over
+the windows) and the mean of the window's largest force (``peak_force``) over the median of
+all revolutions.
 """
 
 from __future__ import annotations
@@ -122,16 +127,29 @@ def pooled(runs: list[dict]) -> list[dict]:
     for run in runs:
         have = out.get(run["label"])
         if have is None:
-            out[run["label"]] = dict(run, starts=1)
+            out[run["label"]] = dict(run, starts=1, parts=[run["table"]])
             continue
         have.update(steps=have["steps"] + run["steps"], time_s=have["time_s"] + run["time_s"],
                     converged=min(have["converged"], run["converged"]),
                     table=np.concatenate([have["table"], run["table"]]),
-                    starts=have["starts"] + 1)
+                    starts=have["starts"] + 1, parts=[*have["parts"], run["table"]])
     return [out[k] for k in sorted(out, key=_order)]
 
 
-def report(runs: list[dict]) -> None:
+def window_numbers(parts: list[np.ndarray], race: int, n: int) -> tuple:
+    """Over the windows of ``n`` consecutive revolutions of each part (one start's table):
+    the standard deviation of the window's median over the median of all revolutions, its
+    5 and 95 % percentiles [N], and the mean of the window's largest over that median, and the
+    number of windows."""
+    blocks = [p[:(p.shape[0] // n) * n, race].reshape(-1, n) for p in parts]
+    blocks = np.concatenate(blocks)
+    overall = np.median(np.concatenate([p[:, race] for p in parts]))
+    medians = np.median(blocks, axis=1)
+    return (float(medians.std(ddof=1) / overall), *np.percentile(medians, [5, 95]),
+            float(blocks.max(axis=1).mean() / overall), blocks.shape[0])
+
+
+def report(runs: list[dict], windows=()) -> None:
     """Print the statistics of each run and its differences against the last run."""
     ref = runs[-1]
     for run in runs:
@@ -153,6 +171,14 @@ def report(runs: list[dict]) -> None:
                     line += (f"; {name} {100 * d / s:+.2f} % [{100 * lo / s:+.2f}, "
                              f"{100 * hi / s:+.2f}]")
             print(line, flush=True)
+        for n in windows:
+            if run["table"].shape[0] < 2 * n:
+                continue
+            for r, race in enumerate(RACES):
+                spread, p5, p95, largest, count = window_numbers(run["parts"], r, n)
+                print(f"  {race:6s} windows of {n} revolutions ({count}): median spread "
+                      f"{100 * spread:.1f} % ({p5:.0f}-{p95:.0f} N), largest "
+                      f"{100 * (largest - 1):+.0f} % over the median")
     if len(runs) > 1:
         print(f"(differences against {ref['label']}, 95 % bootstrap intervals)")
 
@@ -172,6 +198,8 @@ def main() -> None:
                         help="other settings of the study, e.g. model.cage_damping=100")
     parser.add_argument("--shifts", type=float, nargs="+", default=[0.0],
                         help="starts: ball 0 moved along the pitch circle by each [m]")
+    parser.add_argument("--windows", type=int, nargs="*", default=[3, 10, 30, 100],
+                        help="window lengths [revolutions] of the window statistics")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--save", type=Path, default=None, help="folder for the tables")
     parser.add_argument("--load", type=Path, nargs="+", default=None,
@@ -182,7 +210,7 @@ def main() -> None:
         for path in sorted(p for folder in args.load for p in folder.glob("*.npz")):
             with np.load(path) as f:
                 runs.append({k: (f[k].item() if f[k].ndim == 0 else f[k]) for k in f.files})
-        report(pooled(runs))
+        report(pooled(runs), args.windows)
         return
     point = tuple(float(x) for x in args.point.split(","))
     twin = point_twin(point, args.revolutions, args.set)
@@ -198,7 +226,7 @@ def main() -> None:
         args.save.mkdir(parents=True, exist_ok=True)
         for (label, _, _, shift), run in zip(jobs, runs, strict=True):
             np.savez(args.save / f"{label.replace(' ', '_')}_shift={shift:g}.npz", **run)
-    report(pooled(runs))
+    report(pooled(runs), args.windows)
 
 
 if __name__ == "__main__":
