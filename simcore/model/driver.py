@@ -279,7 +279,7 @@ class Trajectory:
     ``F_N`` the largest normal force in it and ``F_T`` the friction force at that peak,
     ``gap_N`` the smallest gap in it, ``vn_pre``/``vn_post`` the normal velocity at its start
     and end (``vn_free`` = ``vn_post``: nothing jumps), ``nu_N`` zero, ``halvings`` the most
-    halvings of a fixed step in it (:func:`simcore.kernels.compliant_step._retry_in_substeps`)."""
+    halvings of a fixed step in it (docs/method.md, "A failed step is taken again in halves")."""
 
     time: np.ndarray
     q: np.ndarray
