@@ -60,7 +60,9 @@ def summary_lines(ds) -> list[str]:
     lines.append(f"unconverged steps: {int((ds['converged'].values[1:] == 0).sum())}"
                  " (a step creating energy or breaking an integrity check counts as unconverged)")
     if "n_retried_steps" in ds.attrs and not ds.attrs.get("solver.adaptive", 0):
-        lines.append(f"retried steps (taken again as substeps): {ds.attrs['n_retried_steps']}")
+        unit = ("output intervals with a retried step" if ds.attrs.get("contact_model")
+                == "compliant" else "retried steps")
+        lines.append(f"{unit} (taken again as substeps): {ds.attrs['n_retried_steps']}")
     if "energy_max_gain_J" in ds.attrs:
         lines.append(f"energy audit: largest gain of a step {ds.attrs['energy_max_gain_J']:.3g} J "
                      f"({ds.attrs['energy_max_gain_relative']:.2g} of the energy scale; "

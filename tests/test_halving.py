@@ -201,6 +201,11 @@ def test_a_compliant_step_failing_at_h_is_retried_and_the_run_goes_on(compliant_
     halvings = ds["halvings"].values
     assert halvings[C_FAILING_ROW] >= 1
     assert ds.attrs["n_retried_steps"] == np.count_nonzero(halvings) > 0
+    # the command line's summary counts them in the file's unit, output intervals
+    from simcore.cli import summary_lines
+
+    line = "output intervals with a retried step (taken again as substeps): "
+    assert line + str(ds.attrs["n_retried_steps"]) in summary_lines(ds)
 
 
 def test_without_retries_the_same_compliant_step_is_flagged(compliant_runs):
