@@ -71,9 +71,10 @@ AdaptiveSettings = namedtuple("AdaptiveSettings", ["out_dt", "dt_min", "err_tol"
 #: taken [s]; ``t_flag`` (1) the end time of the first step taken below its need [s] (-1:
 #: none); ``weight`` (n) the error weight of each coordinate (1 for a position, the body's
 #: radius of gyration [m] for its angle); ``row_steps`` (rows) the steps taken in each output
-#: interval; work: ``acc_c`` (n), ``lam_save`` (m), ``vdot_old_save`` (n), ``reuse_save`` (1).
+#: interval; work: ``vdot_old_save`` (n), ``reuse_save`` (1) (the start accelerations and
+#: multipliers of a step taken again are the compliant work's ``retry``).
 AdaptiveState = namedtuple("AdaptiveState", ["h", "counts", "h_min", "t_flag", "weight",
-                                             "row_steps", "acc_c", "lam_save",
+                                             "row_steps",
                                              "vdot_old_save", "reuse_save"])
 
 #: Per-step outputs (row k + 1 written by step k), see :class:`simcore.model.Trajectory`;

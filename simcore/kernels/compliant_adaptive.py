@@ -213,13 +213,14 @@ def _attempt(t, h, coef, st, ma, state, cs, work, aw):
     step of :func:`~.compliant_step.compliant_step_into`. Returns its (smooth iterations,
     projection iterations, converged)."""
     ratio = h / aw.h[1]
-    start_accelerations(state, ratio, aw.acc_c)
+    rw = work.retry
+    start_accelerations(state, ratio, rw.acc_c)
     for i in range(state.q.shape[0]):
         aw.vdot_old_save[i] = work.branches.vdot_old[i]
     for r in range(state.lam_s.shape[0]):
-        aw.lam_save[r] = state.lam_s[r]
+        rw.lam_save[r] = state.lam_s[r]
     aw.reuse_save[0] = work.branches.reuse[1]  # (whether the last step converged)
-    it_s, ok_s, it_p, ok_p = compliant_step_into(state, aw.acc_c, t + h, h, ratio, coef, st,
+    it_s, ok_s, it_p, ok_p = compliant_step_into(state, rw.acc_c, t + h, h, ratio, coef, st,
                                                  ma, cs, work, True)
     return it_s, it_p, ok_s and ok_p
 
@@ -229,7 +230,7 @@ def _undo(state, work, aw):
     """Restore what a rejected :func:`_attempt` changed of the state and the smooth stage's
     records."""
     for r in range(state.lam_s.shape[0]):
-        state.lam_s[r] = aw.lam_save[r]
+        state.lam_s[r] = work.retry.lam_save[r]
     for i in range(state.q.shape[0]):
         work.branches.vdot_old[i] = aw.vdot_old_save[i]
     work.branches.reuse[1] = aw.reuse_save[0]
@@ -330,7 +331,7 @@ def integrate_compliant_adaptive(row0, row1, st, ad, ma, state, cs, out, work, a
             last = pieces <= 1.0
             h = remaining if last else remaining / pieces
             it_s, it_p, ok = _attempt(t, h, coef, st, ma, state, cs, work, aw)
-            err = error_ratio(aw.acc_c, work.step[2], h, c_e, aw.weight, ad.err_tol)
+            err = error_ratio(work.retry.acc_c, work.step[2], h, c_e, aw.weight, ad.err_tol)
             floor = h <= ad.dt_min * (1.0 + 1e-9)
             if not ok and not floor:
                 _reject(REJECTED_NEWTON, FAILED_SHRINK * h, ad, state, work, aw)

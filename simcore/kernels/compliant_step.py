@@ -69,10 +69,10 @@ from .springs import WITH_TANGENTS, smooth_forces_into, total_energy
 CompliantWork = namedtuple("CompliantWork", ["step", "smooth", "contacts", "hertz",
                                              "projection", "branches", "onset", "retry"])
 
-#: Work of the fixed-step loop's retries (:func:`_retry_in_substeps`): the start
-#: accelerations corrected to another step size (``acc_c``, n), the joint multipliers at the
-#: start of the step (``lam_save``, m) and the size of the last step taken (``h_last``, 1;
-#: 0 before the first) [s].
+#: Work of a step taken again (the fixed loop's retries, :func:`_retry_in_substeps`, and the
+#: adaptive loop's rejected steps): the start accelerations corrected to another step size
+#: (``acc_c``, n), the joint multipliers at the start of the step (``lam_save``, m) and, for
+#: the fixed loop, the size of the last step taken (``h_last``, 1; 0 before the first) [s].
 RetryWork = namedtuple("RetryWork", ["acc_c", "lam_save", "h_last"])
 
 #: Work arrays of :func:`project_joints_into`: joint rows g, G (m x n), their velocity terms,

@@ -499,12 +499,10 @@ def _adaptive_state(model, settings: SolverSettings, start: _Start, n_out: int):
     mdiag = start.arrays.mdiag
     weight = np.ones(mdiag.size)
     weight[2::3] = np.sqrt(mdiag[2::3] / mdiag[0::3])
-    ndof, nbil = mdiag.size, start.state.lam_s.size
     return nb.AdaptiveState(
         h=np.full(2, settings.dt), counts=np.zeros(5, np.int64), h_min=np.full(1, np.inf),
         t_flag=np.full(1, -1.0), weight=weight, row_steps=np.zeros(n_out, np.int64),
-        acc_c=np.zeros(ndof), lam_save=np.zeros(nbil), vdot_old_save=np.zeros(ndof),
-        reuse_save=np.zeros(1, np.int64))
+        vdot_old_save=np.zeros(mdiag.size), reuse_save=np.zeros(1, np.int64))
 
 
 class _Loop:
