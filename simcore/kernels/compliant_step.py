@@ -65,7 +65,8 @@ from .springs import WITH_TANGENTS, smooth_forces_into, total_energy
 #: and the friction branches' (:data:`BranchWork`); ``onset`` (nc) an onset speed to use for
 #: a contact that closes in the step instead of the approach speed of the last state (NaN:
 #: none; the adaptive step's, see :func:`~.compliant_adaptive.settle_onset_speeds`); ``retry``
-#: (:data:`RetryWork`) the fixed loop's retries of a failed step.
+#: (:data:`RetryWork`) the work of a step taken again (a fixed step's retry, an adaptive
+#: step's rejection).
 CompliantWork = namedtuple("CompliantWork", ["step", "smooth", "contacts", "hertz",
                                              "projection", "branches", "onset", "retry"])
 
