@@ -216,6 +216,19 @@ def test_run_file_records_the_adaptive_steps():
     assert 0.0 < ds.attrs["dt_smallest_s"] <= 1e-5
     assert ds.attrs["n_steps_below_dt_min"] == 0
     assert ds.sizes["time"] == 201
+    # the steps of each output interval: none before the first row, at least one in each
+    # interval, all of them the accepted steps; a step is at most dt, at least the smallest
+    steps = ds["steps"].values
+    assert steps.dtype == np.int32 and steps[0] == 0 and np.all(steps[1:] >= 1)
+    assert int(steps.sum()) == ds.attrs["n_steps_accepted"]
+    assert np.all(steps[1:] <= math.ceil(1e-5 / ds.attrs["dt_smallest_s"]))
+    assert ds["steps"].attrs["units"] == "1"
+
+
+def test_a_fixed_step_run_file_has_no_steps_variable():
+    ds = simcore.run(load_config(overrides=["model.contact_model=compliant", "solver.dt=1e-5",
+                                            "solver.t_end=2e-4"]))
+    assert "steps" not in ds and "n_steps_accepted" not in ds.attrs
 
 
 def test_coarse_output_of_a_driven_compliant_run_passes_the_energy_audit():

@@ -66,6 +66,9 @@ def trajectory_dataset(traj, model, layout, cfg: dict, compile_time_s: float = 0
     audit = traj.extras.get("energy_audit")
     if audit is not None:
         values["energy_error"] = audit.error
+    adaptive = traj.extras.get("adaptive")
+    if adaptive is not None:
+        values["steps"] = adaptive["row_steps"].astype(np.int32)
     storage = stored_types(traj.iterations)
     data = {name: (VARIABLES[name].dims, value,
                    VARIABLES[name].attrs(compliant, storage[name]))

@@ -150,6 +150,11 @@ VARIABLES: dict[str, RunVariable] = {
         "The retries of a failed step (docs/method.md); a compliant run with fixed steps: the "
         "most halvings of a step in the output interval.",
         "0: adaptive compliant steps are not halved (the error control shrinks them)"),
+    "steps": RunVariable(
+        TIME, "1", "steps taken in the output interval ending at time (0 at the start)",
+        "int32",
+        "Adaptive compliant runs only (solver.adaptive): where the error control spent its "
+        "steps; the sum over the rows is the attribute n_steps_accepted."),
     "energy_error": RunVariable(
         TIME, "J", "energy created by the step ending at time: energy change minus drive work "
         "(<= 0 when the step only dissipates)", "float32",
