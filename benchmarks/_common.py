@@ -78,3 +78,17 @@ def steady_run_largest_impact():
     imp = extract_impacts(run, zero_tol=a["zero_tol"], zero_floor=a["zero_floor"],
                           r_eff=a["r_eff"], v_min=a["v_min"])
     return run, float(imp["time"].values[int(np.argmax(imp["impulse"].values))])
+
+
+def point_twin(point, revolutions: float, overrides=()) -> dict:
+    """The study twin's configuration (:func:`simcore.study.plan.twin_config`) of ``point``
+    (clearance [m], mu, omega0 [rad/s], e_N) over the start-up revolution and ``revolutions``
+    steady ones (``study.revolutions``), with the study configuration's ``overrides``."""
+    import simcore
+    from simcore.study import plan
+
+    clearance, mu, omega0, e_n = point
+    cfg = simcore.load_config("config/config.yaml", overrides=[
+        f"study.revolutions={revolutions}", f"sweep.clearance=[{clearance}]",
+        f"sweep.mu=[{mu}]", f"sweep.omega0=[{omega0}]", f"sweep.e_N=[{e_n}]", *overrides])
+    return [r for r in plan.plan_runs(cfg) if r.model == "compliant"][0].config

@@ -40,24 +40,14 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
+from _common import point_twin
 from scipy import stats
 
 import simcore
 from analysis.summary import RACES, SteadyWindow, race_forces, revolution_peak_table
-from simcore.study import plan
 
 REFERENCE = (4e-4, 0.01, 50.0, 0.9)  # clearance [m], mu, omega0 [rad/s], e_N
 BATCHES = 20
-
-
-def point_twin(point, revolutions: float, overrides=()) -> dict:
-    """The study twin's configuration of ``point`` (clearance, mu, omega0, e_N) over the start-up
-    revolution and ``revolutions`` steady ones (``study.revolutions``)."""
-    clearance, mu, omega0, e_n = point
-    cfg = simcore.load_config("config/config.yaml", overrides=[
-        f"study.revolutions={revolutions}", f"sweep.clearance=[{clearance}]",
-        f"sweep.mu=[{mu}]", f"sweep.omega0=[{omega0}]", f"sweep.e_N=[{e_n}]", *overrides])
-    return [r for r in plan.plan_runs(cfg) if r.model == "compliant"][0].config
 
 
 def run_table(twin: dict, label: str, tol: float | None, dt: float | None,

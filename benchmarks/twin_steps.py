@@ -1,0 +1,96 @@
+"""Where the compliant twin spends its adaptive steps: per output interval, with and without a
+contact closing in it, against fixed steps.
+
+    python benchmarks/twin_steps.py                       the reference point and the
+                                                          small-clearance point, 5 steady
+                                                          revolutions each
+    python benchmarks/twin_steps.py --points 4e-4,0.01,50,0.9 --revolutions 20
+    python benchmarks/twin_steps.py --fixed 4e-6 2e-6 --set model.cage_damping=100
+
+Each run is the study's twin of a point (:func:`simcore.study.plan.twin_config`: steel,
+adaptive steps of at most the output step, rho_inf 0.5) over the start-up revolution and
+``--revolutions`` steady ones. Its run file's ``steps`` (the steps of each output interval)
+are split over the steady intervals by what happens in them, read from ``F_N`` (the largest
+force of each contact in the interval): an interval in which some contact carries force and
+carried none in the interval before holds an onset (a contact closing); the others are split
+by how many contacts carry force. Per fixed step of ``--fixed`` it prints the fixed run's steps
+per revolution over the twin's, and what that ratio would be if the intervals with an onset
+cost no step at all (a bound on what any cheaper treatment of onsets could give at this error
+control).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+from _common import point_twin
+
+import simcore
+
+POINTS = ("4e-4,0.01,50,0.9", "2e-5,0.01,100,0.7")  # clearance [m], mu, omega0 [rad/s], e_N
+
+
+def step_shares(steps: np.ndarray, force: np.ndarray) -> dict:
+    """The steady intervals' steps by kind: ``steps`` (interval), ``force`` (interval, contact)
+    [N], both the steady rows and the row before them (which only sets what was loaded
+    before). Returns {kind: (intervals, steps)}."""
+    loaded = force > 0.0
+    onset = (loaded[1:] & ~loaded[:-1]).any(axis=1)
+    n_loaded = loaded[1:].sum(axis=1)
+    steps = steps[1:]
+    kinds = {"with an onset": onset}
+    for low, high, label in ((0, 2, "0-2"), (3, 6, "3-6"), (7, force.shape[1], "7 or more")):
+        kinds[f"no onset, {label} contacts loaded"] = ~onset & (n_loaded >= low) & (
+            n_loaded <= high)
+    return {kind: (int(rows.sum()), int(steps[rows].sum())) for kind, rows in kinds.items()}
+
+
+def report(point: str, revolutions: float, fixed, overrides) -> None:
+    cfg = point_twin(tuple(point.split(",")), revolutions, overrides)
+    ds = simcore.run(cfg)
+    omega0 = float(cfg["model"]["omega0"])
+    period = 2.0 * math.pi / omega0
+    time = ds["time"].values
+    first = int(np.searchsorted(time, period - 1e-12))  # the row before the steady ones
+    steps = ds["steps"].values[first:].astype(np.int64)
+    force = ds["F_N"].values[first:]
+    n_rev = (time[-1] - time[first]) / period
+    total = int(steps[1:].sum())
+    per_rev = total / n_rev
+    print(f"\npoint {point} ({', '.join(overrides) or 'study settings'}): {n_rev:.2f} steady "
+          f"revolutions, {per_rev:,.0f} steps per revolution, "
+          f"{total / (len(steps) - 1):.1f} per output interval of "
+          f"{float(cfg['solver']['output_dt']) * 1e6:g} us (whole run: "
+          f"{int(ds.attrs['n_steps_accepted']):,} accepted, {int(ds.attrs['n_steps_rejected']):,}"
+          f" redone)")
+    shares = step_shares(steps, force)
+    print(f"  {'intervals':<36} {'count':>7} {'steps':>9} {'share':>6} {'per interval':>13}")
+    for kind, (rows, n) in shares.items():
+        mean = n / rows if rows else float("nan")
+        print(f"  {kind:<36} {rows:>7,} {n:>9,} {n / total:>6.0%} {mean:>13.1f}")
+    without = total - shares["with an onset"][1]
+    for dt in fixed:
+        fixed_rev = period / dt
+        print(f"  fixed {dt * 1e6:g} us: {fixed_rev:,.0f} steps per revolution, "
+              f"{fixed_rev / per_rev:.2f} times the twin's; "
+              f"{fixed_rev / (without / n_rev):.2f} times if onsets cost no step")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--points", nargs="+", default=list(POINTS),
+                        help="clearance,mu,omega0,e_N of each point")
+    parser.add_argument("--revolutions", type=float, default=5.0)
+    parser.add_argument("--fixed", type=float, nargs="*", default=[4e-6, 2e-6],
+                        help="fixed steps to compare with [s]")
+    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                        help="further overrides of the study configuration")
+    args = parser.parse_args()
+    for point in args.points:
+        report(point, args.revolutions, args.fixed, args.set)
+
+
+if __name__ == "__main__":
+    main()
