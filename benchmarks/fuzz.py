@@ -1,16 +1,17 @@
 """Random configurations: does the bearing stay whole, and is every violation flagged?
 
     nice python benchmarks/fuzz.py [--runs 300] [--compliant 40] [--seed 2611] [--t-end 0.05]
-                                   [--no-guards] [--timeout 300] [--json FILE]
+                                   [--no-guards] [--adaptive] [--timeout 300] [--json FILE]
 
 Each configuration draws clearance 1e-6..2e-3 m, mu 0..0.5, omega0 1..400 rad/s, e_N and e_T
 0..1, 3..22 balls, cage stiffness 1e3..1e7 N/m, cage damping 0 (one in four) or 1..1e4 N s/m,
 dt 1e-5..5e-4 s (log-uniform where the range spans decades) and the drive; ``--compliant`` of
 them use the compliant contact model, their step then at most the one that resolves a Hertz
 contact (``simcore.config.limits.check_contact_step``; the step is the one drawn where that
-allows it). Every run uses the default settings (guard contacts on unless ``--no-guards``)
-except ``solver.on_nonconvergence = warn``, so that flagged steps are counted instead of
-stopping the run.
+allows it); with ``--adaptive`` they are as a study's compliant twins instead (steel, E = 2.1e11
+Pa; adaptive steps of at most the drawn step, rho_inf 0.5). Every run uses the default
+settings (guard contacts on unless ``--no-guards``) except ``solver.on_nonconvergence = warn``,
+so that flagged steps are counted instead of stopping the run.
 
 For every run that is not refused before it starts, the invariants of the bearing are
 recomputed here from the stored arrays, independently of :mod:`simcore.model.integrity`:
@@ -48,22 +49,28 @@ import numpy as np
 from _common import as_overrides, draw_model, log_uniform
 
 
-def draw(rng, t_end: float, compliant: bool) -> list[str]:
-    """One random configuration, as ``section.key=value`` overrides."""
+def draw(rng, t_end: float, compliant: bool, adaptive: bool = False) -> list[str]:
+    """One random configuration, as ``section.key=value`` overrides; with ``adaptive`` a
+    compliant one is as a study's twin (steel, adaptive steps of at most the drawn step,
+    rho_inf 0.5; the same draws of the generator)."""
     model = draw_model(rng)
     solver = dict(dt=log_uniform(rng, 1e-5, 5e-4), t_end=t_end, on_nonconvergence="warn")
     if compliant:
         model["contact_model"] = "compliant"
+        if adaptive:
+            model["youngs_modulus"] = 2.1e11
+            solver.update(adaptive=True, rho_inf=0.5)
     return as_overrides(model, solver)
 
 
 def resolvable(cfg: dict) -> dict:
     """A compliant configuration with its step lowered to the one that resolves a Hertz
-    contact in ``MIN_CONTACT_STEPS`` steps, when the drawn step is larger."""
+    contact in ``MIN_CONTACT_STEPS`` steps, when the drawn step is larger (adaptive steps are
+    checked against ``solver.dt_min`` instead)."""
     from simcore.config import validate_config
     from simcore.config.limits import MIN_CONTACT_STEPS, hertz_contact_time
 
-    if cfg["model"]["contact_model"] != "compliant":
+    if cfg["model"]["contact_model"] != "compliant" or cfg["solver"]["adaptive"]:
         return cfg
     limit = 0.99 * hertz_contact_time(cfg["model"]) / MIN_CONTACT_STEPS
     if cfg["solver"]["dt"] > limit:
@@ -213,6 +220,8 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=2611)
     p.add_argument("--t-end", type=float, default=0.05, help="duration of each run [s]")
     p.add_argument("--no-guards", action="store_true", help="model.guard_contacts = false")
+    p.add_argument("--adaptive", action="store_true",
+                   help="compliant runs as a study's twins: steel, adaptive steps, rho_inf 0.5")
     p.add_argument("--timeout", type=float, default=300.0,
                    help="seconds after which a run's process is stopped")
     p.add_argument("--json", default=None, help="write every run's record to this file")
@@ -226,14 +235,15 @@ def main(argv=None) -> int:
     records = []
     start = time.perf_counter()
     for i in range(args.runs):
-        overrides = draw(rng, args.t_end, i in compliant)
+        overrides = draw(rng, args.t_end, i in compliant, args.adaptive)
         if args.no_guards:
             overrides.append("model.guard_contacts=false")
         records.append(run_in_process(overrides, args.timeout))
         print(f"{i + 1}/{args.runs} {records[-1]['outcome']} "
               f"{records[-1].get('integrity', '')} {records[-1].get('causes', '')}",
               file=sys.stderr, flush=True)
-    print(f"{args.runs} configurations ({len(compliant)} compliant), t_end = {args.t_end} s, "
+    print(f"{args.runs} configurations ({len(compliant)} compliant"
+          f"{', adaptive' if args.adaptive else ''}), t_end = {args.t_end} s, "
           f"seed {args.seed}, guard contacts {'off' if args.no_guards else 'on'}, "
           f"{time.perf_counter() - start:.0f} s")
     for line in summary(records):

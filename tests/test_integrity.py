@@ -171,15 +171,18 @@ def test_the_paper_case_is_unchanged_by_the_guard_contacts():
 
 
 @pytest.mark.slow
-def test_fuzz_finds_no_unflagged_violation_crash_or_nan():
-    """A smaller run of benchmarks/fuzz.py (40 configurations, 6 compliant, 0.02 s each; the
-    full 300 are in docs/reliability.md)."""
+@pytest.mark.parametrize("kinds", [("--compliant", "6"), ("--compliant", "40", "--adaptive")],
+                         ids=["mixed", "adaptive-twins"])
+def test_fuzz_finds_no_unflagged_violation_crash_or_nan(kinds):
+    """A smaller run of benchmarks/fuzz.py: 40 configurations of 0.02 s each, 6 of them
+    compliant with fixed steps, or all of them compliant as a study's twins (steel, adaptive
+    steps); the full runs are in docs/reliability.md."""
     import subprocess
     import sys
     from pathlib import Path
 
     script = Path(__file__).resolve().parents[1] / "benchmarks" / "fuzz.py"
-    proc = subprocess.run([sys.executable, str(script), "--runs", "40", "--compliant", "6",
+    proc = subprocess.run([sys.executable, str(script), "--runs", "40", *kinds,
                            "--t-end", "0.02", "--seed", "7"], capture_output=True, text=True,
                           timeout=1800)
     assert proc.returncode == 0, proc.stderr[-2000:]
