@@ -6,6 +6,8 @@ contact closing in it, against fixed steps.
                                                           revolutions each
     python benchmarks/twin_steps.py --points 4e-4,0.01,50,0.9 --revolutions 20
     python benchmarks/twin_steps.py --fixed 4e-6 2e-6 --set model.cage_damping=100
+    python benchmarks/twin_steps.py --onset-steps 40 20 10   the onset step at a 40th, 20th
+                                                          and 10th of a contact time
 
 Each run is the study's twin of a point (:func:`simcore.study.plan.twin_config`: steel,
 adaptive steps of at most the output step, rho_inf 0.5) over the start-up revolution and
@@ -47,9 +49,26 @@ def step_shares(steps: np.ndarray, force: np.ndarray) -> dict:
     return {kind: (int(rows.sum()), int(steps[rows].sum())) for kind, rows in kinds.items()}
 
 
-def report(point: str, revolutions: float, fixed, overrides) -> None:
+def run_twin(cfg: dict, onset_steps: float | None):
+    """The twin's run dataset (:func:`simcore.run`), or with ``onset_steps`` (a field of
+    :class:`simcore.model.SolverSettings`, not a configuration key: a closing contact's step is
+    at most its Hertz contact time over this many) the same run through the model's API."""
+    if onset_steps is None:
+        return simcore.run(cfg)
+    from simcore.config import validate_config
+    from simcore.io import trajectory_dataset
+    from simcore.model import SolverSettings
+    from simcore.model.mechanism import crank_slider
+
+    cfg = validate_config(cfg)
+    model, layout = crank_slider(cfg["model"])
+    traj = model.simulate(SolverSettings.from_config(cfg, onset_steps=onset_steps))
+    return trajectory_dataset(traj, model, layout, cfg)
+
+
+def report(point: str, revolutions: float, fixed, overrides, onset_steps=None) -> None:
     cfg = point_twin(tuple(point.split(",")), revolutions, overrides)
-    ds = simcore.run(cfg)
+    ds = run_twin(cfg, onset_steps)
     omega0 = float(cfg["model"]["omega0"])
     period = 2.0 * math.pi / omega0
     time = ds["time"].values
@@ -59,7 +78,8 @@ def report(point: str, revolutions: float, fixed, overrides) -> None:
     n_rev = (time[-1] - time[first]) / period
     total = int(steps[1:].sum())
     per_rev = total / n_rev
-    print(f"\npoint {point} ({', '.join(overrides) or 'study settings'}): {n_rev:.2f} steady "
+    changed = [*overrides, *([f"onset_steps {onset_steps:g}"] if onset_steps else [])]
+    print(f"\npoint {point} ({', '.join(changed) or 'study settings'}): {n_rev:.2f} steady "
           f"revolutions, {per_rev:,.0f} steps per revolution, "
           f"{total / (len(steps) - 1):.1f} per output interval of "
           f"{float(cfg['solver']['output_dt']) * 1e6:g} us (whole run: "
@@ -87,9 +107,13 @@ def main() -> None:
                         help="fixed steps to compare with [s]")
     parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                         help="further overrides of the study configuration")
+    parser.add_argument("--onset-steps", type=float, nargs="*", default=[None],
+                        help="runs with a closing contact's step at most its Hertz contact "
+                        "time over each of these (default: the solver's, 40)")
     args = parser.parse_args()
     for point in args.points:
-        report(point, args.revolutions, args.fixed, args.set)
+        for onset_steps in args.onset_steps:
+            report(point, args.revolutions, args.fixed, args.set, onset_steps)
 
 
 if __name__ == "__main__":
