@@ -47,13 +47,9 @@ def summary_lines(ds) -> list[str]:
     k = np.unravel_index(int(np.argmax(lam.values)), lam.shape)
     paper_max = {"smooth": 3, "position": 23, "velocity": 5}
     paper_mean = {"smooth": 2, "position": 5, "velocity": 2}
-    lines = [
-        f"steps: {round(float(ds.time[-1] - ds.time[0]) / ds.attrs['solver.dt'])}  "
-        f"dt = {ds.attrs['solver.dt']} s  t_end = {float(ds.time[-1]):.4g} s  "
-        f"({ds.attrs.get('contact_model', 'nonsmooth')} contacts, {it.shape[0]} output rows)",
-        f"wall time (integration): {ds.attrs['wall_time_s']:.3f} s",
-        "Newton iterations per step   max  mean   (paper: max / mean)",
-    ]
+    lines = [*steps_lines(ds, it.shape[0]),
+             f"wall time (integration): {ds.attrs['wall_time_s']:.3f} s",
+             "Newton iterations per step   max  mean   (paper: max / mean)"]
     for j, stage in enumerate(ds["stage"].values):
         lines.append(f"  {stage:<10}                 {it[:, j].max():4d}  {it[:, j].mean():4.2f}"
                      f"   ({paper_max[stage]} / {paper_mean[stage]})")
@@ -75,6 +71,28 @@ def summary_lines(ds) -> list[str]:
     lines.append(bearing_line(ds))
     if "F_N" in ds:
         lines.append(largest_force_line(ds, "a longer solver.t_end"))
+    return lines
+
+
+def steps_lines(ds, rows: int) -> list[str]:
+    """The steps of a run, its step size and length; of an adaptive run the steps it took and
+    redid, its largest and smallest step and how its steps spread over the output intervals
+    (variable ``steps``)."""
+    import numpy as np
+
+    a = ds.attrs
+    span = (f"t_end = {float(ds.time[-1]):.4g} s  ({a.get('contact_model', 'nonsmooth')} "
+            f"contacts, {rows} output rows)")
+    if "n_steps_accepted" not in a:
+        return [f"steps: {round(float(ds.time[-1] - ds.time[0]) / a['solver.dt'])}  "
+                f"dt = {a['solver.dt']} s  {span}"]
+    lines = [f"steps: {a['n_steps_accepted']} adaptive ({a['n_steps_rejected']} redone)  "
+             f"dt = {a['dt_smallest_s']:.3g} to {a['solver.dt']} s  {span}"]
+    if "steps" in ds and rows:
+        per_row = np.asarray(ds["steps"].values[1:])
+        k = int(np.argmax(per_row))
+        lines.append(f"steps per output interval: median {np.median(per_row):g}, largest "
+                     f"{per_row[k]} (interval ending at t = {float(ds.time[k + 1]):.6g} s)")
     return lines
 
 

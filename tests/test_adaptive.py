@@ -223,6 +223,13 @@ def test_run_file_records_the_adaptive_steps():
     assert int(steps.sum()) == ds.attrs["n_steps_accepted"]
     assert np.all(steps[1:] <= math.ceil(1e-5 / ds.attrs["dt_smallest_s"]))
     assert ds["steps"].attrs["units"] == "1"
+    # the command line's summary counts the steps taken, not the output rows
+    from simcore.cli import summary_lines
+
+    first, spread = summary_lines(ds)[:2]
+    assert first.startswith(f"steps: {ds.attrs['n_steps_accepted']} adaptive "
+                            f"({ds.attrs['n_steps_rejected']} redone)")
+    assert f"largest {steps.max()} (interval ending at t = " in spread
 
 
 def test_a_fixed_step_run_file_has_no_steps_variable():
