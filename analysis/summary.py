@@ -185,6 +185,10 @@ _VARIABLES = {
     "converged_fraction": (
         (), "model", "1", "fraction of the steps in which every sub-problem converged"),
     "wall_time_s": ((), "model", "s", "wall time of the simulation"),
+    "time_steps": (
+        (), "model", "1",
+        "time steps of the run: of solver.dt (a nonsmooth or fixed-step compliant run), or the "
+        "accepted adaptive steps (the study's compliant twins)"),
     "failed": ((), "model", "1", "1 where the run failed (its other values are missing)"),
     "L10": (
         (), "compliant", "1e6",
@@ -587,8 +591,22 @@ def _run_numbers(run_ds: xr.Dataset, window: SteadyWindow) -> dict:
                       else np.full(n_stages, np.nan)),
         "converged_fraction": np.float64(np.mean(converged) if converged.size else np.nan),
         "wall_time_s": np.float64(run_ds.attrs.get("wall_time_s", np.nan)),
+        "time_steps": np.float64(time_steps(run_ds)),
         "failed": np.float64(0.0),
     }
+
+
+def time_steps(run_ds: xr.Dataset) -> float:
+    """The time steps a run took: its accepted adaptive steps (attribute ``n_steps_accepted``),
+    else its length over ``solver.dt`` (NaN for a file without that setting)."""
+    attrs = run_ds.attrs
+    if "n_steps_accepted" in attrs:
+        return float(attrs["n_steps_accepted"])
+    dt = attrs.get("solver.dt")
+    time = np.asarray(run_ds["time"].values, dtype=float)
+    if not dt or time.size == 0:
+        return np.nan
+    return float(round((time[-1] - time[0]) / float(dt)))
 
 
 def _geometry(run_ds: xr.Dataset, settings: dict):
@@ -1230,6 +1248,8 @@ def _table_rows(summary: xr.Dataset, models: list[int]) -> list:
                      of("iter_max", NONSMOOTH).max("stage"), 1.0))
     for m in models if "wall_time_s" in summary else ():
         rows.append((f"wall time per run, {MODELS[m]}", "s", of("wall_time_s", m), 1.0))
+    for m in models if "time_steps" in summary else ():
+        rows.append((f"time steps per run, {MODELS[m]}", "1", of("time_steps", m), 1.0))
     return rows
 
 

@@ -69,7 +69,7 @@ def _run(path, point, failed=False):
             },
             coords={"time": t, "contact": [0, 1], "stage": ["smooth", "position", "velocity"],
                     **point},
-            attrs={"wall_time_s": 1.5},
+            attrs={"wall_time_s": 1.5, "solver.dt": DT},
         )
     ds.to_netcdf(path)
 
@@ -357,6 +357,7 @@ def test_run_numbers_failed_and_empty_points(study):
     np.testing.assert_array_equal(s["iter_max"].sel(NEW).sel(PAPER), [3, 5, 2])
     assert float(s["converged_fraction"].sel(NEW).sel(PAPER)) == pytest.approx(1 - 1 / 3000)
     assert float(s["max_Lambda_N"].sel(NEW).sel(PAPER)) == 2e-3
+    assert float(s["time_steps"].sel(NEW).sel(PAPER)) == round(T_END / DT)
     # only a start-up impact: no steady impact (zero counts, no peak), a start-up peak
     assert float(s["n_impacts"].sel(EMPTY).sum()) == 0.0
     assert bool(s["peak_force"].sel(EMPTY).sel(PAPER).isnull().all())
@@ -616,3 +617,17 @@ def test_the_clearance_of_a_swept_class_is_a_coordinate_along_the_class_axis():
     assert "clearance" not in summary.dims and summary["clearance"].dims == ("clearance_class",)
     np.testing.assert_array_equal(summary["clearance_class"].values, [1, 3])
     np.testing.assert_array_equal(summary["clearance"].values, [9e-6, 2.6e-5])
+
+
+def test_time_steps_of_a_run():
+    """Steps of solver.dt over the run's span, or the accepted steps of an adaptive run; NaN
+    where a file does not say its step."""
+    from analysis.summary import time_steps
+
+    t = np.linspace(0.0, 0.25, 11)  # 0.25 s, sampled every 25 ms
+    fixed = xr.Dataset(coords={"time": t}, attrs={"solver.dt": 1e-4})
+    assert time_steps(fixed) == 2500.0
+    adaptive = xr.Dataset(coords={"time": t},
+                          attrs={"solver.dt": 1e-4, "n_steps_accepted": 731})
+    assert time_steps(adaptive) == 731.0
+    assert np.isnan(time_steps(xr.Dataset(coords={"time": t})))
