@@ -8,10 +8,11 @@ Each configuration draws clearance 1e-6..2e-3 m, mu 0..0.5, omega0 1..400 rad/s,
 dt 1e-5..5e-4 s (log-uniform where the range spans decades) and the drive; ``--compliant`` of
 them use the compliant contact model, their step then at most the one that resolves a Hertz
 contact (``simcore.config.limits.check_contact_step``; the step is the one drawn where that
-allows it); with ``--adaptive`` they are as a study's compliant twins instead (steel, E = 2.1e11
-Pa; adaptive steps of at most the drawn step, rho_inf 0.5). Every run uses the default
-settings (guard contacts on unless ``--no-guards``) except ``solver.on_nonconvergence = warn``,
-so that flagged steps are counted instead of stopping the run.
+allows it); with ``--adaptive`` they are a study's compliant twins instead (steel, E = 2.1e11
+Pa; :func:`simcore.study.plan.twin_config`: adaptive steps of at most the drawn step, rho_inf
+``analysis.twin_rho_inf``). Every run uses the default settings (guard contacts on unless
+``--no-guards``) except ``solver.on_nonconvergence = warn``, so that flagged steps are counted
+instead of stopping the run.
 
 For every run that is not refused before it starts, the invariants of the bearing are
 recomputed here from the stored arrays, independently of :mod:`simcore.model.integrity`:
@@ -51,27 +52,31 @@ from _common import as_overrides, draw_model, log_uniform
 
 def draw(rng, t_end: float, compliant: bool, adaptive: bool = False) -> list[str]:
     """One random configuration, as ``section.key=value`` overrides; with ``adaptive`` a
-    compliant one is as a study's twin (steel, adaptive steps of at most the drawn step,
-    rho_inf 0.5; the same draws of the generator)."""
+    compliant one is steel with ``solver.adaptive`` set, which :func:`resolvable` makes a
+    study's twin (the same draws of the generator)."""
     model = draw_model(rng)
     solver = dict(dt=log_uniform(rng, 1e-5, 5e-4), t_end=t_end, on_nonconvergence="warn")
     if compliant:
         model["contact_model"] = "compliant"
         if adaptive:
             model["youngs_modulus"] = 2.1e11
-            solver.update(adaptive=True, rho_inf=0.5)
+            solver["adaptive"] = True
     return as_overrides(model, solver)
 
 
 def resolvable(cfg: dict) -> dict:
     """A compliant configuration with its step lowered to the one that resolves a Hertz
-    contact in ``MIN_CONTACT_STEPS`` steps, when the drawn step is larger (adaptive steps are
-    checked against ``solver.dt_min`` instead)."""
+    contact in ``MIN_CONTACT_STEPS`` steps, when the drawn step is larger; one with adaptive
+    steps the study's twin of its configuration (:func:`simcore.study.plan.twin_config`: steps
+    of at most the drawn one, ``analysis.twin_rho_inf``; checked against ``solver.dt_min``)."""
     from simcore.config import validate_config
     from simcore.config.limits import MIN_CONTACT_STEPS, hertz_contact_time
+    from simcore.study.plan import twin_config
 
-    if cfg["model"]["contact_model"] != "compliant" or cfg["solver"]["adaptive"]:
+    if cfg["model"]["contact_model"] != "compliant":
         return cfg
+    if cfg["solver"]["adaptive"]:
+        return validate_config(twin_config(cfg))
     limit = 0.99 * hertz_contact_time(cfg["model"]) / MIN_CONTACT_STEPS
     if cfg["solver"]["dt"] > limit:
         cfg["solver"]["dt"] = limit
@@ -221,7 +226,7 @@ def main(argv=None) -> int:
     p.add_argument("--t-end", type=float, default=0.05, help="duration of each run [s]")
     p.add_argument("--no-guards", action="store_true", help="model.guard_contacts = false")
     p.add_argument("--adaptive", action="store_true",
-                   help="compliant runs as a study's twins: steel, adaptive steps, rho_inf 0.5")
+                   help="compliant runs as a study's twins: steel, adaptive steps")
     p.add_argument("--timeout", type=float, default=300.0,
                    help="seconds after which a run's process is stopped")
     p.add_argument("--json", default=None, help="write every run's record to this file")

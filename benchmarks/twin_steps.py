@@ -1,5 +1,4 @@
-"""Where the compliant twin spends its adaptive steps: per output interval, with and without a
-contact closing in it, against fixed steps.
+"""Where the compliant twin spends its adaptive steps, against fixed steps.
 
     python benchmarks/twin_steps.py                       the reference point and the
                                                           small-clearance point, 5 steady
@@ -24,12 +23,12 @@ control).
 from __future__ import annotations
 
 import argparse
-import math
 
 import numpy as np
 from _common import point_twin
 
 import simcore
+from analysis.summary import SteadyWindow
 
 POINTS = ("4e-4,0.01,50,0.9", "2e-5,0.01,100,0.7")  # clearance [m], mu, omega0 [rad/s], e_N
 
@@ -67,15 +66,20 @@ def run_twin(cfg: dict, onset_steps: float | None):
 
 
 def report(point: str, revolutions: float, fixed, overrides, onset_steps=None) -> None:
+    """Run the twin of ``point`` ("clearance,mu,omega0,e_N") and print its steps over the
+    steady window (after ``analysis.settle``) by kind of interval, and against each fixed
+    step of ``fixed`` [s]."""
     cfg = point_twin(tuple(point.split(",")), revolutions, overrides)
+    if not cfg["solver"]["adaptive"]:
+        raise SystemExit("twin_steps.py: the twin's steps are adaptive; leave solver.adaptive")
     ds = run_twin(cfg, onset_steps)
-    omega0 = float(cfg["model"]["omega0"])
-    period = 2.0 * math.pi / omega0
+    window = SteadyWindow.of_run(ds, float(cfg["analysis"]["settle"]))
     time = ds["time"].values
-    first = int(np.searchsorted(time, period - 1e-12))  # the row before the steady ones
-    steps = ds["steps"].values[first:].astype(np.int64)
+    first = int(np.searchsorted(time, window.settle_time - 1e-12))  # the window's first row
+    steps = ds["steps"].values[first:].astype(np.int64)  # (which only says what was loaded)
     force = ds["F_N"].values[first:]
-    n_rev = (time[-1] - time[first]) / period
+    n_rev = window.revolutions
+    period = (time[-1] - time[first]) / n_rev  # the mean revolution [s]
     total = int(steps[1:].sum())
     per_rev = total / n_rev
     changed = [*overrides, *([f"onset_steps {onset_steps:g}"] if onset_steps else [])]
@@ -107,7 +111,7 @@ def main() -> None:
                         help="fixed steps to compare with [s]")
     parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                         help="further overrides of the study configuration")
-    parser.add_argument("--onset-steps", type=float, nargs="*", default=[None],
+    parser.add_argument("--onset-steps", type=float, nargs="+", default=[None],
                         help="runs with a closing contact's step at most its Hertz contact "
                         "time over each of these (default: the solver's, 40)")
     args = parser.parse_args()

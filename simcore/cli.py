@@ -76,8 +76,8 @@ def summary_lines(ds) -> list[str]:
 
 def steps_lines(ds, rows: int) -> list[str]:
     """The steps of a run, its step size and length; of an adaptive run the steps it took and
-    redid, its largest and smallest step and how its steps spread over the output intervals
-    (variable ``steps``)."""
+    redid, the smallest step it took and the largest it allows (``solver.dt``), and how its
+    steps spread over the output intervals (variable ``steps``)."""
     import numpy as np
 
     a = ds.attrs
