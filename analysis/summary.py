@@ -80,6 +80,7 @@ from typing import Sequence
 import numpy as np
 import xarray as xr
 
+from simcore.io.read import time_steps
 from simcore.io.variables import STAGES
 from simcore.model.driver import CONTACT_MODELS
 
@@ -594,19 +595,6 @@ def _run_numbers(run_ds: xr.Dataset, window: SteadyWindow) -> dict:
         "time_steps": np.float64(time_steps(run_ds)),
         "failed": np.float64(0.0),
     }
-
-
-def time_steps(run_ds: xr.Dataset) -> float:
-    """The time steps a run took: its accepted adaptive steps (attribute ``n_steps_accepted``),
-    else its length over ``solver.dt`` (NaN for a file without that setting)."""
-    attrs = run_ds.attrs
-    if "n_steps_accepted" in attrs:
-        return float(attrs["n_steps_accepted"])
-    dt = attrs.get("solver.dt")
-    time = np.asarray(run_ds["time"].values, dtype=float)
-    if not dt or time.size == 0:
-        return np.nan
-    return float(round((time[-1] - time[0]) / float(dt)))
 
 
 def _geometry(run_ds: xr.Dataset, settings: dict):

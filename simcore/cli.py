@@ -83,10 +83,11 @@ def steps_lines(ds, rows: int) -> list[str]:
     a = ds.attrs
     span = (f"t_end = {float(ds.time[-1]):.4g} s  ({a.get('contact_model', 'nonsmooth')} "
             f"contacts, {rows} output rows)")
+    from .io import time_steps
+
     if "n_steps_accepted" not in a:
-        return [f"steps: {round(float(ds.time[-1] - ds.time[0]) / a['solver.dt'])}  "
-                f"dt = {a['solver.dt']} s  {span}"]
-    lines = [f"steps: {a['n_steps_accepted']} adaptive ({a['n_steps_rejected']} redone)  "
+        return [f"steps: {time_steps(ds):.0f}  dt = {a['solver.dt']} s  {span}"]
+    lines = [f"steps: {time_steps(ds):.0f} adaptive ({a['n_steps_rejected']} redone)  "
              f"dt = {a['dt_smallest_s']:.3g} to {a['solver.dt']} s  {span}"]
     if "steps" in ds and rows:
         per_row = np.asarray(ds["steps"].values[1:])

@@ -276,3 +276,17 @@ def test_runs_of_a_class_sweep_combine_into_one_grid():
     kept = study_coords(runs[0].expand_dims("clearance").assign_coords(
         clearance=("clearance", [9e-6])), {"model.clearance": 9e-6}, ["model.clearance"])
     assert "clearance" in kept.dims
+
+
+def test_time_steps_of_a_run():
+    """Steps of solver.dt over the run's span, or the accepted steps of an adaptive run; NaN
+    where a file does not say its step."""
+    from simcore.io import time_steps
+
+    t = np.linspace(0.0, 0.25, 11)  # 0.25 s, sampled every 25 ms
+    fixed = xr.Dataset(coords={"time": t}, attrs={"solver.dt": 1e-4})
+    assert time_steps(fixed) == 2500.0
+    adaptive = xr.Dataset(coords={"time": t},
+                          attrs={"solver.dt": 1e-4, "n_steps_accepted": 731})
+    assert time_steps(adaptive) == 731.0
+    assert np.isnan(time_steps(xr.Dataset(coords={"time": t})))

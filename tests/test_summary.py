@@ -617,17 +617,3 @@ def test_the_clearance_of_a_swept_class_is_a_coordinate_along_the_class_axis():
     assert "clearance" not in summary.dims and summary["clearance"].dims == ("clearance_class",)
     np.testing.assert_array_equal(summary["clearance_class"].values, [1, 3])
     np.testing.assert_array_equal(summary["clearance"].values, [9e-6, 2.6e-5])
-
-
-def test_time_steps_of_a_run():
-    """Steps of solver.dt over the run's span, or the accepted steps of an adaptive run; NaN
-    where a file does not say its step."""
-    from analysis.summary import time_steps
-
-    t = np.linspace(0.0, 0.25, 11)  # 0.25 s, sampled every 25 ms
-    fixed = xr.Dataset(coords={"time": t}, attrs={"solver.dt": 1e-4})
-    assert time_steps(fixed) == 2500.0
-    adaptive = xr.Dataset(coords={"time": t},
-                          attrs={"solver.dt": 1e-4, "n_steps_accepted": 731})
-    assert time_steps(adaptive) == 731.0
-    assert np.isnan(time_steps(xr.Dataset(coords={"time": t})))

@@ -38,7 +38,7 @@ from .dataset import (
     trajectory_dataset,
 )
 from .netcdf import keep_variables, netcdf_encoding, replace_durably, write_netcdf
-from .read import GENERALIZED_PARTS, generalized, open_run, state_at
+from .read import GENERALIZED_PARTS, generalized, open_run, state_at, time_steps
 from .variables import (
     CONVENTIONS,
     COORDINATES,
@@ -56,7 +56,8 @@ BASE_PARAMETERS = tuple(PARAMETERS)
 
 __all__ = ["write_netcdf", "replace_durably", "trajectory_dataset", "dataset_of_arrays",
            "failed_run_dataset",
-           "generalized", "open_run", "state_at", "parameter_coords", "study_coords",
+           "generalized", "open_run", "state_at", "time_steps", "parameter_coords",
+           "study_coords",
            "history_line", "setting_attribute", "BASE_PARAMETERS",
            "keep_variables", "netcdf_encoding", "to_netcdf4", "global_attributes",
            "GENERALIZED_PARTS", "CONVENTIONS", "COORDINATES", "PARAMETERS", "STORAGE",

@@ -1,4 +1,5 @@
-"""Reading a run file back: the generalized coordinates of the kernels and one sample's state."""
+"""Reading a run file back: the generalized coordinates of the kernels, one sample's state and
+the time steps the run took."""
 
 from __future__ import annotations
 
@@ -50,6 +51,19 @@ def state_at(ds: xr.Dataset, i: int) -> tuple[np.ndarray, np.ndarray]:
         return np.concatenate([lin, rot[:, None]], axis=1).astype(float).ravel()
 
     return one("q"), one("v")
+
+
+def time_steps(ds: xr.Dataset) -> float:
+    """The time steps a run took: its accepted adaptive steps (attribute ``n_steps_accepted``),
+    else its length over ``solver.dt`` (NaN for a file without that setting)."""
+    attrs = ds.attrs
+    if "n_steps_accepted" in attrs:
+        return float(attrs["n_steps_accepted"])
+    dt = attrs.get("solver.dt")
+    time = np.asarray(ds["time"].values, dtype=float)
+    if not dt or time.size == 0:
+        return np.nan
+    return float(round((time[-1] - time[0]) / float(dt)))
 
 
 def open_run(path: str | Path) -> xr.Dataset:
