@@ -230,17 +230,29 @@ def twin_step(model: Mapping[str, Any], analysis: Mapping[str, Any], out_dt: flo
     return out_dt / max(1, math.ceil(out_dt / step - 1e-9))
 
 
+def twin_tolerance(run_cfg: Mapping[str, Any]) -> float:
+    """The local error tolerance of a twin's adaptive steps [m]: ``analysis.twin_tol_clearance``
+    times the radial clearance ``model.clearance`` where that is larger than
+    ``solver.adaptive_tol``, else (and where the key is null or 0) ``solver.adaptive_tol``.
+    A ball's position error then stays a fixed part of the play it moves in (docs/study.md,
+    "A tolerance that grows with the clearance")."""
+    floor = float(run_cfg["solver"]["adaptive_tol"])
+    per_clearance = run_cfg["analysis"].get("twin_tol_clearance") or 0.0
+    return max(floor, tidy(float(per_clearance) * float(run_cfg["model"]["clearance"])))
+
+
 def twin_config(run_cfg: Mapping[str, Any]) -> dict:
     """The compliant twin of a nonsmooth run: the same model, drive and window with Hertz
     contacts, its output step the nonsmooth step (``solver.output_dt``: per interval the
     largest force, so no peak is lost; the same samples as the nonsmooth run); no zooms (a
     compliant run is its own reference). Its steps are error-controlled (``solver.adaptive``),
     at most the output step, with the scheme's spectral radius ``analysis.twin_rho_inf`` (null:
-    the run's ``solver.rho_inf``)."""
+    the run's ``solver.rho_inf``) and the tolerance of :func:`twin_tolerance`."""
     twin = copy.deepcopy(dict(run_cfg))
     twin["model"]["contact_model"] = "compliant"
     out_dt = float(run_cfg["solver"]["dt"])
     twin["solver"]["adaptive"] = True
+    twin["solver"]["adaptive_tol"] = twin_tolerance(run_cfg)
     rho_inf = run_cfg["analysis"].get("twin_rho_inf")
     if rho_inf is not None:
         twin["solver"]["rho_inf"] = float(rho_inf)
