@@ -320,15 +320,18 @@ def test_the_twin_takes_its_own_spectral_radius_or_the_runs(twin_rho):
 def test_the_twins_tolerance_grows_with_the_clearance_above_the_solvers(per_clearance):
     cfg = _study("sweep.clearance=[2e-5, 4e-4]", "solver.adaptive_tol=1.5e-9",
                  f"analysis.twin_tol_clearance={per_clearance}")
+    twin_clearances = set()
     for run in plan.plan_runs(cfg):
         if run.model != "compliant":
             assert run.config["solver"]["adaptive_tol"] == 1.5e-9  # (a nonsmooth run's own)
             continue
         clearance = run.config["model"]["clearance"]
+        twin_clearances.add(clearance)
         share = 0.0 if per_clearance == "null" else float(per_clearance)
         # 5e-5 of 2e-5 m is 1e-9 m, below the solver's 1.5e-9 m; of 4e-4 m, 2e-8 m
         expected = 2e-8 if share and clearance == 4e-4 else 1.5e-9
         assert run.config["solver"]["adaptive_tol"] == pytest.approx(expected, rel=1e-12)
+    assert twin_clearances == {2e-5, 4e-4}  # both clearances' twins were checked
 
 
 def test_the_twin_takes_error_controlled_steps_at_most_the_output_step():
