@@ -34,8 +34,8 @@ from .filtering import impact_masks, split_impulses, zero_threshold
 from .forces import effective_radius, hertz_stiffness, peak_forces
 
 __all__ = ["extract_impacts", "top_forces", "run_geometry", "series_stiffness", "STUDY_PARAMETERS",
-           "race_name", "kind_name", "stiffness", "count_flags", "race_codes", "race_stresses",
-           "KIND", "RACE", "FLAG"]
+           "race_name", "kind_name", "flag_names", "stiffness", "count_flags", "race_codes",
+           "race_stresses", "KIND", "RACE", "FLAG"]
 
 STUDY_PARAMETERS = ("clearance", "mu", "omega0", "e_N")
 _PARAM_ATTRS = {
@@ -609,6 +609,12 @@ def race_name(code) -> str:
 def kind_name(code) -> str:
     """The kind name of a kind code."""
     return {v: k for k, v in KIND.items()}[int(code)]
+
+
+def flag_names(mask) -> str:
+    """The names of the bits set in a ``flags`` value (:data:`FLAG`), joined by '+'; '' for
+    none."""
+    return "+".join(name for name, bit in FLAG.items() if int(mask) & bit)
 
 
 def top_forces(impacts_ds: xr.Dataset, n=3, race="outer") -> xr.Dataset:

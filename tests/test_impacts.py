@@ -370,6 +370,22 @@ def test_cli(run, tmp_path, capsys):
     assert "--groove-conformity" in capsys.readouterr().err  # checked before any work
 
 
+def test_paper_style_line_says_why_an_impulse_has_no_force(run, lone):
+    """The paper's way lists the largest impulses of one contact whatever their force: one
+    without a Flores force names its flags instead of printing nan."""
+    from analysis.__main__ import format_top_forces
+
+    zero = run.assign_coords(e_N=0.0)
+    zero.attrs["model.e_N"] = 0.0
+    line = [s for s in format_top_forces(zero).splitlines() if "paper-style" in s][0]
+    assert "nan" not in line and line.count("no force (") == line.count("e_N_zero") == 3
+    imp = extract_impacts(lone)
+    slow = imp.isel(impact=2)  # v_pre below v_min: no approach (test_flag_no_approach)
+    text = format_top_forces(lone, n=imp.sizes["impact"])
+    assert f"no force (no_approach, t = {float(slow.time):.4f} s)" in text
+    assert f"{float(imp.F_max[0]) / 1e3:.4g} kN (t = {float(imp.time[0]):.4f} s)" in text
+
+
 def test_zero_restitution_run_keeps_its_impacts_without_forces():
     """e_N = 0 is a valid run (plastic impacts) but outside the Flores law: impacts are listed,
     F_max is missing and flagged e_N_zero, nothing raises."""
