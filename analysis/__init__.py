@@ -11,7 +11,8 @@ hertz_stiffness(r1, r2, E1, nu1, E2, nu2, concave=False) -> K [N/m^1.5]
 peak_force(impulse, v_pre, e_N, K, F_static=0.0, h=None, details=False) -> F_max [N]
 extract_impacts(run_ds, zero_tol=1e-4, zero_floor=1e-12, r_eff="concave", v_min=1e-3,
                 groove_conformity=None, contact_long_ratio=10.0)
-top_forces(impacts_ds, n=3, race="outer")
+top_forces(impacts_ds, n=3, race="outer", events=None)
+loaded_stretches(run_ds, impacts_ds) -> an event number per row (a persistent contact: one)
 series_stiffness(K1, K2) -> K of two Hertz contacts in series [N/m^1.5]
 contact_stress(F, ball_radius, race_radius, race, E, nu, conformity=None) -> a, b, delta, p_max
 analysis.dt_check.dt_check(run_ds, t_check=None, tol=0.1, n=6) (rerun at dt/2 and compare)
@@ -37,7 +38,16 @@ from .forces import (
     hertz_stiffness,
     peak_force,
 )
-from .impacts import FLAG, KIND, RACE, extract_impacts, run_geometry, series_stiffness, top_forces
+from .impacts import (
+    FLAG,
+    KIND,
+    RACE,
+    extract_impacts,
+    loaded_stretches,
+    run_geometry,
+    series_stiffness,
+    top_forces,
+)
 
 __all__ = [
     "split_impulses",
@@ -53,6 +63,7 @@ __all__ = [
     "extract_impacts",
     "run_geometry",
     "top_forces",
+    "loaded_stretches",
     "series_stiffness",
     "contact_stress",
     "elliptical_contact",

@@ -53,6 +53,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("run")
     p.add_argument("-n", type=int, default=3)
     p.add_argument("--race", choices=("outer", "inner", "all"), default="outer")
+    p.add_argument("--every-row", action="store_true",
+                   help="rank the impact table's rows, not events (by default the rows of one "
+                        "stretch of load on one contact count once, with their largest force)")
     _common(p)
     p = sub.add_parser("dt-check", help="rerun at dt/2 and compare the largest impacts")
     p.add_argument("run")
@@ -86,7 +89,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def format_top_forces(run_ds, n=3, race="outer", zero_tol=1e-4, zero_floor=1e-12,
-                      v_min=1e-3, groove_conformity=None, contact_long_ratio=10.0) -> str:
+                      v_min=1e-3, groove_conformity=None, contact_long_ratio=10.0,
+                      every_row=False) -> str:
     """Text table of the ``n`` largest peak forces for r_eff = concave and r_eff = paper.
 
     Parameters
@@ -99,20 +103,32 @@ def format_top_forces(run_ds, n=3, race="outer", zero_tol=1e-4, zero_floor=1e-12
         Contacts to consider.
     zero_tol, zero_floor, v_min, groove_conformity, contact_long_ratio
         Filter and force settings (see :func:`analysis.extract_impacts`).
+    every_row : bool
+        Rank rows of the impact table, not events: without it, the rows of one stretch of
+        load on one contact (:func:`analysis.impacts.loaded_stretches`, a persistent contact)
+        count once, with their largest force.
 
     Returns
     -------
     str
     """
     from .figures import run_label
-    from .impacts import RACE, extract_impacts, kind_name, race_name, top_forces
+    from .impacts import (
+        RACE,
+        extract_impacts,
+        kind_name,
+        loaded_stretches,
+        race_name,
+        top_forces,
+    )
 
     lines = [f"run: {run_label(run_ds)}"]
     for r_eff in ("concave", "paper"):
         imp = extract_impacts(run_ds, zero_tol, zero_floor, r_eff=r_eff, v_min=v_min,
                               groove_conformity=groove_conformity,
                               contact_long_ratio=contact_long_ratio)
-        top = top_forces(imp, n=n, race=None if race == "all" else race)
+        top = top_forces(imp, n=n, race=None if race == "all" else race,
+                         events=None if every_row else loaded_stretches(run_ds, imp))
         a = imp.attrs
         lines.append(
             f"\nr_eff = {r_eff}: K_outer = {a['K_outer']:.4g} N/m^1.5, K_pinch = "
@@ -264,7 +280,7 @@ def main(argv=None) -> int:
         elif args.cmd == "top-forces":
             print(format_top_forces(run_ds, args.n, args.race, args.zero_tol, args.zero_floor,
                                     args.v_min, args.groove_conformity,
-                                    args.contact_long_ratio))
+                                    args.contact_long_ratio, args.every_row))
         elif args.cmd == "dt-check":
             from simcore.io import write_netcdf
 

@@ -33,9 +33,9 @@ from .contact_stress import contact_modulus, elliptical_contact, groove_radii, h
 from .filtering import impact_masks, split_impulses, zero_threshold
 from .forces import effective_radius, hertz_stiffness, peak_forces
 
-__all__ = ["extract_impacts", "top_forces", "run_geometry", "series_stiffness", "STUDY_PARAMETERS",
-           "race_name", "kind_name", "flag_names", "stiffness", "count_flags", "race_codes",
-           "race_stresses", "KIND", "RACE", "FLAG"]
+__all__ = ["extract_impacts", "top_forces", "loaded_stretches", "run_geometry",
+           "series_stiffness", "STUDY_PARAMETERS", "race_name", "kind_name", "flag_names",
+           "stiffness", "count_flags", "race_codes", "race_stresses", "KIND", "RACE", "FLAG"]
 
 STUDY_PARAMETERS = ("clearance", "mu", "omega0", "e_N")
 _PARAM_ATTRS = {
@@ -617,7 +617,7 @@ def flag_names(mask) -> str:
     return "+".join(name for name, bit in FLAG.items() if int(mask) & bit)
 
 
-def top_forces(impacts_ds: xr.Dataset, n=3, race="outer") -> xr.Dataset:
+def top_forces(impacts_ds: xr.Dataset, n=3, race="outer", events=None) -> xr.Dataset:
     """The ``n`` largest peak forces of an impact table.
 
     Parameters
@@ -628,6 +628,10 @@ def top_forces(impacts_ds: xr.Dataset, n=3, race="outer") -> xr.Dataset:
         How many.
     race : {"outer", "inner", None}
         Restrict to one race (None: all contacts).
+    events : numpy.ndarray, optional
+        An event number per row (:func:`loaded_stretches`): rows with one number give only
+        their largest force, so that a persistent contact, which the filter can give many
+        rows, counts once. None: every row counts.
 
     Returns
     -------
@@ -635,12 +639,34 @@ def top_forces(impacts_ds: xr.Dataset, n=3, race="outer") -> xr.Dataset:
         The selected rows, largest F_max first (impacts without a force are skipped).
     """
     ds = impacts_ds
-    mask = np.isfinite(ds["F_max"].values)
+    force = ds["F_max"].values
+    mask = np.isfinite(force)
     if race is not None:
         mask &= ds["race"].values == RACE[race]
     idx = np.flatnonzero(mask)
-    idx = idx[np.argsort(-ds["F_max"].values[idx], kind="stable")][:n]
-    return ds.isel(impact=idx)
+    idx = idx[np.argsort(-force[idx], kind="stable")]
+    if events is not None:  # (sorted by force: the first row of each event is its largest)
+        idx = idx[np.unique(np.asarray(events)[idx], return_index=True)[1]]
+        idx = idx[np.argsort(-force[idx], kind="stable")]
+    return ds.isel(impact=idx[:n])
+
+
+def loaded_stretches(run_ds: xr.Dataset, impacts_ds: xr.Dataset) -> np.ndarray:
+    """The event number of each row of ``impacts_ds`` (the impact table of ``run_ds``): the
+    stretch of consecutive steps in which its contact's impulse ``Lambda_N`` stays above the
+    table's zero threshold (one impact, or one persistent contact, to which the filter gives a
+    row wherever the impulse varies). A row outside any stretch is an event of its own."""
+    lam = run_ds["Lambda_N"].transpose("contact", "time").values
+    loaded = lam > impacts_ds.attrs["zero_threshold"]
+    before = np.zeros_like(loaded)
+    before[:, 1:] = loaded[:, :-1]
+    number = np.cumsum((loaded & ~before).ravel()).reshape(loaded.shape)
+    time = run_ds["time"].values
+    t = impacts_ds["time"].values
+    k = np.clip(np.searchsorted(time, t), 1, time.size - 1)
+    k -= np.abs(time[k - 1] - t) < np.abs(time[k] - t)  # (the nearest step)
+    c = impacts_ds["contact"].values
+    return np.where(loaded[c, k], number[c, k], -1 - np.arange(c.size))
 
 
 def stiffness(impacts_ds: xr.Dataset) -> np.ndarray:

@@ -7,6 +7,7 @@ import pytest
 import xarray as xr
 from scipy.integrate import solve_ivp
 
+import analysis
 from analysis import (
     FLAG,
     KIND,
@@ -339,6 +340,33 @@ def test_top_forces(impacts):
     assert f[0] == np.nanmax(impacts["F_max"].values[outer])
 
 
+def test_top_forces_of_events_count_a_loaded_stretch_once():
+    """Rows of one contact inside one stretch of load (its impulse above the zero threshold on
+    consecutive steps) are one event: only its largest force ranks. A stretch broken by one
+    unloaded step is two events; rows of another contact are others."""
+    time = np.arange(12) * 1e-4
+    lam = np.zeros((12, 2))
+    lam[1:6, 0] = 1.0  # contact 0: one stretch, steps 1-5 ...
+    lam[7:9, 0] = 1.0  # ... and another, steps 7-8
+    lam[2:4, 1] = 1.0  # contact 1: steps 2-3
+    run_ds = xr.Dataset({"Lambda_N": (("time", "contact"), lam)},
+                        coords={"time": time, "contact": [0, 1]})
+    rows = [(0, 1, 5.0), (0, 3, 9.0), (0, 5, 8.0), (1, 2, 7.0), (0, 7, 6.0), (0, 8, 4.0),
+            (1, 11, 3.0)]  # (contact, step, F_max); the last one outside any stretch
+    table = xr.Dataset({"contact": ("impact", [r[0] for r in rows]),
+                        "time": ("impact", time[[r[1] for r in rows]]),
+                        "F_max": ("impact", [r[2] for r in rows]),
+                        "race": ("impact", [RACE["outer"]] * len(rows))},
+                       attrs={"zero_threshold": 0.5})
+    events = analysis.loaded_stretches(run_ds, table)
+    assert events[0] == events[1] == events[2] and events[4] == events[5]
+    assert len(set(events[[0, 3, 4, 6]].tolist())) == 4
+    every = top_forces(table, n=7)["F_max"].values
+    assert every.tolist() == [9.0, 8.0, 7.0, 6.0, 5.0, 4.0, 3.0]
+    distinct = top_forces(table, n=7, events=events)["F_max"].values
+    assert distinct.tolist() == [9.0, 7.0, 6.0, 3.0]
+
+
 def test_bad_settings(run):
     with pytest.raises(ValueError, match="v_min"):
         extract_impacts(run, v_min=0.0)
@@ -362,6 +390,8 @@ def test_cli(run, tmp_path, capsys):
     text = capsys.readouterr().out
     assert "r_eff = concave" in text and "r_eff = paper" in text and "3.66" in text
     assert "p_max" in text
+    assert main(["top-forces", str(rpath), "--every-row", "-n", "5"]) == 0
+    assert capsys.readouterr().out.count("\n   5 ") == 2  # rank 5, for both R_eff
     assert main(["filter", str(rpath), "--out", str(tmp_path / "f.nc")]) == 0
     assert main(["impacts", str(tmp_path / "missing.nc"), "--out", str(out)]) == 2
     bad = tmp_path / "bad.nc"
