@@ -11,7 +11,6 @@ import sys
 from contextlib import contextmanager
 from pathlib import Path
 
-from snakemake.exceptions import WorkflowError
 from snakemake.utils import validate
 
 import simcore
@@ -40,13 +39,21 @@ def _quiet_schema_version():
         logger.removeFilter(muted)
 
 
+def _stop(exc):
+    """Stop the study on a bad configuration (an exception or a message) with one line naming
+    the key and exit code 2, as `python -m simcore run` does (a WorkflowError would add
+    Snakemake's frame and the lines of this file around it)."""
+    print(f"invalid configuration: {exc}", file=sys.stderr, flush=True)
+    raise SystemExit(2)
+
+
 def _checked_config(raw):
     """Validate the merged config (see _study_config); raise a one-line error naming the key."""
     cfg = dict(raw)
     try:
         full = simcore.validate_config(cfg)
     except simcore.ConfigError as exc:
-        raise WorkflowError(f"invalid configuration: {exc}") from None
+        _stop(exc)
     # The same JSON schema again, through Snakemake's own validator (fills the same defaults):
     # the schema as simcore loads it, with the sweep keys generated from the model, solver and
     # analysis sections, written where Snakemake can read it. Snakemake 9 validates with the
@@ -75,7 +82,7 @@ def _study_config():
     try:
         return read_study_config(ordered, workflow.config_settings.config)
     except simcore.ConfigError as exc:
-        raise WorkflowError(f"invalid configuration: {exc}") from None
+        _stop(exc)
 
 
 _full = _checked_config(_study_config())
@@ -91,8 +98,6 @@ def _cores():
     return max(counts, default=1)
 
 
-def _invalid(exc):
-    return WorkflowError(f"invalid configuration: {exc}")
 
 
 # The study's axes ({section.key: values}), its size (stops above study.max_runs), its runs.
@@ -103,7 +108,7 @@ try:
     _WARNINGS = plan.check_runs(RUNS)  # consistency and limits of every run, before any job
     check_keep(config["study"]["keep"], config["study"]["models"])  # what later jobs read
 except simcore.ConfigError as exc:
-    raise _invalid(exc) from None
+    _stop(exc)
 if workflow.is_main_process:
     print(f"study: {SIZE}", file=sys.stderr, flush=True)
     for line in _WARNINGS:
@@ -237,8 +242,8 @@ def _axis_name(key, setting):
     """The coordinate name of a study axis given as a sweep key or a name (study.figure_*)."""
     full = simcore.config.parameters.canonical(str(key))
     if full is None or full not in AXES:
-        raise _invalid(f"{setting}: {key!r} is not allowed; allowed: an axis of the study: "
-                       + ", ".join(AXIS_NAMES))
+        _stop(f"{setting}: {key!r} is not allowed; allowed: an axis of the study: "
+              + ", ".join(AXIS_NAMES))
     return PARAMS[full].name
 
 
@@ -252,8 +257,8 @@ def _stored(key, value, setting):
             return float(stored) if param.kind == "number" else stored.item()
     except (ValueError, TypeError):
         pass
-    raise _invalid(f"{setting}.{key}: {value!r} is not allowed; allowed: one of the axis' "
-                   "values " + ", ".join(map(str, AXES[full])))
+    _stop(f"{setting}.{key}: {value!r} is not allowed; allowed: one of the axis' values "
+          + ", ".join(map(str, AXES[full])))
 
 
 # The layout of the study's heat maps: axes and held values by coordinate name (as the summary
@@ -268,7 +273,7 @@ try:  # (the figures job checks them again on the summary)
     plan.check_figure_settings({PARAMS[key].name: len(values) for key, values in AXES.items()},
                                FIGURE_AXES, FIGURE_FIXED)
 except simcore.ConfigError as exc:
-    raise _invalid(exc) from None
+    _stop(exc)
 
 
 def failed_points(summary_path):
