@@ -329,6 +329,7 @@ def test_empty_table(run, tmp_path):
     with xr.open_dataset(tmp_path / "empty.nc") as back:
         assert back.sizes["impact"] == 0 and "F_max" in back
     assert top_forces(imp).sizes["impact"] == 0
+    assert top_forces(imp, events=analysis.loaded_stretches(quiet, imp)).sizes["impact"] == 0
 
 
 def test_top_forces(impacts):
