@@ -34,7 +34,8 @@ piece shorter than half a revolution joins the revolution before it.
 
 Forces of the two models
 ------------------------
-* nonsmooth: the impacts of the impact table (``F_max``, Flores; ``p_max``); counts of impacts.
+* nonsmooth: the impacts of the impact table (``F_max``, Flores; ``p_max``); counts of impacts,
+  ``top3_force`` over stretches of load (:func:`analysis.impacts.loaded_stretches`).
 * compliant: the contact force ``F_N`` itself (the largest of each output interval), ``p_max``
   from Hertz at that force; counts and ``top3_force`` over contact episodes
   (:mod:`analysis.episodes`).
@@ -141,9 +142,9 @@ _VARIABLES = {
         "fatigue load limit: 1,500 MPa)"),
     "top3_force": (
         ("rank",), "model", "N",
-        "largest forces of the steady window (both races; impacts, or compliant contact "
-        "episodes), decreasing; a pinch loads its ball on both races at once and gives a force "
-        "on each"),
+        "largest forces of the steady window, decreasing, one per event (both races; an "
+        "impact or a stretch of load on one contact, or a compliant contact episode); a pinch "
+        "loads its ball on both races at once and gives a force on each"),
     "startup_peak_force": (
         (), "model", "N",
         "largest force of the start-up (the first analysis.settle crank revolutions), both races"),
@@ -427,15 +428,21 @@ def _counts_above(force, race, steady, levels, revolutions) -> dict:
     return {"n_above": n_above, "above_per_rev": n_above * per_rev}
 
 
-def _top(force, steady) -> np.ndarray:
-    top = np.sort(force[steady & np.isfinite(force)])[::-1][:N_TOP]
+def _top(force, steady, events=None) -> np.ndarray:
+    """The N_TOP largest finite ``force`` of the ``steady`` rows, decreasing, NaN-padded; with
+    ``events`` (a number per row), only the largest of each event."""
+    rows = np.flatnonzero(steady & np.isfinite(force))
+    rows = rows[np.argsort(-force[rows], kind="stable")]
+    if events is not None:  # (sorted: an event's first row is its largest)
+        rows = np.sort(rows[np.unique(np.asarray(events)[rows], return_index=True)[1]])
+    top = np.sort(force[rows])[::-1][:N_TOP]
     out = np.full(N_TOP, np.nan)
     out[: top.size] = top
     return out
 
 
 def impact_numbers(time, race, kind, f_max, p_max, flags, window: SteadyWindow,
-                   levels: Sequence[float]) -> dict:
+                   levels: Sequence[float], events=None) -> dict:
     """Forces and counts of one nonsmooth impact table (plain arrays in, plain arrays out).
 
     Parameters
@@ -456,6 +463,10 @@ def impact_numbers(time, race, kind, f_max, p_max, flags, window: SteadyWindow,
         The run's steady window.
     levels : sequence of float
         Absolute force levels [N].
+    events : array_like of int, optional
+        An event number per row (:func:`analysis.impacts.loaded_stretches`: one for the rows
+        of a persistent contact): ``top3_force`` ranks events, each with its largest force.
+        None: it ranks rows. The counts always count rows.
 
     Returns
     -------
@@ -494,7 +505,7 @@ def impact_numbers(time, race, kind, f_max, p_max, flags, window: SteadyWindow,
         "peak_force_rev_spread": spread,
         "p_max": pressure,
         "peak_force_flagged": peak_flagged,
-        "top3_force": _top(f, steady),
+        "top3_force": _top(f, steady, None if events is None else np.ravel(events)),
         "startup_peak_force": np.array(_largest(f, ~steady)),
         "n_impacts": n_impacts,
         "impacts_per_rev": n_impacts * per_rev,
@@ -642,6 +653,18 @@ def _deflection_ratio(geo, peak_force, clearance) -> float:
     return float((force / geo["K_pinch"]) ** (2.0 / 3.0) / clearance)
 
 
+def _impact_events(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None):
+    """The event number of each row of a run's impact table
+    (:func:`analysis.impacts.loaded_stretches`), or None where the run or the table lacks
+    what it reads (its impulses, the table's zero threshold)."""
+    from .impacts import loaded_stretches
+
+    if impacts_ds is None or "Lambda_N" not in run_ds or "contact" not in impacts_ds \
+            or "zero_threshold" not in impacts_ds.attrs:
+        return None
+    return loaded_stretches(run_ds, impacts_ds)
+
+
 def _table_columns(impacts_ds: xr.Dataset | None) -> dict:
     """The columns the nonsmooth numbers read (None where the table lacks one)."""
     def column(name):
@@ -707,7 +730,7 @@ def point_numbers(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, settings: d
         numbers.update(_life_numbers(run_ds, window, settings))
     else:
         numbers.update(impact_numbers(**_table_columns(impacts_ds), window=window,
-                                      levels=levels))
+                                      levels=levels, events=_impact_events(run_ds, impacts_ds)))
         numbers["zero_threshold"] = np.float64(
             np.nan if impacts_ds is None else impacts_ds.attrs.get("zero_threshold", np.nan))
     numbers["p_max_groove"] = _groove_pressure(run_ds, settings, numbers["peak_force"])

@@ -264,6 +264,59 @@ def test_spread_over_revolutions_is_missing_without_two_revolutions_or_a_median(
     assert np.isnan(one["peak_force_rev_spread"]).all()
 
 
+def test_top3_of_the_paper_method_ranks_events_not_rows():
+    """Rows of one event (a persistent contact: one stretch of load) give one rank, with their
+    largest force; the counts above the levels still count rows."""
+    from analysis.summary import impact_numbers
+
+    t = np.array([0.5, 0.6, 0.7, 1.5, 2.5, 2.6])
+    force = np.array([900.0, 950.0, 940.0, 300.0, 200.0, 100.0])
+    events = np.array([1, 1, 1, 2, 3, 4])
+    args = dict(time=t, race=np.ones(6, np.int64), kind=np.zeros(6, np.int64), f_max=force,
+                p_max=None, flags=None, levels=[150.0])
+    grid = np.linspace(0.0, 3.0, 31)
+    window = SteadyWindow(0.0, 3.0, grid, grid)
+    rows = impact_numbers(**args, window=window)
+    np.testing.assert_array_equal(rows["top3_force"], [950.0, 940.0, 900.0])
+    by_event = impact_numbers(**args, window=window, events=events)
+    np.testing.assert_array_equal(by_event["top3_force"], [950.0, 300.0, 200.0])
+    np.testing.assert_array_equal(by_event["n_above"], rows["n_above"])
+
+
+def test_top3_of_a_synthetic_run_holds_one_force_per_stretch_of_load():
+    """Through point_numbers: each of the paper method's top3 forces comes from another
+    stretch of load (the contact's impulse above the zero threshold on consecutive steps,
+    found here by a loop over the samples), and each is its stretch's largest force."""
+    from analysis import extract_impacts
+    from analysis.summary import point_numbers
+    from analysis.synthetic import make_run_dataset
+
+    run = make_run_dataset(n_steps=600)
+    # a persistent contact: ball 3 on the outer race loaded over steps 100-179 with a varying
+    # impulse and an approach, which the filter gives many rows of forces above the rest
+    steps = np.arange(100, 180)
+    run["Lambda_N"].values[steps, 11] = 5e-2 * (1.0 + 0.5 * np.sin(0.7 * steps))
+    run["vn_free"].values[steps, 11] = -0.05
+    imp = extract_impacts(run)
+    top = point_numbers(run, imp, {"settle": 0.0})["top3_force"]
+    rows = np.sort(imp["F_max"].values[np.isfinite(imp["F_max"].values)])[::-1][:3]
+    assert (imp["contact"].values[np.isin(imp["F_max"].values, rows)] == 11).all()
+    lam = run["Lambda_N"].transpose("contact", "time").values
+    time = run["time"].values
+    threshold = imp.attrs["zero_threshold"]
+    best = {}  # (contact, first step of the stretch): its largest force
+    for row in range(imp.sizes["impact"]):
+        c, f = int(imp["contact"][row]), float(imp["F_max"][row])
+        k = int(np.argmin(np.abs(time - float(imp["time"][row]))))
+        start = k
+        while start > 0 and lam[c, start - 1] > threshold:
+            start -= 1
+        if np.isfinite(f) and lam[c, k] > threshold:
+            best[(c, start)] = max(best.get((c, start), 0.0), f)
+    assert len(best) >= 3 and np.isfinite(top).all()
+    np.testing.assert_array_equal(top, sorted(best.values(), reverse=True)[:3])
+
+
 def test_revolution_peak_table_against_hand_placed_samples():
     """Three revolutions (turned 0..3 over t = 0..3 s), start-up to t = 0.2 s: each
     revolution's largest force per race, the start-up's, non-finite and unknown-race samples
