@@ -265,3 +265,15 @@ def test_the_largest_force_line_says_when_the_run_ends_before_the_peak():
 def test_a_setting_that_cannot_be_swept_is_not_called_unknown(key, what):
     with pytest.raises(simcore.ConfigError, match=rf"^sweep\.{key}: {what}"):
         simcore.validate_config({"sweep": {key: ["6012"]}})
+
+
+@pytest.mark.parametrize("key", ["model.bearing", "bearing"])
+def test_a_bearing_sweep_is_refused_with_the_way_to_compare_bearings(key):
+    """The catalogue entries differ in ball count: the message says to run a study per
+    bearing, and the command it gives sets a bearing the validation accepts."""
+    with pytest.raises(simcore.ConfigError) as err:
+        simcore.validate_config({"sweep": {key: ["6012", "6205"]}})
+    message = str(err.value)
+    assert "\n" not in message and "ball count" in message and "one study per bearing" in message
+    given = message.split("model={'bearing': '")[1].split("'")[0]
+    assert simcore.validate_config({"model": {"bearing": given}})["model"]["bearing"] == given

@@ -40,6 +40,15 @@ NOT_SWEPT = {
     "solver.output_dt": "the study sets it (a nonsmooth run writes every step, its compliant "
                         "twin every nonsmooth step)",
 }
+#: settings outside the registry (not a number, a boolean or a set of names in the schema)
+#: that users reach for as an axis: why not, and what to do instead (in the message)
+NOT_SWEPT_SETTINGS = {
+    "model.bearing": "each catalogue entry has its own ball count, radii and clearance classes, "
+                     "so its runs share no grid of contacts; allowed: one study per bearing, "
+                     "e.g. snakemake -j2 --config \"model={'bearing': '6205'}\" "
+                     "\"study={'results_dir': 'results/6205'}\", with model.clearance_class "
+                     "swept or set",
+}
 #: longest file name a run gets before its tail is replaced by a hash [characters]
 MAX_NAME = 200
 
