@@ -152,6 +152,15 @@ def test_a_long_name_is_shortened_and_stays_unique():
     assert len(a) <= MAX_NAME and len(b) <= MAX_NAME and a != b
 
 
+def test_every_axis_has_a_long_name_short_enough_for_a_figure_label():
+    """An axis' long_name labels the study's figures and its coordinates (CF): a title in the
+    schema where the description is long, each distinct, none a paragraph."""
+    names = {key: p.long_name for key, p in registry().items()}
+    assert all(0 < len(name) <= 50 for name in names.values()), {
+        key: name for key, name in names.items() if not 0 < len(name) <= 50}
+    assert len(set(names.values())) == len(names)
+
+
 # --- coordinates of the files ---------------------------------------------------------------
 
 def test_category_coordinates_are_codes_that_combine_by_coords(tmp_path):
