@@ -43,8 +43,9 @@ NOT_SWEPT = {
 #: settings outside the registry (not a number, a boolean or a set of names in the schema)
 #: that users reach for as an axis: why not, and what to do instead (in the message)
 NOT_SWEPT_SETTINGS = {
-    "model.bearing": "each catalogue entry has its own ball count, radii and clearance classes, "
-                     "so its runs share no grid of contacts; allowed: one study per bearing, "
+    "model.bearing": "a catalogue entry sets the ball count, radii, masses and the clearance "
+                     "of each class, which a study holds the same over its grid; allowed: one "
+                     "study per bearing, "
                      "e.g. snakemake -j2 --config \"model={'bearing': '6205'}\" "
                      "\"study={'results_dir': 'results/6205'}\", with model.clearance_class "
                      "swept or set",

@@ -48,7 +48,7 @@ def _stop(exc):
 
 
 def _checked_config(raw):
-    """Validate the merged config (see _study_config); raise a one-line error naming the key."""
+    """Validate the merged config (see _study_config); a bad one stops the study (_stop)."""
     cfg = dict(raw)
     try:
         full = simcore.validate_config(cfg)
