@@ -1196,8 +1196,17 @@ def _quantity_figures(summary_ds, q: StudyQuantity, layout: FigureLayout, swept,
 
 
 #: Bore of the bearing whose ISO 5753-1 clearance classes the life figure marks, where the
-#: summary does not name one: the paper's 6012 [mm].
+#: summary does not name its bearing: the paper's 6012 [mm].
 DEFAULT_BORE = 60.0
+
+
+def _bore(summary_ds) -> float:
+    """Bore [mm] of the study's bearing: its catalogue entry's (the summary's attribute
+    ``model_bearing``, the study's ``model.bearing``), else :data:`DEFAULT_BORE`."""
+    from simcore.model.bearing import bearing
+
+    name = summary_ds.attrs.get("model_bearing")
+    return float(bearing(str(name))["d"]) if name is not None else DEFAULT_BORE
 
 
 def _class_bands(ax, bore):
@@ -1236,15 +1245,15 @@ def plot_life(summary_ds: xr.Dataset, path, layout: FigureLayout | None = None,
         Values at which the other swept axes are held (:func:`figure_layout`; default: its
         defaults).
     bore : float, optional
-        Bore of the bearing [mm] for the class bands (default: the summary's attribute
-        ``bearing_bore_mm``, else :data:`DEFAULT_BORE`).
+        Bore of the bearing [mm] for the class bands (default: that of the catalogue entry the
+        summary's attribute ``model_bearing`` names, else :data:`DEFAULT_BORE`).
 
     Returns
     -------
     Path
     """
     layout = layout or figure_layout(summary_ds)
-    bore = float(bore or summary_ds.attrs.get("bearing_bore_mm", DEFAULT_BORE))
+    bore = float(bore or _bore(summary_ds))
     keep = {"clearance", "clearance_class", "omega0"}  # (a class: its clearance along it)
     at = {}  # every other axis held: where the layout holds it, else at its middle value
     for d in grid_axes(summary_ds):

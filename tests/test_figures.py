@@ -201,6 +201,35 @@ def test_life_figure_marks_the_clearance_classes(tmp_path):
         plot_life(ds.drop_vars("L10h"), tmp_path / "none.png")
 
 
+def test_life_figure_marks_the_classes_of_the_studys_own_bearing(tmp_path):
+    """The class bands are those of the bore of the summary's bearing (``model_bearing``):
+    for a 6205 (25 mm bore) CN is 5-20 µm of radial internal clearance (ISO 5753-1, bores over
+    24 up to 30 mm), a model clearance of 2.5-10 µm; without a bearing, the 6012's 60 mm."""
+    from unittest import mock
+
+    import matplotlib.axes
+
+    from analysis.figures import plot_life
+
+    def bands(ds):
+        found = []
+        real = matplotlib.axes.Axes.plot
+
+        def spy(self, x, *args, **kwargs):
+            if kwargs.get("solid_capstyle") == "butt":  # a class band
+                found.append(tuple(np.round(np.asarray(x, dtype=float), 6)))
+            return real(self, x, *args, **kwargs)
+
+        with mock.patch.object(matplotlib.axes.Axes, "plot", spy):
+            plot_life(ds, tmp_path / "bands.png")
+        return found
+
+    ds = _summary((3, 1, 2, 1))
+    own = bands(ds.assign_attrs(model_bearing="6205"))
+    assert (2.5, 10.0) in own and len(own) == 10  # five classes on each of the two panels
+    assert set(bands(ds)).isdisjoint(own)  # (no bearing named: the 60 mm bore's)
+
+
 def test_a_class_sweep_gets_the_life_figure_over_its_clearances(tmp_path):
     """A summary whose clearance axis is a clearance class (the clearance of each class a
     coordinate along it) draws the life figure, its points at the classes' clearances."""
