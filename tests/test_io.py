@@ -112,6 +112,12 @@ def test_failed_run_file_combines_with_the_runs(two_runs, tmp_path):
         assert bool(grid.Lambda_N.sel(clearance=2e-5).isnull().all())
 
 
+def test_the_title_names_the_runs_own_bearing():
+    ds = simcore.run(simcore.load_config(overrides=["model.bearing=6205", "solver.t_end=0.002"]))
+    assert ds.attrs["title"].startswith("Ball bearing 6205 in a crank-slider")
+    assert "6012" not in ds.attrs["title"]
+
+
 def test_compile_time_is_recorded_apart_from_the_run():
     """In a new process the first run carries the compile (or cache load), the second none."""
     code = (

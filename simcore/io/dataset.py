@@ -183,7 +183,7 @@ def run_attributes(traj, layout, cfg: dict, compile_time_s: float, compliant: bo
     m, solver = cfg["model"], cfg["solver"]
     kind = "compliant (Hertz) contact run" if compliant else "nonsmooth generalized-alpha run"
     attrs = global_attributes(
-        cfg, f"Ball bearing (SKF 6012) in a crank-slider: {kind}",
+        cfg, f"Ball bearing {m['bearing']} in a crank-slider: {kind}",
         f"simcore.run, {m['contact_model']} contacts, {m['drive']} drive, "
         f"t_end = {solver['t_end']} s, dt = {solver['dt']} s")
     output_interval_s = float(solver["dt"]) * output_every(cfg)
