@@ -643,12 +643,17 @@ def top_forces(impacts_ds: xr.Dataset, n=3, race="outer", events=None) -> xr.Dat
     mask = np.isfinite(force)
     if race is not None:
         mask &= ds["race"].values == RACE[race]
-    idx = np.flatnonzero(mask)
-    idx = idx[np.argsort(-force[idx], kind="stable")]
+    return ds.isel(impact=largest_first(force, np.flatnonzero(mask), events)[:n])
+
+
+def largest_first(force, rows, events=None) -> np.ndarray:
+    """The indices ``rows`` ordered by ``force`` [N], largest first; with ``events`` (a number
+    per row of ``force``, :func:`loaded_stretches`), only the largest row of each event."""
+    rows = rows[np.argsort(-force[rows], kind="stable")]
     if events is not None:  # (sorted by force: the first row of each event is its largest)
-        idx = idx[np.unique(np.asarray(events)[idx], return_index=True)[1]]
-        idx = idx[np.argsort(-force[idx], kind="stable")]
-    return ds.isel(impact=idx[:n])
+        rows = rows[np.unique(np.asarray(events)[rows], return_index=True)[1]]
+        rows = rows[np.argsort(-force[rows], kind="stable")]
+    return rows
 
 
 def loaded_stretches(run_ds: xr.Dataset, impacts_ds: xr.Dataset) -> np.ndarray:

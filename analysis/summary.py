@@ -85,6 +85,7 @@ from simcore.io.read import time_steps
 from simcore.io.variables import STAGES
 from simcore.model.driver import CONTACT_MODELS
 
+from .impacts import largest_first, loaded_stretches
 from .reads import LIFE_READS, SUMMARY_READS
 from .run_life import conformities
 
@@ -431,11 +432,8 @@ def _counts_above(force, race, steady, levels, revolutions) -> dict:
 def _top(force, steady, events=None) -> np.ndarray:
     """The N_TOP largest finite ``force`` of the ``steady`` rows, decreasing, NaN-padded; with
     ``events`` (a number per row), only the largest of each event."""
-    rows = np.flatnonzero(steady & np.isfinite(force))
-    rows = rows[np.argsort(-force[rows], kind="stable")]
-    if events is not None:  # (sorted: an event's first row is its largest)
-        rows = np.sort(rows[np.unique(np.asarray(events)[rows], return_index=True)[1]])
-    top = np.sort(force[rows])[::-1][:N_TOP]
+    top = force[largest_first(force, np.flatnonzero(steady & np.isfinite(force)), events)]
+    top = top[:N_TOP]
     out = np.full(N_TOP, np.nan)
     out[: top.size] = top
     return out
@@ -657,8 +655,6 @@ def _impact_events(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None):
     """The event number of each row of a run's impact table
     (:func:`analysis.impacts.loaded_stretches`), or None where the run or the table lacks
     what it reads (its impulses, the table's zero threshold)."""
-    from .impacts import loaded_stretches
-
     if impacts_ds is None or "Lambda_N" not in run_ds or "contact" not in impacts_ds \
             or "zero_threshold" not in impacts_ds.attrs:
         return None
