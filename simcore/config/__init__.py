@@ -232,11 +232,11 @@ def _format_error(error, root: Mapping[str, Any]) -> str:
         extra = sorted((k for k in error.instance if k not in allowed), key=str)
         where = path + "." if path != "<config>" else ""
         if path == "sweep":
-            from .parameters import NOT_SWEPT_SETTINGS
+            from .parameters import NOT_SWEPT
 
             name = str(extra[0]) if "." in str(extra[0]) else f"model.{extra[0]}"
-            if name in NOT_SWEPT_SETTINGS:
-                return f"sweep.{extra[0]}: not allowed as a sweep axis: {NOT_SWEPT_SETTINGS[name]}"
+            if name in NOT_SWEPT:
+                return f"sweep.{extra[0]}: not allowed as a sweep axis: {NOT_SWEPT[name]}"
             what = ("not allowed as a sweep axis (a setting that is not a number, a boolean or "
                     "one of a set of names)" if _is_setting(str(extra[0]), root)
                     else "unknown key")

@@ -34,19 +34,16 @@ SECTIONS = ("model", "solver", "analysis")
 BASE_AXES = ("model.clearance", "model.mu", "model.omega0", "model.e_N")
 #: coordinate names that differ from the rule of :func:`coordinate_name`
 SPECIAL_NAMES = {"model.contact_model": "model"}
-#: keys that a study sets itself, refused as sweep axes (why, in the message)
+#: keys refused as sweep axes, and why (in the message): keys that a study sets itself, and
+#: settings that users reach for as an axis although they are not in the registry (the schema
+#: refuses those; its error gives the reason here)
 NOT_SWEPT = {
     "model.contact_model": "every grid point runs with each model of study.models",
     "solver.output_dt": "the study sets it (a nonsmooth run writes every step, its compliant "
                         "twin every nonsmooth step)",
-}
-#: settings outside the registry (not a number, a boolean or a set of names in the schema)
-#: that users reach for as an axis: why not, and what to do instead (in the message)
-NOT_SWEPT_SETTINGS = {
     "model.bearing": "a catalogue entry sets the ball count, radii, masses and the clearance "
                      "of each class, which a study holds the same over its grid; allowed: one "
-                     "study per bearing, "
-                     "e.g. snakemake -j2 --config \"model={'bearing': '6205'}\" "
+                     "study per bearing, e.g. snakemake -j2 --config \"model={'bearing': '6205'}\" "
                      "\"study={'results_dir': 'results/6205'}\", with model.clearance_class "
                      "swept or set",
 }
