@@ -947,9 +947,9 @@ def _shape(dims, n_levels) -> tuple:
     return tuple(sizes[d] for d in dims)
 
 
-def _known_attrs(name: str) -> dict:
-    """Units and long name of a swept parameter whose files do not carry them, from the
-    registry of swept parameters."""
+def _registry_attrs(name: str) -> dict:
+    """The coordinate attributes of a swept parameter from the registry of swept parameters
+    ({} for a name it does not know)."""
     try:
         from simcore.config.parameters import parameter
 
@@ -959,9 +959,23 @@ def _known_attrs(name: str) -> dict:
     try:
         from simcore.io import PARAMETERS
     except ImportError:
-        PARAMETERS = {}
-    units, long_name = PARAMETERS.get(name, ("1", name))
+        return {}
+    if name not in PARAMETERS:
+        return {}
+    units, long_name = PARAMETERS[name]
     return {"units": units, "long_name": long_name}
+
+
+def _axis_attrs(name: str, from_files: dict | None) -> dict:
+    """A swept parameter's coordinate attributes in the summary. Units and long name come from
+    the registry where it knows the parameter, so that a study whose run files were written
+    before a change of them (files are reused while their run's fingerprint holds) reads the
+    current ones; the meanings of a category's codes (``flag_values``, ``flag_meanings``) come
+    from the files that hold the codes. Neither: units 1 and the name."""
+    known = _registry_attrs(name)
+    if not from_files:
+        return known or {"units": "1", "long_name": name}
+    return {**from_files, **{k: known[k] for k in ("units", "long_name") if k in known}}
 
 
 def _assemble(entries: list, levels: np.ndarray, models: list[int], axes=None) -> xr.Dataset:
@@ -995,11 +1009,11 @@ def _assemble(entries: list, levels: np.ndarray, models: list[int], axes=None) -
         values = axis_values[name]
         if "flag_values" in attrs.get(name, {}):  # a category: its int8 code
             values = values.astype(np.int8)
-        coords[name] = (name, values, attrs.get(name) or _known_attrs(name))
+        coords[name] = (name, values, _axis_attrs(name, attrs.get(name)))
     for name, by in _companions(names).items():  # e.g. the clearance of each class
         value_at = {p[by][0]: p[name][0] for p, _ in entries if name in p and by in p}
         coords[name] = (by, np.array([value_at.get(v, np.nan) for v in axis_values[by]]),
-                        attrs.get(name) or _known_attrs(name))
+                        _axis_attrs(name, attrs.get(name)))
     coords.update(model=np.array(models, dtype=np.int8),
                   race=np.arange(len(RACES), dtype=np.int8),
                   kind=np.arange(len(KINDS), dtype=np.int8), level=levels,

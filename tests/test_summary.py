@@ -670,3 +670,26 @@ def test_the_clearance_of_a_swept_class_is_a_coordinate_along_the_class_axis():
     assert "clearance" not in summary.dims and summary["clearance"].dims == ("clearance_class",)
     np.testing.assert_array_equal(summary["clearance_class"].values, [1, 3])
     np.testing.assert_array_equal(summary["clearance"].values, [9e-6, 2.6e-5])
+
+
+def test_axis_attributes_come_from_the_registry_where_it_knows_the_parameter(tmp_path):
+    """Run files are reused while their run's fingerprint holds, so their coordinates may
+    carry the units and long names of an older version: the summary takes them from the
+    registry of swept parameters where it knows the parameter, and from the files where it
+    does not (a coordinate of the user's own)."""
+    from simcore.config.parameters import parameter
+
+    force = np.full((2001, 16), 100.0)
+    files = []
+    for value in (1.0, 2.0):
+        run = make_compliant_run(force, output_dt=1e-4, omega0=50.0)
+        run["clearance"].attrs.update(units="mm", long_name="an older name of the clearance")
+        run = run.assign_coords(my_axis=("my_axis", [value], {"units": "s",
+                                                              "long_name": "my own axis"}))
+        files.append(write_netcdf(run, tmp_path / f"twin_{value}.nc"))
+    s = summarize({"compliant": files}, {}, scheduler="synchronous", settings={"settle": 1.0},
+                  models=["compliant"], axes=["clearance", "mu", "omega0", "e_N", "my_axis"])
+    known = parameter("clearance")
+    assert (s["clearance"].attrs["units"], s["clearance"].attrs["long_name"]) == (
+        known.units, known.long_name) != ("mm", "an older name of the clearance")
+    assert (s["my_axis"].attrs["units"], s["my_axis"].attrs["long_name"]) == ("s", "my own axis")
