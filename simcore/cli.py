@@ -11,12 +11,27 @@ import argparse
 import sys
 import time
 
+#: what ``run --help`` shows (each runs: tests/test_cli.py)
+RUN_EXAMPLES = (
+    "python -m simcore run --out paper.nc",
+    "python -m simcore run --set model.contact_model=compliant --set model.youngs_modulus=2.1e11"
+    " --set solver.adaptive=true --set solver.dt=1e-5 --out hertz.nc",
+    "python -m simcore run --set model.bearing=6205 --set model.clearance_class=C3 --out 6205.nc",
+)
+
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m simcore",
-                                description="Nonsmooth simulation of the SKF-6012 crank-slider.")
+    p = argparse.ArgumentParser(
+        prog="python -m simcore",
+        description="Simulate a ball bearing in a crank-slider, with the paper's nonsmooth "
+                    "contacts or compliant (Hertz) ones; the paper's SKF 6012 case by default.")
     sub = p.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("run", help="simulate one run and write its netCDF file")
+    r = sub.add_parser(
+        "run", help="simulate one run and write its netCDF file",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="examples:\n" + "".join(f"  {line}\n" for line in RUN_EXAMPLES)
+               + "every key, its unit and allowed values: config/README.md and "
+                 "simcore/config/schema/config.schema.json")
     r.add_argument("--config", help="YAML configuration (default: the paper's case)")
     r.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override one key, e.g. --set model.mu=0 --set solver.t_end=0.05")
