@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -435,3 +436,21 @@ def test_figure_settings_are_checked_on_the_grid_before_any_job():
         plan.check_figure_settings(sizes, ["clearance", "mu"], {"mu": 0.0})
     with pytest.raises(simcore.ConfigError, match=r"^study\.figure_axes: 'speed' is not"):
         plan.check_figure_settings(sizes, ["speed"])
+
+
+def test_the_sweep_of_config_readme_is_a_valid_grid():
+    """The example ``sweep:`` block of config/README.md, as a user would paste it over the
+    default study's: it validates and plans one run per grid point and model."""
+    import re
+
+    import yaml
+
+    text = (Path(__file__).resolve().parents[1] / "config" / "README.md").read_text()
+    example = yaml.safe_load(re.search(r"```yaml\n(.*?)```", text, re.S).group(1))["sweep"]
+    cfg = simcore.load_config("config/config.yaml")
+    cfg["sweep"] = example
+    runs = plan.plan_runs(simcore.validate_config(cfg))
+    points = math.prod(len(values) for values in example.values())
+    assert len(runs) == points * len(cfg["study"]["models"])
+    assert set(runs[0].point) == {f"model.{key}" if key in ("clearance", "mu") else key
+                                  for key in example} | {"model.omega0", "model.e_N"}
