@@ -4,31 +4,21 @@ traceback, the misleading messages, and the output paths of every command."""
 
 from __future__ import annotations
 
-import contextlib
-import io
 from pathlib import Path
 
 import numpy as np
 import pytest
 import xarray as xr
+from command_line import call
 
 import simcore
 from analysis.__main__ import main as analysis_main
 from simcore.cli import main as simcore_main
 
 
-def _call(main, argv):
-    """(exit code, stderr lines) of a command line called in this process; an exception that
-    escapes it (a traceback) fails the test."""
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        code = main(argv)
-    return code, [line for line in err.getvalue().splitlines() if line.strip()]
-
-
 def _assert_refused(main, argv, words, folder: Path):
     before = sorted(folder.rglob("*"))
-    code, lines = _call(main, argv)
+    code, lines = call(main, argv)
     assert code == 2, (argv, code, lines)
     assert len(lines) == 1 and lines[0].startswith("error: "), (argv, lines)
     for word in words:
@@ -76,7 +66,7 @@ def test_an_output_name_too_long_for_the_file_system(tmp_path):
     assert "at most 239 bytes" in line  # 255 less the temporary file's 16
     # the longest name allowed is written, through its temporary file
     out = tmp_path / ("b" * 236 + ".nc")
-    assert _call(simcore_main, ["run", "--set", "solver.t_end=0.001", "--quiet", "--out",
+    assert call(simcore_main, ["run", "--set", "solver.t_end=0.001", "--quiet", "--out",
                                 str(out)]) == (0, [])
     assert out.is_file()
 

@@ -3,11 +3,10 @@ runs (shortened to a few milliseconds of simulated time) and writes its file."""
 
 from __future__ import annotations
 
-import contextlib
-import io
 import shlex
 
 import pytest
+from command_line import call
 
 from simcore.cli import RUN_EXAMPLES, main
 
@@ -31,6 +30,5 @@ def test_every_example_of_the_run_help_runs(example, tmp_path):
     argv = list(example)
     out = tmp_path / "example.nc"
     argv[argv.index("--out") + 1] = str(out)
-    with contextlib.redirect_stdout(io.StringIO()):
-        code = main([*argv, "--set", "solver.t_end=0.003", "--quiet"])
-    assert code == 0 and out.exists()
+    code, lines = call(main, [*argv, "--set", "solver.t_end=0.003", "--quiet"])
+    assert code == 0 and out.exists(), lines

@@ -10,6 +10,8 @@ import re
 import shlex
 from pathlib import Path
 
+from command_line import call
+
 from simcore.cli import main
 
 README = Path(__file__).resolve().parents[1] / "README.md"
@@ -30,20 +32,13 @@ def _shell_lines() -> list[str]:
             if line.startswith("    ") and line.strip().startswith(PREFIX)]
 
 
-def _call(argv) -> tuple[int, str]:
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        code = main(argv)
-    return code, err.getvalue()
-
-
 def test_the_shell_commands_of_the_readme_run(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     lines = [line for line in _shell_lines() if "--config" not in line]
     assert len(lines) >= 3 and any(" zoom " in f" {line} " for line in lines)
     for line in lines:  # in their order: the zoom reads the run written before it
         argv = shlex.split(line[len(PREFIX):])
-        code, err = _call(argv)
+        code, err = call(main, argv)
         assert code == 0, (line, err)
         assert (tmp_path / argv[argv.index("--out") + 1]).exists(), line
 
@@ -53,8 +48,8 @@ def test_the_bad_input_of_the_readme_gives_the_line_it_shows(tmp_path, monkeypat
     shown = _section("One run from the shell")
     command = re.search(r"^    \$ (python -m simcore .*)$", shown, re.M).group(1)
     error = re.search(r"^    (error: .*)$", shown, re.M).group(1)
-    code, err = _call(shlex.split(command[len(PREFIX):]))
-    assert code == 2 and err.strip() == error
+    code, lines = call(main, shlex.split(command[len(PREFIX):]))
+    assert code == 2 and lines == [error]
     assert not list(tmp_path.iterdir())  # no file
 
 
