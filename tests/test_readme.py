@@ -61,4 +61,3 @@ def test_the_python_block_of_the_readme_runs(tmp_path, monkeypatch):
         exec(compile(block, "README.md", "exec"), namespace)  # noqa: S102 (the README's code)
     assert (tmp_path / "run.nc").exists()
     assert namespace["imp"].sizes["impact"] > 0 and float(namespace["zoom"]["F_N"].max()) > 0.0
-
