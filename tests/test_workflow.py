@@ -276,3 +276,30 @@ def test_killed_study_resumes_and_redoes_only_the_unfinished(results):
     _check_study(results)
     for path, mtime in done.items():
         assert path.stat().st_mtime_ns == mtime, f"{path.name} was redone"
+
+
+@pytest.mark.parametrize(("overrides", "named"), [
+    ([], "the source paper's SKF-6012 ball bearing"),
+    (["model.bearing=6205", "model.clearance_class=C3"], "the 6205 ball bearing")])
+def test_the_report_texts_render_and_name_the_studys_bearing(overrides, named):
+    """The report's texts (Jinja templates that Snakemake fills with the study's configuration)
+    render for the default study and for a catalogue bearing, and name that bearing; every
+    figure caption of the smoke study renders to text."""
+    from types import SimpleNamespace
+
+    import jinja2
+
+    import simcore
+
+    config = simcore.load_config("config/config.yaml", overrides=overrides)
+    report = ROOT / "workflow" / "report"
+    text = jinja2.Template((report / "workflow.rst").read_text()).render(
+        snakemake=SimpleNamespace(config=config))
+    assert named in " ".join(text.split())
+    caption = jinja2.Template((report / "figures.rst").read_text())
+    names = ["study_peak_force_outer_compliant", "study_method_ratio_outer",
+             "life_clearance_speed", "study_L10h", "study_p_max_groove_inner_nonsmooth"]
+    for name in names:
+        words = caption.render(snakemake=SimpleNamespace(
+            config=config, wildcards=SimpleNamespace(name=name))).split()
+        assert len(words) > 10, name
