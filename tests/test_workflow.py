@@ -283,8 +283,8 @@ def test_killed_study_resumes_and_redoes_only_the_unfinished(results):
     (["model.bearing=6205", "model.clearance_class=C3"], "the 6205 ball bearing")])
 def test_the_report_texts_render_and_name_the_studys_bearing(overrides, named):
     """The report's texts (Jinja templates that Snakemake fills with the study's configuration)
-    render for the default study and for a catalogue bearing, and name that bearing; every
-    figure caption of the smoke study renders to text."""
+    render for the default study and for a catalogue bearing, and name that bearing; the
+    captions of five kinds of figure render to text."""
     from types import SimpleNamespace
 
     import jinja2
