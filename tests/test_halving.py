@@ -121,8 +121,10 @@ def test_a_retried_step_is_the_sum_of_two_plain_half_steps():
     assert nb.integrate_chunk(k, k + 1, st, start.arrays, start.state, rows, start.work,
                               retry) < 0
     assert out.halvings[k + 1] == 1 and out.converged[k + 1] == 1
-    # the same step, apart: two plain steps of h/2 (2k and 2k+1 of a run at h/2)
-    half = st._replace(h=st.h / 2)
+    # the same step, apart: two plain steps of h/2 (2k and 2k+1 of a run at h/2), with the
+    # iteration cap of a retried step's velocity jump (the other stages converged within
+    # their own cap in the retry, so a higher one leaves them as they are)
+    half = st._replace(h=st.h / 2, max_iter=nb.RETRY_VELOCITY_ITERATIONS * st.max_iter)
     no_retry = retry._replace(max_halvings=0)
     ndof, nc = state0.q.size, start.gap.size
     ref = _outputs(2 * k + 3, ndof, nc)
@@ -265,3 +267,38 @@ def test_a_retried_compliant_step_is_two_plain_half_steps():
     assert out.energy[k + 1] == pytest.approx(half.energy[b], rel=1e-9)
     np.testing.assert_array_equal(out.iterations[k + 1],
                                   np.maximum(half.iterations[a], half.iterations[b]))
+
+
+#: A configuration of the hard corner (docs/reliability.md, section 7: constant drive, high
+#: friction, large clearance, no cage damping), drawn by ``benchmarks/fuzz_corners.py --hard``
+#: (seed 5, its sixth draw): three balls whose frictional impacts the velocity jump cannot
+#: solve within solver.max_iter iterations at some steps, at h and at h/2 alike.
+HARD_CORNER = ["model.clearance=0.0014366670521756527", "model.mu=0.340650567222913",
+               "model.omega0=197.48279337268184", "model.e_N=0.8062153310270436",
+               "model.e_T=0.31645208740449016", "model.n_balls=3",
+               "model.cage_stiffness=3945.9750428159964", "model.cage_damping=0.0",
+               "model.drive=constant", "solver.t_end=0.02", "solver.dt=0.0001",
+               "solver.on_nonconvergence=warn"]
+
+
+def test_a_retried_step_gives_its_velocity_jump_more_iterations():
+    """Without retries the hard corner's run has steps whose velocity jump stops at
+    solver.max_iter; with them every step converges, and some retried steps' velocity jumps
+    took more than max_iter iterations (up to RETRY_VELOCITY_ITERATIONS times it), where the
+    smaller step alone would not have helped (docs/reliability.md, section 7)."""
+    def run(max_halvings):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return simcore.run(simcore.load_config(
+                overrides=[*HARD_CORNER, f"solver.max_halvings={max_halvings}"]))
+
+    plain, retried = run(0), run(4)
+    cap = int(retried.attrs["solver.max_iter"])
+    velocity = nb.STAGE_VELOCITY
+    failed = plain["converged"].values == 0
+    assert failed.any() and (plain["iterations"].values[failed, velocity] >= cap).all()
+    assert retried["converged"].values.all()
+    halved = retried["halvings"].values > 0
+    jumps = retried["iterations"].values[halved, velocity]
+    assert jumps.max() > cap and jumps.max() <= nb.RETRY_VELOCITY_ITERATIONS * cap
+    assert retried["iterations"].values[~halved, velocity].max() <= cap

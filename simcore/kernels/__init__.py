@@ -96,6 +96,7 @@ from .joints import (  # noqa: E402
 )
 from .linalg import block_factor_work  # noqa: E402
 from .nonsmooth_step import (  # noqa: E402
+    RETRY_VELOCITY_ITERATIONS,
     STAGE_POSITION,
     STAGE_SMOOTH,
     STAGE_VELOCITY,
@@ -111,7 +112,8 @@ from .springs import smooth_forces, spring_damping, spring_state, total_energy  
 
 __all__ = [
     "CACHE_DIR", "CONTACT_INSIDE", "CONTACT_OUTSIDE", "CONTACT_PLANE", "JOINT_ANGLE",
-    "JOINT_PRISMATIC", "JOINT_REVOLUTE", "STAGE_POSITION", "STAGE_SMOOTH", "STAGE_VELOCITY",
+    "JOINT_PRISMATIC", "JOINT_REVOLUTE", "RETRY_VELOCITY_ITERATIONS", "STAGE_POSITION",
+    "STAGE_SMOOTH", "STAGE_VELOCITY",
     "ChunkOutputs", "CompliantOutputs", "CompliantState", "ModelArrays", "RetrySettings",
     "StepSettings",
     "StepState", "alpha_coefficients", "loop_stage_calls",

@@ -6,8 +6,10 @@ Coulomb friction).
 A step whose sub-problems do not all converge, or that creates energy (the energy audit's
 criterion, :mod:`simcore.model.audit`), is taken again from the same state as 2, then 4, ...
 substeps, at most 2^max_halvings (:func:`integrate_chunk`); the run then goes on at h. The
-outputs keep one row per step: the impulses of a subdivided step are the sums of its
-substeps'.
+velocity jump of a retried step may take :data:`RETRY_VELOCITY_ITERATIONS` times max_iter
+iterations: its frictional impact problem does not get easier with a smaller step (its impulses
+do not shrink with it), more iterations do. The outputs keep one row per step: the impulses of
+a subdivided step are the sums of its substeps'.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from collections import namedtuple
 import numpy as np
 
 from .bodies import trig_cache
-from .bundles import STAGE_POSITION, STAGE_SMOOTH, STAGE_VELOCITY, StepState
+from .bundles import STAGE_POSITION, STAGE_SMOOTH, STAGE_VELOCITY, StepSettings, StepState
 from .contact import contact_velocities_into
 from .generalized_alpha import alpha_coefficients, smooth_step, smooth_work, step_work
 from .jit import loop_kernel, stage
@@ -32,11 +34,17 @@ from .velocity_jump import (
     velocity_work,
 )
 
-__all__ = ["STAGE_POSITION", "STAGE_SMOOTH", "STAGE_VELOCITY", "NonsmoothWork",
-           "PositionWork", "RetrySettings", "RetryWork", "VelocityWork", "integrate_chunk",
-           "loop_stage_calls", "nonsmooth_work", "position_step", "solve_velocity_problem",
-           "velocity_step"]
+__all__ = ["RETRY_VELOCITY_ITERATIONS", "STAGE_POSITION", "STAGE_SMOOTH", "STAGE_VELOCITY",
+           "NonsmoothWork", "PositionWork", "RetrySettings", "RetryWork", "VelocityWork",
+           "integrate_chunk", "loop_stage_calls", "nonsmooth_work", "position_step",
+           "solve_velocity_problem", "velocity_step"]
 
+
+#: The velocity jump of a retried step's substeps may take this many times
+#: ``StepSettings.max_iter`` Newton iterations (and Gauss-Seidel sweeps of its fallback); the
+#: smooth stage and the position correction keep the cap (a higher one costs much in the
+#: position correction of a crowded ring, docs/reliability.md, section 7).
+RETRY_VELOCITY_ITERATIONS = 4
 
 #: Settings of the retries of :func:`integrate_chunk`: ``max_halvings`` (a failed step is
 #: taken again as 2, 4, ... 2^max_halvings substeps; 0: never), and the energy audit's
@@ -289,6 +297,8 @@ def integrate_chunk(k0, k1, st, ma, state, out, work, rs):
     pwk = work.position
     nu_b = pwk.nu_b
     rw = work.retry
+    st_retry = StepSettings(st.h, st.rho_inf, st.tol, RETRY_VELOCITY_ITERATIONS * st.max_iter,
+                            st.eta, st.drive_row, st.t0, st.v_reg, st.v_pre_min)
     first_bad = -1
     for k in range(k0, k1):
         _update_energy_scale(k, out.energy, rw.energy_scale)
@@ -301,6 +311,7 @@ def integrate_chunk(k0, k1, st, ma, state, out, work, rs):
             n_sub = 1 << halvings
             hs = h / n_sub
             final = halvings >= rs.max_halvings
+            st_v = st if halvings == 0 else st_retry
             ok = True
             for j in range(n_sub):
                 t1 = st.t0 + ((k + 1) * h if j == n_sub - 1 else k * h + (j + 1) * hs)
@@ -309,8 +320,8 @@ def integrate_chunk(k0, k1, st, ma, state, out, work, rs):
                 it_p, ok_p = position_step(q_t, t1, hs, st, ma, Ks_t, q1, nu_c, gap, pwk)
                 _normal_velocities_before_jump(v_t, pwk.GN, pwk.metric.cols,
                                                pwk.metric.ncols, nu_b.shape[0], vn_free)
-                it_v, ok_v = velocity_step(q1, v_t, t1, hs, st, ma, f_t, nu_c, gap, state, v1,
-                                           work.velocity)
+                it_v, ok_v = velocity_step(q1, v_t, t1, hs, st_v, ma, f_t, nu_c, gap, state,
+                                           v1, work.velocity)
                 _accept_substep(state, work.step)
                 contact_velocities_into(state.q, state.v, ma, gap, contact[2], contact[3],
                                         pwk.scratch.wN, pwk.scratch.wT, pwk.scratch.trig)
