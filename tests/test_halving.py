@@ -272,7 +272,7 @@ def test_a_retried_compliant_step_is_two_plain_half_steps():
 #: A configuration of the hard corner (docs/reliability.md, section 7: constant drive, high
 #: friction, large clearance, no cage damping), drawn by ``benchmarks/fuzz_corners.py --hard``
 #: (seed 5, its sixth draw): three balls whose frictional impacts the velocity jump cannot
-#: solve within solver.max_iter iterations at some steps, at h and at h/2 alike.
+#: solve within solver.max_iter iterations at some steps of h.
 HARD_CORNER = ["model.clearance=0.0014366670521756527", "model.mu=0.340650567222913",
                "model.omega0=197.48279337268184", "model.e_N=0.8062153310270436",
                "model.e_T=0.31645208740449016", "model.n_balls=3",
@@ -284,8 +284,8 @@ HARD_CORNER = ["model.clearance=0.0014366670521756527", "model.mu=0.340650567222
 def test_a_retried_step_gives_its_velocity_jump_more_iterations():
     """Without retries the hard corner's run has steps whose velocity jump stops at
     solver.max_iter; with them every step converges, and some retried steps' velocity jumps
-    took more than max_iter iterations (up to RETRY_VELOCITY_ITERATIONS times it), where the
-    smaller step alone would not have helped (docs/reliability.md, section 7)."""
+    took more than max_iter iterations (up to RETRY_VELOCITY_ITERATIONS times it;
+    docs/reliability.md, section 7)."""
     def run(max_halvings):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
