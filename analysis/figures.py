@@ -1200,12 +1200,15 @@ def _quantity_figures(summary_ds, q: StudyQuantity, layout: FigureLayout, swept,
 DEFAULT_BORE = 60.0
 
 
-def _bore(summary_ds) -> float:
-    """Bore [mm] of the study's bearing: its catalogue entry's (the summary's attribute
-    ``model_bearing``, the study's ``model.bearing``), else :data:`DEFAULT_BORE`."""
+def _bore(summary_ds, at=None) -> float:
+    """Bore [mm] of the bearing drawn: its catalogue entry's, the entry being the value at
+    which ``at`` holds a swept ``bearing`` axis, else the study's ``model.bearing`` (the
+    summary's attribute ``model_bearing``), else :data:`DEFAULT_BORE`."""
     from simcore.model.bearing import bearing
 
     name = summary_ds.attrs.get("model_bearing")
+    if at and "bearing" in at:
+        name = _category(summary_ds, "bearing", at["bearing"])
     return float(bearing(str(name))["d"]) if name is not None else DEFAULT_BORE
 
 
@@ -1245,21 +1248,22 @@ def plot_life(summary_ds: xr.Dataset, path, layout: FigureLayout | None = None,
         Values at which the other swept axes are held (:func:`figure_layout`; default: its
         defaults).
     bore : float, optional
-        Bore of the bearing [mm] for the class bands (default: that of the catalogue entry the
-        summary's attribute ``model_bearing`` names, else :data:`DEFAULT_BORE`).
+        Bore of the bearing [mm] for the class bands (default: that of the catalogue entry
+        drawn, a swept bearing held where the layout holds it, else the one the summary's
+        attribute ``model_bearing`` names, else :data:`DEFAULT_BORE`).
 
     Returns
     -------
     Path
     """
     layout = layout or figure_layout(summary_ds)
-    bore = float(bore or _bore(summary_ds))
     keep = {"clearance", "clearance_class", "omega0"}  # (a class: its clearance along it)
     at = {}  # every other axis held: where the layout holds it, else at its middle value
     for d in grid_axes(summary_ds):
         if d not in keep:
             values = np.asarray(summary_ds[d].values, dtype=float)
             at[d] = {**layout.held, **layout.fixed}.get(d, float(values[(values.size - 1) // 2]))
+    bore = float(bore or _bore(summary_ds, at))
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True, layout="constrained")
     for ax, name, what in ((axes[0], "L10h", "ISO 281 L10 (transmitted load)"),
                            (axes[1], "L10rh", "reference L10r (ball loads)")):

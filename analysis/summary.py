@@ -70,6 +70,7 @@ from __future__ import annotations
 
 import datetime
 import hashlib
+import itertools
 import json
 import threading
 from contextlib import nullcontext
@@ -855,16 +856,17 @@ def _parameters(ds: xr.Dataset, axes=None) -> dict:
     return out
 
 
-def _companions(axes) -> dict:
-    """{coordinate: the axis that sets it} for the study's parameters that another of its axes
-    determines (the clearance of a swept clearance class,
-    :data:`simcore.study.plan.DETERMINED`): a coordinate along that axis in the summary."""
-    from simcore.config.parameters import registry
-    from simcore.study.plan import DETERMINED
+def _companions(axes) -> dict[str, tuple]:
+    """{coordinate: the axes that set it} for the study's parameters that other axes of it
+    determine (the clearance of a swept clearance class, of a class for each swept bearing,
+    :func:`simcore.study.plan.determiners`): a coordinate over those axes in the summary."""
+    from simcore.config.parameters import canonical, registry
+    from simcore.study.plan import determiners
 
     params = registry()
-    pairs = {params[key].name: params[by].name for key, by in DETERMINED.items()}
-    return {name: by for name, by in pairs.items() if by in axes and name not in axes}
+    keys = {canonical(name, params) for name in axes} - {None}
+    return {params[key].name: tuple(params[k].name for k in by)
+            for key, by in determiners(keys).items()}
 
 
 def _entry(run_path, impact_path, settings: dict, axes=None, own=()) -> tuple[dict, dict]:
@@ -1011,8 +1013,11 @@ def _assemble(entries: list, levels: np.ndarray, models: list[int], axes=None) -
             values = values.astype(np.int8)
         coords[name] = (name, values, _axis_attrs(name, attrs.get(name)))
     for name, by in _companions(names).items():  # e.g. the clearance of each class
-        value_at = {p[by][0]: p[name][0] for p, _ in entries if name in p and by in p}
-        coords[name] = (by, np.array([value_at.get(v, np.nan) for v in axis_values[by]]),
+        value_at = {tuple(p[d][0] for d in by): p[name][0] for p, _ in entries
+                    if name in p and all(d in p for d in by)}
+        values = np.array([value_at.get(at, np.nan) for at in
+                           itertools.product(*(axis_values[d] for d in by))])
+        coords[name] = (by, values.reshape([axis_values[d].size for d in by]),
                         _axis_attrs(name, attrs.get(name)))
     coords.update(model=np.array(models, dtype=np.int8),
                   race=np.arange(len(RACES), dtype=np.int8),

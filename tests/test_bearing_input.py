@@ -94,6 +94,64 @@ def test_resolve_model_is_what_a_study_applies_per_grid_point():
     assert point["clearance"] == base["clearance"]  # the input is not changed
 
 
+def test_a_bearing_sweep_gives_each_grid_point_its_bearing_and_its_class_clearance():
+    """Bearings x clearance classes: each run has its entry's ball count and radii (read from
+    the catalogue file here, not through the resolver) and the clearance of its class for its
+    own bore (the ISO 5753-1 table read here); the clearance is not an axis, and the summary's
+    shared model settings leave out what differs between the bearings."""
+    from simcore.model.bearing import SET_BY_ENTRY
+    from simcore.study import plan
+
+    raw = yaml.safe_load(resources.files("simcore").joinpath("data", "bearings.yaml")
+                         .read_text())
+    cfg = simcore.validate_config({"sweep": {"bearing": ["6205", "6212"],
+                                             "clearance_class": ["CN", "C4"]},
+                                   "study": {"revolutions": 1.0}})
+    axes = plan.study_axes(cfg)
+    assert "model.clearance" not in axes
+    assert axes["model.bearing"] == ["6205", "6212"]
+    runs = plan.plan_runs(cfg, axes)
+    assert len(runs) == 8
+    seen = set()
+    for run in runs:
+        model = run.config["model"]
+        entry = raw[model["bearing"]]
+        lo, hi = _row(entry["d"])[model["clearance_class"]]
+        assert model["n_balls"] == entry["Z"]
+        assert model["ball_radius"] == pytest.approx(0.5e-3 * entry["D_w"], rel=1e-12)
+        assert model["inner_radius"] == pytest.approx(0.5e-3 * (entry["D_pw"] - entry["D_w"]),
+                                                      rel=1e-12)
+        assert model["clearance"] == pytest.approx(0.25e-6 * (lo + hi), rel=1e-9)
+        seen.add((model["bearing"], model["clearance_class"], run.model))
+    assert len(seen) == 8 and raw["6205"]["Z"] != raw["6212"]["Z"]
+    assert plan.check_runs(runs) == []
+    shared = plan.shared_model(cfg, axes)
+    assert not {"bearing", "clearance_class", "clearance", *SET_BY_ENTRY} & set(shared)
+    assert shared["youngs_modulus"] == cfg["model"]["youngs_modulus"]
+
+
+def test_a_bearing_sweep_with_one_class_gives_the_clearance_of_each_bearing():
+    """A class set, bearings swept: the class's clearance differs by bore, so it is not the
+    one-value clearance axis of a single bearing."""
+    from simcore.study import plan
+
+    cfg = simcore.validate_config({"model": {"clearance_class": "C3"},
+                                   "sweep": {"bearing": ["6203", "6012"]}})
+    axes = plan.study_axes(cfg)
+    assert "model.clearance" not in axes
+    assert plan.determiners(axes) == {"model.clearance": ("model.bearing",)}
+    clearance = {run.config["model"]["bearing"]: run.config["model"]["clearance"]
+                 for run in plan.plan_runs(cfg, axes)}
+    for name, bore in (("6203", 17.0), ("6012", 60.0)):
+        lo, hi = _row(bore)["C3"]
+        assert clearance[name] == pytest.approx(0.25e-6 * (lo + hi), rel=1e-9)
+    # without a class every bearing runs at each swept clearance
+    free = simcore.validate_config({"sweep": {"bearing": ["6203", "6012"],
+                                              "clearance": [1e-5, 2e-5]}})
+    assert plan.study_axes(free)["model.clearance"] == [1e-5, 2e-5]
+    assert plan.determiners(plan.study_axes(free)) == {}
+
+
 @pytest.mark.parametrize("name", ["6012", "6205"])
 def test_catalogue_bearings_run_the_papers_case(name):
     cfg = load_config(overrides=[f"model.bearing={name}", "model.clearance_class=C3",

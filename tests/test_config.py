@@ -258,9 +258,7 @@ def test_the_largest_force_line_says_when_the_run_ends_before_the_peak():
     assert turned == "largest F_N: 3 N at t = 2e-06 s, contact 1 (ball 0, outer race)"
 
 
-@pytest.mark.parametrize("key, what", [("model.bearing", "not allowed as a sweep axis"),
-                                       ("analysis.force_levels", "not allowed as a sweep axis"),
-                                       ("bearing", "not allowed as a sweep axis"),
+@pytest.mark.parametrize("key, what", [("analysis.force_levels", "not allowed as a sweep axis"),
                                        ("model.bogus", "unknown key")])
 def test_a_setting_that_cannot_be_swept_is_not_called_unknown(key, what):
     with pytest.raises(simcore.ConfigError, match=rf"^sweep\.{key}: {what}"):
@@ -268,12 +266,23 @@ def test_a_setting_that_cannot_be_swept_is_not_called_unknown(key, what):
 
 
 @pytest.mark.parametrize("key", ["model.bearing", "bearing"])
-def test_a_bearing_sweep_is_refused_with_the_way_to_compare_bearings(key):
-    """The catalogue entries differ in ball count: the message says to run a study per
-    bearing, and the command it gives sets a bearing the validation accepts."""
-    with pytest.raises(simcore.ConfigError) as err:
-        simcore.validate_config({"sweep": {key: ["6012", "6205"]}})
-    message = str(err.value)
-    assert "\n" not in message and "ball count" in message and "one study per bearing" in message
-    given = message.split("model={'bearing': '")[1].split("'")[0]
-    assert simcore.validate_config({"model": {"bearing": given}})["model"]["bearing"] == given
+@pytest.mark.parametrize("given", ["ball_radius", "n_balls", "inner_radius", "ball_mass"])
+def test_a_bearing_sweep_refuses_a_value_each_bearing_sets(key, given):
+    """Each grid point of a bearing sweep takes its entry's radii, ball count and masses: one
+    value for all of them is refused, naming it, before any work."""
+    value = {"n_balls": 10, "inner_radius": 0.03}.get(given, 0.004)
+    with pytest.raises(simcore.ConfigError, match=rf"^model\.{given}: not allowed while "
+                                                   r"sweep\.model\.bearing"):
+        simcore.validate_config({"model": {given: value}, "sweep": {key: ["6012", "6205"]}})
+    assert simcore.validate_config({"model": {given: value}})["model"][given] == value
+
+
+def test_bearing_names_given_as_numbers_are_names():
+    """YAML reads 6012 as a number: as the bearing and in a sweep of it, it is the name."""
+    cfg = simcore.validate_config({"model": {"bearing": 6012},
+                                   "sweep": {"bearing": [6205, "6012-paper"]}})
+    assert cfg["model"]["bearing"] == "6012" and cfg["model"]["n_balls"] == 14
+    assert cfg["sweep"]["bearing"] == ["6205", "6012-paper"]
+    with pytest.raises(simcore.ConfigError, match=r"^sweep\.bearing\.0: '6013' is not allowed; "
+                                                   r"allowed: one of '6012-paper', '6203'"):
+        simcore.validate_config({"sweep": {"bearing": [6013]}})

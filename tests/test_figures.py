@@ -201,33 +201,50 @@ def test_life_figure_marks_the_clearance_classes(tmp_path):
         plot_life(ds.drop_vars("L10h"), tmp_path / "none.png")
 
 
-def test_life_figure_marks_the_classes_of_the_studys_own_bearing(tmp_path):
-    """The class bands are those of the bore of the summary's bearing (``model_bearing``):
-    for a 6205 (25 mm bore) CN is 5-20 µm of radial internal clearance (ISO 5753-1, bores over
-    24 up to 30 mm), a model clearance of 2.5-10 µm; without a bearing, the 6012's 60 mm."""
+def _bands_drawn(ds, tmp_path, layout=None):
+    """The class bands [µm] the life figure of ``ds`` draws (x of each band)."""
     from unittest import mock
 
     import matplotlib.axes
 
     from analysis.figures import plot_life
 
-    def bands(ds):
-        found = []
-        real = matplotlib.axes.Axes.plot
+    found = []
+    real = matplotlib.axes.Axes.plot
 
-        def spy(self, x, *args, **kwargs):
-            if kwargs.get("solid_capstyle") == "butt":  # a class band
-                found.append(tuple(np.round(np.asarray(x, dtype=float), 6)))
-            return real(self, x, *args, **kwargs)
+    def spy(self, x, *args, **kwargs):
+        if kwargs.get("solid_capstyle") == "butt":  # a class band
+            found.append(tuple(np.round(np.asarray(x, dtype=float), 6)))
+        return real(self, x, *args, **kwargs)
 
-        with mock.patch.object(matplotlib.axes.Axes, "plot", spy):
-            plot_life(ds, tmp_path / "bands.png")
-        return found
+    with mock.patch.object(matplotlib.axes.Axes, "plot", spy):
+        plot_life(ds, tmp_path / "bands.png", layout)
+    return found
 
+
+def test_life_figure_marks_the_classes_of_the_studys_own_bearing(tmp_path):
+    """The class bands are those of the bore of the summary's bearing (``model_bearing``):
+    for a 6205 (25 mm bore) CN is 5-20 µm of radial internal clearance (ISO 5753-1, bores over
+    24 up to 30 mm), a model clearance of 2.5-10 µm; without a bearing, the 6012's 60 mm."""
     ds = _summary((3, 1, 2, 1))
-    own = bands(ds.assign_attrs(model_bearing="6205"))
+    own = _bands_drawn(ds.assign_attrs(model_bearing="6205"), tmp_path)
     assert (2.5, 10.0) in own and len(own) == 10  # five classes on each of the two panels
-    assert set(bands(ds)).isdisjoint(own)  # (no bearing named: the 60 mm bore's)
+    assert set(_bands_drawn(ds, tmp_path)).isdisjoint(own)  # (no bearing named: the 60 mm bore's)
+
+
+def test_life_figure_of_a_bearing_sweep_marks_the_classes_of_the_bearing_drawn(tmp_path):
+    """With a swept bearing the figure holds it at one value (the layout's, else its first):
+    the bands are that bearing's, whatever the study's default bearing was."""
+    from analysis.figures import figure_layout
+
+    ds = _summary((3, 1, 2, 1)).expand_dims(bearing=2).copy(deep=True)
+    ds = ds.assign_coords(bearing=("bearing", np.array([2, 4], "i1"), {
+        "flag_values": np.arange(6, dtype="i1"),
+        "flag_meanings": "6012-paper 6203 6205 6010 6012 6212"}))
+    first = _bands_drawn(ds, tmp_path)
+    assert (2.5, 10.0) in first  # the 6205's CN
+    held = _bands_drawn(ds, tmp_path, figure_layout(ds, figure_fixed={"bearing": 4}))
+    assert held == _bands_drawn(_summary((3, 1, 2, 1)), tmp_path)  # the 6012's 60 mm bore
 
 
 def test_a_class_sweep_gets_the_life_figure_over_its_clearances(tmp_path):

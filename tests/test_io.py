@@ -284,6 +284,34 @@ def test_runs_of_a_class_sweep_combine_into_one_grid():
     assert "clearance" in kept.dims
 
 
+@pytest.mark.filterwarnings("ignore:In a future version of xarray:FutureWarning")
+def test_runs_of_a_bearing_and_class_sweep_combine_into_one_grid():
+    """Bearings x classes: each run's clearance (its class for its bearing's bore) is a scalar
+    coordinate that ``combine_by_coords`` lays over both axes."""
+    from simcore.io import parameter_coords, study_coords
+
+    axes = ["model.mu", "model.omega0", "model.e_N", "model.bearing", "model.clearance_class"]
+    clearance = {("6205", "CN"): 6.25e-6, ("6205", "C3"): 1.025e-5, ("6012", "CN"): 9e-6,
+                 ("6012", "C3"): 1.65e-5}
+    runs = []
+    for (name, cls), value in clearance.items():
+        ds = xr.Dataset({"Lambda_N": ("time", [0.0, 1.0])}, coords={"time": [0.0, 1e-4]})
+        ds = ds.assign_coords(parameter_coords({"clearance": value, "mu": 0.01,
+                                                "omega0": 100.0, "e_N": 0.9}))
+        runs.append(study_coords(ds, {"model.bearing": name, "model.clearance_class": cls,
+                                      "model.mu": 0.01, "model.omega0": 100.0,
+                                      "model.e_N": 0.9}, axes))
+    grid = xr.combine_by_coords(runs, combine_attrs="drop_conflicts")
+    assert "clearance" not in grid.dims
+    assert set(grid["clearance"].dims) == {"bearing", "clearance_class"}
+    meanings = grid["bearing"].attrs["flag_meanings"].split()
+    classes = grid["clearance_class"].attrs["flag_meanings"].split()
+    for (name, cls), value in clearance.items():
+        at = {"bearing": meanings.index(name), "clearance_class": classes.index(cls)}
+        assert float(grid["clearance"].sel(at)) == value
+    assert np.isfinite(grid["Lambda_N"].values).all()
+
+
 def test_time_steps_of_a_run():
     """Steps of solver.dt over the run's span, or the accepted steps of an adaptive run; NaN
     where a file does not say its step."""

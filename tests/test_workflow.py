@@ -231,6 +231,52 @@ def test_a_study_over_any_two_settings_runs_with_their_units_and_names(results):
 
 
 @pytest.mark.slow
+def test_a_study_over_bearings_and_classes(results):
+    """config/smoke_bearings.yaml: the 6205 and the 6012, each in CN and C3. Every run has its
+    bearing's balls, the summary its class's clearance for each bearing's bore over both axes
+    and each bearing's static rating, all read from the data files here."""
+    from importlib import resources
+
+    import numpy as np
+    import yaml
+
+    data = resources.files("simcore").joinpath("data")
+    catalogue = yaml.safe_load(data.joinpath("bearings.yaml").read_text())
+    rows = yaml.safe_load(data.joinpath("clearance_iso5753.yaml").read_text())["rows"]
+    proc = snakemake("-j2", "--configfile", "config/smoke_bearings.yaml", "--config",
+                     f"study={{'results_dir': '{results}'}}", timeout=900)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    s = xr.load_dataset(results / "summary.nc")
+    assert s.attrs["study_axes"].split() == ["mu", "omega0", "e_N", "bearing", "clearance_class"]
+    assert s.sizes["bearing"] == 2 and s.sizes["clearance_class"] == 2
+    assert "clearance" not in s.dims and int(s["failed"].sum()) == 0
+    assert not {"model_bearing", "model_n_balls", "model_ball_radius"} & set(s.attrs)
+    names = s["bearing"].attrs["flag_meanings"].split()
+    classes = s["clearance_class"].attrs["flag_meanings"].split()
+    assert [names[c] for c in s["bearing"].values] == ["6205", "6012"]
+    for code in s["bearing"].values:
+        entry = catalogue[names[code]]
+        row = next(r for r in rows if r["over"] < entry["d"] <= r["incl"])
+        for cls in s["clearance_class"].values:
+            lo, hi = row[classes[cls]]
+            at = {"bearing": code, "clearance_class": cls}
+            assert float(s["clearance"].sel(at).squeeze()) == pytest.approx(0.25e-6 * (lo + hi))
+        assert np.all(s["static_load_rating"].sel(bearing=code).values == entry["C0"])
+        assert np.all(s["L10h"].sel(bearing=code).values > 0)
+    for path in (results / "runs").glob("*.nc"):
+        with xr.open_dataset(path) as run:
+            entry = catalogue[run.attrs["model.bearing"]]
+            assert run.attrs["model.n_balls"] == entry["Z"]
+            assert run.sizes["contact"] == 2 * entry["Z"]
+    from analysis.figures import figure_layout
+
+    layout = figure_layout(s)
+    assert {layout.x, layout.y} == {"bearing", "clearance_class"}
+    figures = {p.name for p in (results / "figures").glob("*.png")}
+    assert {"life_clearance_speed.png", "study_peak_force_outer_compliant.png"} <= figures
+
+
+@pytest.mark.slow
 def test_failed_runs_do_not_stop_the_study(results):
     """Too few Newton iterations and no retries of a failed step (a retry's velocity jump may
     take four times the cap): some runs fail, the study still finishes and marks them."""

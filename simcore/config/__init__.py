@@ -161,13 +161,14 @@ def read_yaml(path: str | Path):
 
 
 def load_schema() -> dict:
-    """Return the configuration JSON schema as a dict, with the ``sweep`` section's keys
+    """Return the configuration JSON schema as a dict, with the bearing catalogue's names
+    (:func:`simcore.config.parameters.with_data_names`) and the ``sweep`` section's keys
     generated from the model, solver and analysis sections
     (:func:`simcore.config.parameters.sweep_properties`)."""
-    from .parameters import sweep_properties
+    from .parameters import sweep_properties, with_data_names
 
     with open(SCHEMA_PATH, encoding="utf-8") as fh:
-        schema = json.load(fh)
+        schema = with_data_names(json.load(fh))
     schema["properties"]["sweep"]["properties"] = sweep_properties(schema)
     return schema
 
@@ -283,10 +284,28 @@ def validate_config(config: Mapping[str, Any]) -> dict:
     errors = sorted(validator.iter_errors(cfg), key=lambda e: (len(e.absolute_path), str(e.path)))
     if errors:
         raise ConfigError(_format_error(errors[0], schema))
+    _check_bearing_sweep(cfg, explicit)
     _resolve_bearing(cfg, explicit)
     _check_magnitudes(cfg)
     _check_consistency(cfg)
     return cfg
+
+
+def _check_bearing_sweep(cfg: Mapping[str, Any], explicit: set) -> None:
+    """Refuse a model key that a catalogue entry sets (radii, ball count, masses) given beside
+    a sweep of ``model.bearing``: each grid point takes them from its own bearing's entry
+    (:func:`simcore.study.plan.run_config`), so one value for all would build every bearing
+    alike."""
+    from ..model.bearing import SET_BY_ENTRY
+    from .parameters import canonical
+
+    if not any(canonical(str(k)) == "model.bearing" for k in cfg.get("sweep", {})):
+        return
+    for key in SET_BY_ENTRY:
+        if key in explicit:
+            raise ConfigError(f"model.{key}: not allowed while sweep.model.bearing gives each "
+                              "grid point its bearing's value; allowed: leave it out, or one "
+                              "study per bearing with model.bearing set")
 
 
 def _resolve_bearing(cfg: dict, explicit: set) -> None:
@@ -303,10 +322,10 @@ def _resolve_bearing(cfg: dict, explicit: set) -> None:
 
 def _coerce_scalars(cfg: dict, schema: Mapping[str, Any]) -> None:
     """0 and 1 as false and true for the boolean keys of the sections (a run file's netCDF
-    attributes store the booleans of its configuration as integers), and a whole number as
-    its text for the keys that take a name only (YAML reads the catalogue name 6012 as a
-    number), and a whole float as an int for the integer keys (``n_balls: 8.0`` is stored as
-    8, as the schema's type says)."""
+    attributes store the booleans of its configuration as integers), a whole number as its
+    text for the keys that take a name (YAML reads the catalogue name 6012 as a number; in a
+    sweep's list too, :func:`_coerce_swept_names`), and a whole float as an int for the
+    integer keys (``n_balls: 8.0`` is stored as 8, as the schema's type says)."""
     for section, node in schema.get("properties", {}).items():
         values = cfg.get(section)
         if not isinstance(values, dict):
@@ -321,8 +340,26 @@ def _coerce_scalars(cfg: dict, schema: Mapping[str, Any]) -> None:
                 continue
             if sub.get("type") == "boolean" and value in (0, 1):
                 values[key] = bool(value)
-            elif sub.get("type") == "string" and "enum" not in sub:
+            elif sub.get("type") == "string":
                 values[key] = str(value)
+    _coerce_swept_names(cfg.get("sweep"), schema)
+
+
+def _coerce_swept_names(sweep, schema: Mapping[str, Any]) -> None:
+    """A whole number as its text in the list of a swept key that takes a name
+    (``sweep: {bearing: [6012, 6205]}``), as :func:`_coerce_scalars` does for the key itself."""
+    from .parameters import canonical
+
+    if not isinstance(sweep, dict):
+        return
+    for written, values in sweep.items():
+        key = canonical(str(written))
+        if key is None or not isinstance(values, list):
+            continue
+        section, name = key.split(".", 1)
+        if schema["properties"][section]["properties"][name].get("type") == "string":
+            sweep[written] = [str(v) if isinstance(v, int) and not isinstance(v, bool) else v
+                              for v in values]
 
 
 def _check_magnitudes(cfg: Mapping[str, Any]) -> None:

@@ -12,7 +12,8 @@ files need (:class:`Parameter`):
   otherwise (CF names have no dots); ``model.contact_model`` is the study's ``model`` axis;
 - ``units`` (UDUNITS) and ``long_name``, from the key's description in the schema, whose first
   bracket holds the unit (``"cage spring stiffness between neighbouring balls [N/m]"``);
-- for an enumerated or boolean key, its ``categories``: coordinates store the category's
+- for an enumerated or boolean key (``model.bearing``: the catalogue's names,
+  :func:`with_data_names`), its ``categories``: coordinates store the category's
   position (int8) with CF ``flag_values``/``flag_meanings``; file names carry the category.
 
 :func:`sweep_properties` turns the registry into the ``sweep`` section of the schema, so that
@@ -41,11 +42,6 @@ NOT_SWEPT = {
     "model.contact_model": "every grid point runs with each model of study.models",
     "solver.output_dt": "the study sets it (a nonsmooth run writes every step, its compliant "
                         "twin every nonsmooth step)",
-    "model.bearing": "a catalogue entry sets the ball count, radii, masses and the clearance "
-                     "of each class, which a study holds the same over its grid; allowed: one "
-                     "study per bearing, e.g. snakemake -j2 --config \"model={'bearing': '6205'}\" "
-                     "\"study={'results_dir': 'results/6205'}\", with model.clearance_class "
-                     "swept or set",
 }
 #: longest file name a run gets before its tail is replaced by a hash [characters]
 MAX_NAME = 200
@@ -246,10 +242,21 @@ def build_registry(schema: Mapping[str, Any]) -> dict[str, Parameter]:
     return out
 
 
+def with_data_names(schema: dict) -> dict:
+    """``schema`` (changed in place) with the names the package's data define as the
+    enumeration of the key that takes them: the bearing catalogue's entries
+    (``simcore/data/bearings.yaml``, in its order) for ``model.bearing``, which is thus checked
+    and swept like any enumerated key."""
+    from ..model.bearing import catalogue
+
+    schema["properties"]["model"]["properties"]["bearing"]["enum"] = list(catalogue())
+    return schema
+
+
 @lru_cache(maxsize=1)
 def _registry_of_file(path: str, stamp: float) -> dict[str, Parameter]:
     with open(path, encoding="utf-8") as fh:
-        return build_registry(json.load(fh))
+        return build_registry(with_data_names(json.load(fh)))
 
 
 def registry() -> dict[str, Parameter]:

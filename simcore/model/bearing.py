@@ -39,6 +39,8 @@ CLEARANCE_CLASSES = ("C2", "CN", "C3", "C4", "C5")
 ENTRY_KEYS = ("d", "D", "B", "D_w", "Z", "D_pw", "f_i", "f_e", "C", "C0")
 MASS_KEYS = ("ball_mass", "ball_inertia", "inner_mass", "inner_inertia", "outer_mass",
              "outer_inertia")
+#: the ``model`` keys a catalogue entry sets (:func:`catalogue_values`)
+SET_BY_ENTRY = ("ball_radius", "inner_radius", "n_balls") + MASS_KEYS
 
 
 def _data(name):
@@ -233,8 +235,8 @@ def resolve_model(model: Mapping[str, Any], explicit: Iterable[str]) -> dict:
 
     This is what :func:`simcore.config.validate_config` applies, the keys of the ``model``
     section it was given being ``explicit``; a study that sweeps ``model.bearing`` or
-    ``model.clearance_class`` resolves each grid point with it (or validates each point's
-    configuration with only the keys the user gave).
+    ``model.clearance_class`` resolves each grid point with it
+    (:func:`simcore.study.plan.resolve_point`).
 
     Parameters
     ----------
@@ -262,7 +264,7 @@ def resolve_model(model: Mapping[str, Any], explicit: Iterable[str]) -> dict:
         _warn_overridden(out, explicit)
     out.update(catalogue_values(out["bearing"], {k: out[k] for k in explicit if k in out}))
     if out.get("clearance_class") is not None:
-        # (to 10 digits, as a study's grid point has it: simcore.study.plan.resolve_determined)
+        # (to 10 digits, as a study's grid point has it: simcore.study.plan.resolve_point)
         out["clearance"] = tidy(model_clearance(bearing(out["bearing"])["d"],
                                                 out["clearance_class"]))
     return out

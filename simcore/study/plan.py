@@ -44,12 +44,15 @@ FOLDERS = {"nonsmooth": ("runs", "impacts"),
 #: approach speed; so its file (the same samples, plus ``F_N``) stays smaller than the
 #: nonsmooth run's. It keeps the positions: its rating life reads the balls' places.
 TWIN_DROPS = ("velocity", "angular_velocity", "vn_free")
-#: A base axis that another key determines (``{base axis: key}``): where the key is swept, the
-#: base axis is left out of the study's axes and each run's value comes from the key
-#: (:func:`resolve_determined`), e.g. the clearance of a clearance class; where the key is set
-#: but not swept, the base axis holds the one value it determines (a list swept beside is not
-#: used, as its points would all run at that value).
-DETERMINED = {"model.clearance": "model.clearance_class"}
+#: A base axis that other keys determine (``{base axis: (key, what its value depends on)}``):
+#: where the key is swept, or set while what its value depends on is swept, the base axis is
+#: left out of the study's axes and each run's value comes from the key
+#: (:func:`resolve_point`), e.g. the clearance of a clearance class, which depends on the
+#: bearing's bore; the summary gives it as a coordinate over those of them that are swept
+#: (:func:`determiners`). Where the key is set and nothing it depends on is swept, the base axis
+#: holds the one value it determines (a list swept beside is not used, as its points would
+#: all run at that value).
+DETERMINED = {"model.clearance": ("model.clearance_class", "model.bearing")}
 #: Jobs a study is split into at least (or one per run): two or four cores share a small study.
 MIN_JOBS = 4
 
@@ -131,9 +134,9 @@ def study_axes(cfg: Mapping[str, Any]) -> dict[str, list]:
     params = registry()
     axes = {}
     for key in params:
-        by = DETERMINED.get(key)
-        if by in swept:
-            # the swept key sets this axis' value per run; a list of it beside (the default
+        by, depends = DETERMINED.get(key, (None, None))
+        if by in swept or (depends in swept and _setting(cfg, by) is not None):
+            # the swept keys set this axis' value per run; a list of it beside (the default
             # study's, merged under a smaller configuration) is not an axis
             continue
         if by is not None and _setting(cfg, by) is not None:
@@ -154,17 +157,41 @@ def _setting(cfg: Mapping[str, Any], key: str) -> Any:
     return cfg.get(section, {}).get(name)
 
 
-def resolve_determined(model: dict) -> None:
-    """Set in a run's ``model`` section the values its other keys determine: the clearance of
-    ``model.clearance_class`` (ISO 5753-1, for the bore of ``model.bearing``; the model's
-    clearance is half the middle of the class's range, :func:`simcore.model.bearing.
-    model_clearance`)."""
-    if model.get("clearance_class") is None:
-        return
-    from ..model.bearing import resolve_model
+def determiners(axes) -> dict[str, tuple]:
+    """{base axis: the axes that set its value} for each base axis of :data:`DETERMINED` that
+    ``axes`` (keys ``section.key``) leave out for keys they sweep: e.g. the clearance, set by a
+    swept clearance class, by a swept bearing (a class set), or by both."""
+    return {key: tuple(k for k in keys if k in axes) for key, keys in DETERMINED.items()
+            if key not in axes and any(k in axes for k in keys)}
 
-    try:  # (every key of the section is given: only the class's clearance is resolved)
-        model["clearance"] = resolve_model(model, model.keys())["clearance"]
+
+def shared_model(cfg: Mapping[str, Any], axes: Mapping[str, list]) -> dict:
+    """The model settings every grid point of the study shares (the summary's attributes
+    ``model_<key>``): neither swept nor set per point by a swept key (the clearance of a swept
+    class, the radii, ball count and masses of a swept bearing)."""
+    from ..model.bearing import SET_BY_ENTRY
+
+    per_point = set(axes) | set(determiners(axes))
+    if "model.bearing" in axes:
+        per_point |= {f"model.{key}" for key in SET_BY_ENTRY}
+    return {key: value for key, value in cfg["model"].items()
+            if value is not None and key != "contact_model" and f"model.{key}" not in per_point}
+
+
+def resolve_point(model: dict, point: Mapping[str, Any]) -> None:
+    """Set in a run's ``model`` section the values its grid point's keys determine: a swept
+    ``model.bearing`` its catalogue entry's radii, ball count and masses
+    (:data:`simcore.model.bearing.SET_BY_ENTRY`; validate_config refuses them given beside such
+    a sweep), and a ``model.clearance_class`` swept or set the clearance of the class for the
+    bearing's bore (half the middle of the class's ISO 5753-1 range,
+    :func:`simcore.model.bearing.model_clearance`)."""
+    from ..model.bearing import SET_BY_ENTRY, resolve_model
+
+    if "model.bearing" not in point and model.get("clearance_class") is None:
+        return
+    given = set(model) - (set(SET_BY_ENTRY) if "model.bearing" in point else set())
+    try:
+        model.update(resolve_model(model, given))
     except (KeyError, ValueError) as exc:
         raise ConfigError(str(exc).strip("'\"")) from None
 
@@ -211,8 +238,7 @@ def run_config(cfg: Mapping[str, Any], point: Mapping[str, Any]) -> dict:
     for key, value in point.items():
         section, name = key.split(".", 1)
         out[section][name] = value
-    if DETERMINED["model.clearance"] in point:
-        resolve_determined(out["model"])
+    resolve_point(out["model"], point)
     out["model"]["contact_model"] = "nonsmooth"
     out["solver"]["t_end"] = run_length(dict(out, study=cfg["study"]))
     out["solver"]["output_dt"] = None

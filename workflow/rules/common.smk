@@ -115,11 +115,8 @@ if workflow.is_main_process:
         print(f"WARNING: {line}", file=sys.stderr)
 PARAMS = registry()
 AXIS_NAMES = [PARAMS[key].name for key in AXES]  # coordinates and summary dimensions, in order
-# the model settings every grid point shares (neither swept nor set by a swept key, such as
-# the clearance of a swept class): the summary's attributes model_<key>
-FIXED_MODEL = {key: value for key, value in config["model"].items()
-               if value is not None and key != "contact_model" and f"model.{key}" not in AXES
-               and plan.DETERMINED.get(f"model.{key}") not in AXES}
+# the model settings every grid point shares: the summary's attributes model_<key>
+FIXED_MODEL = plan.shared_model(config, AXES)
 # swept analysis keys: the summary reads each run's own value (analysis.summary.summarize)
 SWEPT_ANALYSIS = [key.split(".", 1)[1] for key in AXES if key.startswith("analysis.")]
 RES = config["study"]["results_dir"].rstrip("/")
