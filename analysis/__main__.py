@@ -227,12 +227,11 @@ def _study_figures(args) -> int:
     fixed = {}
     for item in args.fixed:
         axis, _, value = item.partition("=")
-        try:
-            fixed[axis] = float(value)
-        except ValueError:
-            print(f"error: --fixed: {item!r} is not allowed; allowed: AXIS=NUMBER",
-                  file=sys.stderr)
+        if not axis or not value:
+            print(f"error: --fixed: {item!r} is not allowed; allowed: AXIS=VALUE (a number, "
+                  "or the name of a category such as bearing=6205)", file=sys.stderr)
             return 2
+        fixed[axis] = value  # a number or a category's name (analysis.figures.figure_layout)
     with xr.open_dataset(args.summary) as ds:
         summary = ds.load()
     for p in plot_study(summary, outdir, figure_axes=args.axes, figure_fixed=fixed):

@@ -643,10 +643,20 @@ def grid_axes(summary_ds: xr.Dataset) -> list[str]:
 
 
 def _axis_value(summary_ds, axis, value) -> float:
+    """The grid value of ``axis`` that ``value`` names: a number, or a category's name (its
+    ``flag_meanings``) or code."""
     values = np.asarray(summary_ds[axis].values, dtype=float)
-    hit = np.flatnonzero(np.isclose(values, float(value), rtol=1e-9, atol=0.0))
+    names = [_category(summary_ds, axis, v) for v in values]
+    if isinstance(value, str) and value in names:
+        return float(values[names.index(value)])
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = np.nan
+    hit = np.flatnonzero(np.isclose(values, number, rtol=1e-9, atol=0.0))
     if not hit.size:
-        allowed = ", ".join(f"{v:g}" for v in values)
+        allowed = ", ".join(name if name is not None else f"{v:g}"
+                            for v, name in zip(values, names, strict=True))
         raise ValueError(f"study.figure_fixed.{axis}: {value!r} is not allowed; allowed: one of "
                          f"the grid's values {allowed}")
     return float(values[hit[0]])
@@ -664,7 +674,8 @@ def figure_layout(summary_ds: xr.Dataset, figure_axes=None, figure_fixed=None,
         x, y, panel columns, panel rows (2 to 4 swept axes). Default: the first four swept
         axes of the summary, in its order.
     figure_fixed : dict, optional
-        {axis: value} for swept axes not in ``figure_axes``: held at that grid value.
+        {axis: value} for swept axes not in ``figure_axes``: held at that grid value (a
+        category's name or code, e.g. ``{"bearing": "6205"}``).
     reference : dict, optional
         {axis: value}: a swept axis neither drawn nor in ``figure_fixed`` is held at its grid
         value nearest this one (the study's reference point); without it, at its middle value.

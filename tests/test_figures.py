@@ -245,6 +245,12 @@ def test_life_figure_of_a_bearing_sweep_marks_the_classes_of_the_bearing_drawn(t
     assert (2.5, 10.0) in first  # the 6205's CN
     held = _bands_drawn(ds, tmp_path, figure_layout(ds, figure_fixed={"bearing": 4}))
     assert held == _bands_drawn(_summary((3, 1, 2, 1)), tmp_path)  # the 6012's 60 mm bore
+    # a category is held by its name too (python -m analysis study-figures --fixed bearing=6012)
+    for value in ("6012", 4, "4"):
+        assert figure_layout(ds, figure_fixed={"bearing": value}).fixed["bearing"] == 4
+    with pytest.raises(ValueError, match=r"^study\.figure_fixed\.bearing: '6013' is not allowed; "
+                                         r"allowed: one of the grid's values 6205, 6012$"):
+        figure_layout(ds, figure_fixed={"bearing": "6013"})
 
 
 def test_a_class_sweep_gets_the_life_figure_over_its_clearances(tmp_path):
