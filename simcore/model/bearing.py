@@ -39,8 +39,6 @@ CLEARANCE_CLASSES = ("C2", "CN", "C3", "C4", "C5")
 ENTRY_KEYS = ("d", "D", "B", "D_w", "Z", "D_pw", "f_i", "f_e", "C", "C0")
 MASS_KEYS = ("ball_mass", "ball_inertia", "inner_mass", "inner_inertia", "outer_mass",
              "outer_inertia")
-#: the ``model`` keys a catalogue entry sets (:func:`catalogue_values`)
-SET_BY_ENTRY = ("ball_radius", "inner_radius", "n_balls") + MASS_KEYS
 
 
 def _data(name):
@@ -146,6 +144,8 @@ def model_clearance(bore: float, clearance_class: str) -> float:
 
 #: what each model key the catalogue can fix needs of an entry
 _NEEDS = {"ball_radius": ("D_w",), "n_balls": ("Z",), "inner_radius": ("D_pw", "D_w")}
+#: the ``model`` keys a catalogue entry sets (:func:`catalogue_values`)
+SET_BY_ENTRY = (*_NEEDS, *MASS_KEYS)
 
 
 def catalogue_values(name: str, explicit: Mapping[str, Any]) -> dict:
