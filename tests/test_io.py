@@ -312,6 +312,36 @@ def test_runs_of_a_bearing_and_class_sweep_combine_into_one_grid():
     assert np.isfinite(grid["Lambda_N"].values).all()
 
 
+def test_category_coordinates_read_by_their_names():
+    """Codes with CF flag_values/flag_meanings become their names, so that a selection reads
+    as the study was written; the codes' selection gives the same numbers; numbers and the
+    dataset opened stay as they were."""
+    from simcore.io import parameter_coords, with_category_names
+
+    flags = {"flag_values": np.array([0, 1], "i1"), "units": "1"}
+    ds = xr.Dataset(
+        {"peak": (("model", "guard_contacts", "mu"), np.arange(4.0).reshape(2, 2, 1))},
+        coords={"model": ("model", np.array([0, 1], "i1"),
+                          dict(flags, flag_meanings="nonsmooth compliant",
+                               long_name="contact model")),
+                "guard_contacts": ("guard_contacts", np.array([1, 0], "i1"),
+                                   dict(flags, flag_meanings="false true")),
+                "mu": ("mu", [0.01], {"units": "1"})})
+    # the swept categories as a study's run file writes them (the registry's attributes)
+    ds = ds.assign_coords(parameter_coords({"model.bearing": "6205",
+                                            "model.clearance_class": "C3"}))
+    named = with_category_names(ds)
+    assert list(named["model"].values) == ["nonsmooth", "compliant"]
+    assert list(named["guard_contacts"].values) == ["true", "false"]
+    assert named["bearing"].values.tolist() == ["6205"]
+    assert named["clearance_class"].values.tolist() == ["C3"]
+    assert float(named["peak"].sel(model="compliant", guard_contacts="false").item()) == float(
+        ds["peak"].sel(model=1, guard_contacts=0).item()) == 3.0
+    assert named["model"].attrs == {"long_name": "contact model"}
+    assert named["mu"].equals(ds["mu"]) and named["mu"].attrs == {"units": "1"}
+    assert ds["model"].dtype == np.int8 and ds["bearing"].values.tolist() == [2]
+
+
 def test_time_steps_of_a_run():
     """Steps of solver.dt over the run's span, or the accepted steps of an adaptive run; NaN
     where a file does not say its step."""

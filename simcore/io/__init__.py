@@ -8,7 +8,8 @@ Turns the kernels' plain arrays into the run dataset and writes netCDF atomicall
   global attributes, the file of a failed run;
 - :mod:`.netcdf`: atomic writing (temporary file in the target folder, then ``os.replace``, so
   that no reader ever sees a half-written file), the encoding, ``study.keep``;
-- :mod:`.read`: reading a run back (``q`` and ``v`` of the kernels, one sample's state).
+- :mod:`.read`: reading a run back (``q`` and ``v`` of the kernels, one sample's state), and a
+  file's category coordinates by their names (:func:`with_category_names`).
 
 The files follow the CF conventions (version 1.10), as ``.ci/cf-check`` verifies on every file of
 the smoke study:
@@ -38,7 +39,14 @@ from .dataset import (
     trajectory_dataset,
 )
 from .netcdf import keep_variables, netcdf_encoding, replace_durably, write_netcdf
-from .read import GENERALIZED_PARTS, generalized, open_run, state_at, time_steps
+from .read import (
+    GENERALIZED_PARTS,
+    generalized,
+    open_run,
+    state_at,
+    time_steps,
+    with_category_names,
+)
 from .variables import (
     CONVENTIONS,
     COORDINATES,
@@ -56,7 +64,8 @@ BASE_PARAMETERS = tuple(PARAMETERS)
 
 __all__ = ["write_netcdf", "replace_durably", "trajectory_dataset", "dataset_of_arrays",
            "failed_run_dataset",
-           "generalized", "open_run", "state_at", "time_steps", "parameter_coords",
+           "generalized", "open_run", "state_at", "time_steps", "with_category_names",
+           "parameter_coords",
            "study_coords",
            "history_line", "setting_attribute", "BASE_PARAMETERS",
            "keep_variables", "netcdf_encoding", "to_netcdf4", "global_attributes",

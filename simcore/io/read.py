@@ -1,5 +1,5 @@
-"""Reading a run file back: the generalized coordinates of the kernels, one sample's state and
-the time steps the run took."""
+"""Reading a run file back: the generalized coordinates of the kernels, one sample's state,
+the time steps the run took, and category coordinates by their names."""
 
 from __future__ import annotations
 
@@ -74,3 +74,37 @@ def open_run(path: str | Path) -> xr.Dataset:
     if int(ds.attrs.get("failed", 0)):
         return ds
     return generalized(ds)
+
+
+def with_category_names(ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` with every category coordinate by its names: a coordinate stored as int8 codes
+    with CF ``flag_values`` and ``flag_meanings`` (a summary's ``model``, ``race``, ``kind``,
+    ``stage`` and an enumerated or boolean swept axis such as ``bearing`` or
+    ``clearance_class``, a run file's swept categories) gets the names of its codes, so that
+    ``s.peak_force.sel(model="compliant", race="outer", bearing="6205")`` reads as the study
+    was written. The file keeps the codes (the data contract stores no strings); this is for
+    reading. A code without a meaning becomes ``""``.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A run file or a study summary, as opened.
+
+    Returns
+    -------
+    xarray.Dataset
+        A new dataset; the coordinates' other attributes (``long_name``, ``sweep_key``) stay.
+    """
+    named = {}
+    for name, coord in ds.coords.items():
+        if "flag_values" not in coord.attrs or "flag_meanings" not in coord.attrs:
+            continue
+        codes = np.atleast_1d(coord.attrs["flag_values"]).tolist()
+        meaning = dict(zip(codes, str(coord.attrs["flag_meanings"]).split(), strict=True))
+        values = np.asarray(coord.values)
+        labels = np.array([meaning.get(int(v), "") if np.isfinite(v) else ""
+                           for v in values.ravel()], dtype=object).reshape(values.shape)
+        attrs = {k: v for k, v in coord.attrs.items()
+                 if k not in ("flag_values", "flag_meanings", "units")}
+        named[name] = (coord.dims, labels, attrs)
+    return ds.assign_coords(named)
