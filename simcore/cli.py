@@ -3,6 +3,7 @@
 - ``python -m simcore run [--config FILE] [--set KEY=VALUE ...] --out FILE.nc`` (the file holds
   the variables of ``study.keep``; the printed summary is made before they are dropped)
 - ``python -m simcore zoom RUN.nc --time T [--window W] [--dt H] [--set KEY=VALUE] --out Z.nc``
+- ``python -m simcore bearings`` (the bearing catalogue: what each entry gives the model)
 """
 
 from __future__ import annotations
@@ -50,7 +51,44 @@ def _parser() -> argparse.ArgumentParser:
                    help="override a setting of the zoom, e.g. --set model.youngs_modulus=2.1e11")
     z.add_argument("--out", required=True, help="output netCDF file")
     z.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    sub.add_parser("bearings", help="list the bearing catalogue (model.bearing): dimensions, "
+                                    "ratings, balls, rings and each class's clearance")
     return p
+
+
+def bearings_lines() -> list[str]:
+    """The catalogue, one block per entry (``python -m simcore bearings``): dimensions and
+    ratings as the entry gives them, the balls, rings and masses the model gets
+    (:func:`simcore.model.bearing.model_geometry`), the share of the catalogue's bearing mass
+    that rings and balls make, and the model's clearance g of each ISO class for its bore."""
+    from .model.bearing import CLEARANCE_CLASSES, catalogue, model_clearance, model_geometry
+
+    lines = []
+    for name, entry in catalogue().items():
+        model = model_geometry(name)
+        ratings = ("C {:g} kN, C0 {:g} kN".format(entry["C"] / 1e3, entry["C0"] / 1e3)
+                   if entry.get("C") is not None else "no load ratings")
+        lines.append(f"{name}: d x D x B = {entry['d']:g} x {entry['D']:g} x {entry['B']:g} mm, "
+                     f"{model['n_balls']} balls of {2e3 * model['ball_radius']:.3f} mm "
+                     f"({1e3 * model['ball_mass']:.2f} g), {ratings}")
+        rings = [f"{race} ring {1e3 * model[f'{race}_mass']:.0f} g, "
+                 f"{model[f'{race}_inertia']:.3g} kg m^2" for race in ("inner", "outer")
+                 if f"{race}_mass" in model]
+        weight = ""
+        if entry.get("mass") is not None and len(rings) == 2:
+            total = (model["inner_mass"] + model["outer_mass"]
+                     + model["n_balls"] * model["ball_mass"])
+            weight = (f"; rings and balls {100 * total / entry['mass']:.1f} % of its "
+                      f"{entry['mass']:g} kg")
+        lines.append("  " + ("; ".join(rings) or "the model's race masses") + weight)
+        classes = []
+        for cls in CLEARANCE_CLASSES:
+            try:
+                classes.append(f"{cls} {1e6 * model_clearance(entry['d'], cls):.2f}")
+            except ValueError:  # a class the table lacks for this bore
+                continue
+        lines.append("  clearance g [um]: " + ", ".join(classes))
+    return lines
 
 
 def summary_lines(ds) -> list[str]:
@@ -333,6 +371,9 @@ def _main(argv=None) -> int:
     args = _parser().parse_args(argv)
     if args.command == "zoom":
         return _zoom_main(args)
+    if args.command == "bearings":
+        print("\n".join(bearings_lines()))
+        return 0
     import warnings
 
     from .config import ConfigError, load_config

@@ -72,8 +72,9 @@ def test_an_entry_and_its_class_and_explicit_values_winning():
         mass * d_w**2 / 10.0)
     lo, hi = _row(entry["d"])["CN"]
     assert cfg["clearance"] == pytest.approx(0.25 * (lo + hi) * 1e-6)
-    # the paper's race masses stay where the entry gives none
-    assert cfg["inner_mass"] == 8e-3 and cfg["outer_inertia"] == 6.523e-6
+    # the rings: the entry's own steel rings, not the paper's 8 g ones
+    rings = bearing_module.ring_masses(entry, d_w)
+    assert {key: cfg[key] for key in rings} == rings and rings["inner_mass"] > 0.04
     # an explicit ball: on the entry's pitch circle, a steel ball of its own size
     with pytest.warns(UserWarning, match="overrides") as caught:
         mine = load_config(overrides=["model.bearing=6205", "model.ball_radius=0.004",

@@ -1,7 +1,8 @@
 """Bearing catalogue and ISO 5753-1 clearance classes: rows transcribed here from the cited
 tables, the table's invariants, the catalogue's ratings against ISO 281 and ISO 76, the ball
 counts against the published defect frequencies, the derivation of the ball sets that no source
-gives, the mapping of an entry to the model, and the one-line refusals."""
+gives, the steel rings against closed forms and the catalogue's bearing masses, the mapping of
+an entry to the model, and the one-line refusals."""
 
 import math
 
@@ -18,6 +19,7 @@ from simcore.model.bearing import (
     clearance_table,
     model_clearance,
     model_geometry,
+    ring_masses,
 )
 
 # transcribed from NSK "Rolling Bearings" CAT. No. E1102e, table 9.9 (p. A89), micrometres:
@@ -164,6 +166,78 @@ def test_steel_ball_from_the_diameter(monkeypatch):
     m = STEEL_DENSITY * 4 / 3 * math.pi * 0.0055**3
     assert geometry["ball_mass"] == pytest.approx(m, rel=1e-12)
     assert geometry["ball_inertia"] == pytest.approx(0.4 * m * 0.0055**2, rel=1e-12)
+
+
+def test_groove_of_full_depth_is_a_revolved_half_disc():
+    """Cut at its own radius, the groove is a half disc revolved about the axis: volume by
+    Pappus, and the integral of r^2 from the half disc's moments about its centre c
+    (A = pi rho^2/2; integrals of x, x^2, x^3 over it -2/3 rho^3, pi rho^4/8, -4/15 rho^5 on the
+    inner ring's side, the signs of the odd ones flipped on the outer's)."""
+    from simcore.model.bearing import _groove
+
+    rho, bottom = 4.2e-3, 30e-3
+    for towards in (+1.0, -1.0):
+        c = bottom + towards * rho
+        area = 0.5 * math.pi * rho**2
+        m1, m2, m3 = -towards * 2 / 3 * rho**3, math.pi * rho**4 / 8, -towards * 4 / 15 * rho**5
+        volume, moment = _groove(bottom, rho, rho, towards)
+        assert volume == pytest.approx(2 * math.pi * (c * area + m1), rel=1e-10)
+        assert moment == pytest.approx(
+            2 * math.pi * (c**3 * area + 3 * c**2 * m1 + 3 * c * m2 + m3), rel=1e-10)
+
+
+def test_rings_without_shoulders_are_hollow_cylinders(monkeypatch):
+    """With no land above the groove bottom each ring is the hollow cylinder between its bore
+    (outside) and the groove bottom: m = rho pi B (b^2 - a^2), I = m (a^2 + b^2) / 2."""
+    from simcore.model import bearing as module
+
+    monkeypatch.setattr(module, "SHOULDER_FRACTION", 0.0)
+    entry = catalogue()["6205"]
+    d_w, width = entry["D_w"] * 1e-3, entry["B"] * 1e-3
+    radii = {"inner": (0.5 * entry["d"], 0.5 * (entry["D_pw"] - entry["D_w"])),
+             "outer": (0.5 * (entry["D_pw"] + entry["D_w"]), 0.5 * entry["D"])}
+    rings = module.ring_masses(entry, d_w)
+    for race, (a, b) in radii.items():
+        a, b = a * 1e-3, b * 1e-3
+        mass = STEEL_DENSITY * math.pi * width * (b**2 - a**2)
+        assert rings[f"{race}_mass"] == pytest.approx(mass, rel=1e-12)
+        assert rings[f"{race}_inertia"] == pytest.approx(0.5 * mass * (a**2 + b**2), rel=1e-12)
+
+
+def test_rings_and_balls_weigh_what_the_catalogue_prints_less_a_cage():
+    """The steel rings (cross-sections from the entry's dimensions, the model's shoulder height
+    and the groove conformities) and the steel balls of every entry that prints its bearing's
+    mass weigh 90 to 100 % of it: what is left is the cage, a few per cent of a deep-groove
+    bearing. Each ring lies between its hollow cylinder up to the groove bottom and the one up
+    to the pitch circle."""
+    entries = {name: e for name, e in catalogue().items() if e.get("mass") is not None}
+    assert len(entries) >= 5
+    for name, entry in entries.items():
+        model = model_geometry(name)
+        rings = ring_masses(entry, entry["D_w"] * 1e-3)
+        assert {k: model[k] for k in rings} == rings, name
+        share = (rings["inner_mass"] + rings["outer_mass"]
+                 + entry["Z"] * model["ball_mass"]) / entry["mass"]
+        assert 0.9 <= share <= 1.0, (name, share)
+        width, pitch, d_w = entry["B"], entry["D_pw"], entry["D_w"]
+        for race, bore, bottom in (("inner", entry["d"], pitch - d_w),
+                                   ("outer", entry["D"], pitch + d_w)):
+            low, high = (_cylinder_mass(bore, edge, width) for edge in (bottom, pitch))
+            assert low < rings[f"{race}_mass"] < high, name
+
+
+def _cylinder_mass(d1, d2, width):
+    """Mass [kg] of a steel hollow cylinder between the diameters d1, d2 [mm], width [mm]."""
+    return STEEL_DENSITY * math.pi * width * abs(d2**2 - d1**2) / 4 * 1e-9
+
+
+def test_an_entry_without_conformities_keeps_the_models_race_masses(monkeypatch):
+    from simcore.model import bearing as module
+
+    entry = dict(catalogue()["6205"], f_i=None)
+    monkeypatch.setattr(module, "catalogue", lambda: {"6205": entry})
+    assert module.ring_masses(entry, 8e-3) == {}
+    assert not {"inner_mass", "outer_inertia"} & set(module.model_geometry("6205"))
 
 
 def test_every_entry_cites_every_value_and_builds_a_ring():

@@ -32,3 +32,21 @@ def test_every_example_of_the_run_help_runs(example, tmp_path):
     argv[argv.index("--out") + 1] = str(out)
     code, lines = call(main, [*argv, "--set", "solver.t_end=0.003", "--quiet"])
     assert code == 0 and out.exists(), lines
+
+
+def test_the_bearings_command_lists_every_entry_with_its_balls_and_classes(capsys):
+    """``python -m simcore bearings``: one block per catalogue entry, its dimensions and ball set
+    as the data file gives them, and the model's clearance of a class from the ISO 5753-1 row
+    transcribed here (bore 50-65 mm, C3: 23-43 um radial play, g = a quarter of the sum)."""
+    from simcore.model.bearing import catalogue
+
+    assert main(["bearings"]) == 0
+    shown = capsys.readouterr().out
+    blocks = {block.split(":", 1)[0]: block for block in shown.split("\n")
+              if block and not block.startswith(" ")}
+    assert list(blocks) == list(catalogue())
+    for name, entry in catalogue().items():
+        assert f"{entry['d']:g} x {entry['D']:g} x {entry['B']:g} mm" in blocks[name]
+        assert f"{entry['Z']} balls of {entry['D_w']:.3f} mm" in blocks[name]
+    block_6012 = shown.split("6012:", 1)[1].split("6212:", 1)[0]
+    assert f"C3 {(23 + 43) / 4:.2f}" in block_6012 and "% of its 0.412 kg" in block_6012

@@ -61,38 +61,22 @@ def bearing(name: str) -> dict:
 
 
 def model_geometry(name: str) -> dict:
-    """The ``model`` keys that a catalogue entry fixes (SI units).
+    """The ``model`` keys that a catalogue entry fixes (SI units): :func:`catalogue_values`
+    with nothing given explicitly.
 
     Mapping (docs/life.md): ``ball_radius`` = D_w / 2; ``inner_radius`` = (D_pw - D_w) / 2, the
     race contact radius r_A of the ball on the pitch circle; ``n_balls`` = Z; the ball's mass
     and inertia as the entry gives them, else a steel sphere (7,850 kg/m^3, m = rho pi D_w^3 / 6,
-    I = m D_w^2 / 10); race masses and inertias only where the entry gives them (otherwise the
-    model's own values stay). The clearance is not part of an entry (``clearance_class``).
+    I = m D_w^2 / 10); the race masses and inertias as the entry gives them, else those of its
+    steel rings (:func:`ring_masses`), else none (the model's own values stay). The clearance
+    is not part of an entry (``clearance_class``).
 
     Raises
     ------
     ValueError
         One line naming the entry's missing key, for an entry without D_w, Z or D_pw.
     """
-    entry = bearing(name)
-    for key in ("D_w", "Z", "D_pw"):
-        if entry.get(key) is None:
-            raise ValueError(f"model.bearing: {name!r} has no {key} ({entry['sources'][key]}); "
-                             "allowed: an entry with D_w, Z and D_pw, or model.ball_radius, "
-                             "model.inner_radius and model.n_balls given explicitly")
-    d_w = entry["D_w"] * 1e-3
-    d_pw = entry["D_pw"] * 1e-3
-    out = {"ball_radius": 0.5 * d_w, "inner_radius": 0.5 * (d_pw - d_w), "n_balls": int(entry["Z"])}
-    mass = entry.get("ball_mass")
-    if mass is None:
-        mass = STEEL_DENSITY * math.pi * d_w**3 / 6.0
-    out["ball_mass"] = mass
-    inertia = entry.get("ball_inertia")
-    out["ball_inertia"] = mass * d_w**2 / 10.0 if inertia is None else inertia
-    for key in MASS_KEYS[2:]:
-        if entry.get(key) is not None:
-            out[key] = entry[key]
-    return out
+    return catalogue_values(name, {})
 
 
 @lru_cache(maxsize=1)
@@ -168,7 +152,8 @@ def catalogue_values(name: str, explicit: Mapping[str, Any]) -> dict:
         Values for the keys of ``model_geometry`` not in ``explicit``: the radii and the ball
         count from D_w, D_pw, Z; the ball's mass and inertia as the entry gives them, else a
         steel sphere of the ball's diameter (the explicit ``ball_radius`` when given); the
-        race masses and inertias where the entry gives them.
+        race masses and inertias as the entry gives them, else those of its steel rings
+        (:func:`ring_masses`, with that ball's groove), else none.
 
     Raises
     ------
@@ -204,9 +189,11 @@ def catalogue_values(name: str, explicit: Mapping[str, Any]) -> dict:
     if "ball_inertia" not in explicit:
         inertia = entry.get("ball_inertia")
         values["ball_inertia"] = mass * d_w**2 / 10.0 if inertia is None else inertia
+    rings = ring_masses(entry, d_w)
     for key in MASS_KEYS[2:]:
-        if key not in explicit and entry.get(key) is not None:
-            values[key] = entry[key]
+        value = entry[key] if entry.get(key) is not None else rings.get(key)
+        if key not in explicit and value is not None:
+            values[key] = value
     return values
 
 
@@ -277,6 +264,70 @@ def resolve_model(model: Mapping[str, Any], explicit: Iterable[str]) -> dict:
 #: the inner ring of a 6312 (catalogue shoulder diameter d1 = 81.86 mm, pitch diameter
 #: 95 mm, balls of 22.225 mm) has 0.20; docs/model.md gives the reasoning.
 SHOULDER_FRACTION = 0.2
+
+
+def ring_masses(entry: Mapping[str, Any], ball_diameter: float) -> dict:
+    """Masses and polar inertias of a catalogue bearing's two steel rings (SI units).
+
+    Each ring's cross-section is a rectangle of the bearing's width B from its bore (outside)
+    diameter to its land, the shoulder :data:`SHOULDER_FRACTION` D_w above the groove bottom,
+    less the groove: a circle of radius f D_w (the entry's conformity) touching the groove
+    bottom, cut at the land. Groove bottoms at (D_pw -+ D_w) / 2; steel of
+    :data:`STEEL_DENSITY`; chamfers, seal grooves and the cage left out. The inertia is about
+    the bearing's axis, the ring's own centre (docs/life.md checks the masses against the
+    catalogue's bearing masses).
+
+    Parameters
+    ----------
+    entry : mapping
+        Catalogue entry: ``d``, ``D``, ``B``, ``D_pw`` [mm], ``f_i``, ``f_e`` [-].
+    ball_diameter : float
+        D_w of the balls the rings carry [m].
+
+    Returns
+    -------
+    dict
+        ``inner_mass``, ``outer_mass`` [kg], ``inner_inertia``, ``outer_inertia`` [kg m^2];
+        empty when the entry lacks one of the values above.
+    """
+    if any(entry.get(key) is None for key in ("d", "D", "B", "D_pw", "f_i", "f_e")):
+        return {}
+    width, pitch = entry["B"] * 1e-3, entry["D_pw"] * 1e-3
+    depth = SHOULDER_FRACTION * ball_diameter
+    inner_bottom, outer_bottom = 0.5 * (pitch - ball_diameter), 0.5 * (pitch + ball_diameter)
+    rings = {"inner": (_annulus(0.5 * entry["d"] * 1e-3, inner_bottom + depth, width),
+                       _groove(inner_bottom, depth, entry["f_i"] * ball_diameter, +1.0)),
+             "outer": (_annulus(outer_bottom - depth, 0.5 * entry["D"] * 1e-3, width),
+                       _groove(outer_bottom, depth, entry["f_e"] * ball_diameter, -1.0))}
+    out = {}
+    for race, ((volume, moment), (void, void_moment)) in rings.items():
+        out[f"{race}_mass"] = STEEL_DENSITY * (volume - void)
+        out[f"{race}_inertia"] = STEEL_DENSITY * (moment - void_moment)
+    return out
+
+
+def _annulus(r_in: float, r_out: float, width: float) -> tuple[float, float]:
+    """Volume [m^3] and integral of r^2 over the volume [m^5] of a hollow cylinder."""
+    return (math.pi * width * (r_out**2 - r_in**2),
+            0.5 * math.pi * width * (r_out**4 - r_in**4))
+
+
+def _groove(bottom: float, depth: float, radius: float, towards: float) -> tuple[float, float]:
+    """Volume [m^3] and integral of r^2 over the volume [m^5] of a ring groove: the circle of
+    ``radius`` touching the radius ``bottom``, centred on the side ``towards`` (+1: outwards,
+    the inner ring's; -1: inwards), revolved about the axis and cut ``depth`` from the bottom."""
+    from scipy.integrate import quad
+
+    centre = bottom + towards * radius
+
+    def chord(r):  # the groove's axial width at radius r
+        return 2.0 * math.sqrt(max(radius**2 - (r - centre) ** 2, 0.0))
+
+    lo, hi = sorted((bottom, bottom + towards * depth))
+    volume = quad(lambda r: 2.0 * math.pi * r * chord(r), lo, hi, epsabs=0.0, epsrel=1e-12)[0]
+    moment = quad(lambda r: 2.0 * math.pi * r**3 * chord(r), lo, hi, epsabs=0.0,
+                  epsrel=1e-12)[0]
+    return volume, moment
 
 
 @dataclass(frozen=True)
