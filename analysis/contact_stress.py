@@ -58,6 +58,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simcore.model.hertz import ellipse_constants, ellipse_stiffness
+
 from ._checks import poisson_ratio, positive
 from .forces import effective_radius
 
@@ -69,9 +71,6 @@ __all__ = [
     "elliptical_contact",
     "contact_stress",
 ]
-
-_QA = math.pi / 2.0 - 1.0
-
 
 def contact_modulus(E1, nu1, E2=None, nu2=None) -> float:
     """Contact modulus E* = 1/((1 - ν1²)/E1 + (1 - ν2²)/E2) [Pa].
@@ -244,9 +243,8 @@ def elliptical_contact(R_x, R_y, E_star, fit="1983") -> EllipticalContact:
     E_star = positive("E_star", E_star)
     alpha = R_y / R_x
     if fit == "1983":
-        k = alpha ** (2.0 / math.pi)
-        E2 = 1.0 + _QA / alpha
-        F1 = math.pi / 2.0 + _QA * math.log(alpha)
+
+        k, E2, F1 = ellipse_constants(alpha)
     elif fit == "1977":
         k = 1.0339 * alpha**0.6360
         E2 = 1.0003 + 0.5968 / alpha
@@ -255,7 +253,7 @@ def elliptical_contact(R_x, R_y, E_star, fit="1983") -> EllipticalContact:
         raise ValueError(f"fit must be '1983' or '1977', got {fit!r}")
     R = 1.0 / (1.0 / R_x + 1.0 / R_y)
     E_prime = 2.0 * E_star
-    K = math.pi * k * E_prime * math.sqrt(2.0 * E2 * R / 9.0) / F1**1.5
+    K = ellipse_stiffness(k, E2, F1, R, E_star)
     return EllipticalContact(R_x=R_x, R_y=R_y, R=R, alpha=alpha, k=k, E2=E2, F1=F1,
                              E_prime=E_prime, K=K)
 

@@ -145,6 +145,7 @@ def contact_episodes(run_ds: xr.Dataset, r_eff: str = "concave",
         "contact_model": "compliant",
         "r_eff": r_eff,
         "groove_conformity": "none" if groove is None else groove,
+        "contact_geometry": geo["contacts"],
         "output_interval_s": interval,
         "n_episodes": int(peak.size),
     })

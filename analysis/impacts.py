@@ -120,6 +120,16 @@ def series_stiffness(K1, K2) -> float:
     return (K1 ** (-2.0 / 3.0) + K2 ** (-2.0 / 3.0)) ** -1.5
 
 
+def run_grooves(run_ds: xr.Dataset) -> tuple[float, float] | None:
+    """The groove conformities (f_i, f_e) [-] of a run whose ball-race contacts are elliptical
+    (attribute ``model.contact_geometry`` = ``groove``, conformities from
+    ``model.inner_conformity`` and ``model.outer_conformity``); None for the in-plane
+    contacts (``plane``, or a file that does not say)."""
+    if str(run_ds.attrs.get("model.contact_geometry", "plane")) != "groove":
+        return None
+    return (_model_value(run_ds, "inner_conformity"), _model_value(run_ds, "outer_conformity"))
+
+
 def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave", groove_conformity=None) -> dict:
     """Radii, material and contact stiffness of the two races of a run.
 
@@ -135,15 +145,17 @@ def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave", groove_conformity=N
         Not used with a groove conformity.
     groove_conformity : float, (float, float) or None
         Groove radius over ball diameter (e.g. 0.52), one for both races or (inner, outer):
-        elliptical Hamrock-Brewe contacts. None: the in-plane sphere contacts of the simulation
-        (circular Hertz).
+        elliptical Hamrock-Brewe contacts. None: the run's own contacts, the in-plane spheres
+        (circular Hertz) or, where its ``model.contact_geometry`` is ``groove``, its grooves
+        (:func:`run_grooves`).
 
     Returns
     -------
     dict
         ``ball_radius``, ``inner_radius``, ``outer_radius`` [m], ``E`` [Pa], ``nu`` [-],
-        ``E_star`` [Pa], ``K_inner``, ``K_outer``, ``K_pinch`` [N m-1.5] and ``stress``: a
-        function (F [N], race code) -> (a, b, delta, p_max).
+        ``E_star`` [Pa], ``K_inner``, ``K_outer``, ``K_pinch`` [N m-1.5], ``stress``: a
+        function (F [N], race code) -> (a, b, delta, p_max), and ``contacts``: ``"plane"`` or
+        ``"groove f_i f_e"``, the contacts these come from.
     """
     if r_eff not in ("concave", "paper"):
         raise ValueError(f"r_eff must be 'concave' or 'paper', got {r_eff!r}")
@@ -155,6 +167,8 @@ def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave", groove_conformity=N
     r_c = r_a + 2.0 * r_b + g
     E_star = contact_modulus(E, nu)
     if groove_conformity is None:
+        groove_conformity = run_grooves(run_ds)
+    if groove_conformity is None:
         R = {0: effective_radius(r_b, r_a), 1: effective_radius(r_b, r_c, r_eff == "concave")}
         K_in = hertz_stiffness(r_b, r_a, E, nu, E, nu, concave=False)
         K_out = hertz_stiffness(r_b, r_c, E, nu, E, nu, concave=(r_eff == "concave"))
@@ -162,6 +176,7 @@ def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave", groove_conformity=N
         def stress(F, race):
             a, d, p = hertz_circular(F, R[race], E_star)
             return a, a, d, p
+        contacts = "plane"
     else:
         f_in, f_out = (groove_conformity, groove_conformity) if np.ndim(groove_conformity) == 0 \
             else groove_conformity
@@ -171,6 +186,7 @@ def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave", groove_conformity=N
 
         def stress(F, race):
             return ell[race].at(F)
+        contacts = f"groove {float(f_in):g} {float(f_out):g}"
     return {
         "ball_radius": r_b,
         "inner_radius": r_a,
@@ -182,6 +198,7 @@ def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave", groove_conformity=N
         "K_outer": K_out,
         "K_pinch": series_stiffness(K_in, K_out),
         "stress": stress,
+        "contacts": contacts,
     }
 
 
@@ -581,6 +598,7 @@ def _table_attrs(run_ds, settings, filt, rows, forces, geo, source, e_N, h) -> d
         **{key: geo[key] for key in ("E", "nu", "ball_radius", "inner_radius", "outer_radius",
                                      "K_inner", "K_outer", "K_pinch")},
         "stiffness_units": "N m-1.5",
+        "contact_geometry": geo["contacts"],
         "n_simple": int(rows.is_simple.sum()),
         "n_persistent": int((~rows.is_simple).sum()),
         "n_pinch": int(rows.is_pinch.sum()),

@@ -42,9 +42,20 @@ from . import life
 __all__ = ["compliant_life", "ring_geometry", "conformities", "LIFE_NAMES",
            "DEFAULT_CONFORMITY"]
 
-#: Groove radius over ball diameter, inner and outer race, where the settings give none (the
+
+
+def _schema_conformities() -> tuple[float, float]:
+    from simcore.config import load_schema
+
+    model = load_schema()["properties"]["model"]["properties"]
+    return (float(model["inner_conformity"]["default"]),
+            float(model["outer_conformity"]["default"]))
+
+
+#: Groove radius over ball diameter, inner and outer race, of a file that does not record them:
+#: the defaults of ``model.inner_conformity`` and ``model.outer_conformity`` (0.52, 0.53, the
 #: usual values of deep-groove ball bearings, docs/life.md).
-DEFAULT_CONFORMITY = (0.52, 0.53)
+DEFAULT_CONFORMITY = _schema_conformities()
 #: The numbers :func:`compliant_life` returns.
 LIFE_NAMES = ("L10", "L10r", "L10h", "L10rh", "equivalent_load", "load_rating",
               "static_load_rating", "static_equivalent_load", "static_safety_factor")
@@ -70,17 +81,22 @@ def _catalogue_entry(run_ds: xr.Dataset) -> dict:
 
 def conformities(run_ds: xr.Dataset, settings: dict) -> tuple[float, float]:
     """Groove radius over ball diameter of the inner and the outer race [-]: the settings'
-    ``life_conformity`` where given, else the catalogue entry's ``f_i``, ``f_e`` where the run
-    names a bearing that gives them, else :data:`DEFAULT_CONFORMITY`."""
-    return _conformities(settings, _catalogue_entry(run_ds))
+    ``life_conformity`` where given, else the run's ``model.inner_conformity`` and
+    ``model.outer_conformity``, else (files that lack them) the catalogue entry's ``f_i``,
+    ``f_e`` where the run names a bearing that gives them, else :data:`DEFAULT_CONFORMITY`."""
+    return _conformities(settings, _catalogue_entry(run_ds), run_ds)
 
 
-def _conformities(settings: dict, entry: dict) -> tuple[float, float]:
+def _conformities(settings: dict, entry: dict, run_ds=None) -> tuple[float, float]:
     """:func:`conformities` from the run's catalogue ``entry`` (:func:`_catalogue_entry`)."""
     given = settings.get("life_conformity")
     if given is not None:
         f_i, f_e = given
         return float(f_i), float(f_e)
+    if run_ds is not None:
+        f_i, f_e = _attr(run_ds, "inner_conformity"), _attr(run_ds, "outer_conformity")
+        if f_i is not None and f_e is not None:
+            return float(f_i), float(f_e)
     if entry.get("f_i") is not None and entry.get("f_e") is not None:
         return float(entry["f_i"]), float(entry["f_e"])
     return DEFAULT_CONFORMITY
@@ -93,7 +109,7 @@ def ring_geometry(run_ds: xr.Dataset, settings: dict) -> dict:
     r_b, r_a = float(_attr(run_ds, "ball_radius")), float(_attr(run_ds, "inner_radius"))
     n_balls = int(_attr(run_ds, "n_balls"))
     entry = _catalogue_entry(run_ds)
-    f_i, f_e = _conformities(settings, entry)
+    f_i, f_e = _conformities(settings, entry, run_ds)
     D_w, D_pw = 2.0 * r_b, 2.0 * (r_a + r_b)
     Q_ci = life.raceway_capacity(D_w, D_pw, f_i, n_balls, "inner")
     Q_ce = life.raceway_capacity(D_w, D_pw, f_e, n_balls, "outer")

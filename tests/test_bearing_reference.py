@@ -28,6 +28,8 @@ it, and at rest the regularised friction force is zero, so it does not carry loa
 import numpy as np
 import pytest
 
+from analysis.contact_stress import contact_modulus, elliptical_contact, groove_radii
+from analysis.impacts import series_stiffness
 from analysis.load_distribution import ball_loads, ball_stiffness
 from simcore.config import load_config
 from simcore.model import SolverSettings
@@ -40,9 +42,23 @@ CASES = {  # E [Pa]: (dt [s], duration [s], tolerance on the ball loads / Q_max)
 }
 
 
-def _settle(E, clearance, straddle):
+def _groove_stiffness(model):
+    """K_s of one ball in its two grooves: the elliptical contacts of
+    analysis.contact_stress, in series."""
+    r_b, r_a = model["ball_radius"], model["inner_radius"]
+    r_c = r_a + 2.0 * r_b + model["clearance"]
+    E_star = contact_modulus(model["youngs_modulus"], model["poisson_ratio"])
+    K_in = elliptical_contact(*groove_radii(r_b, r_a, model["inner_conformity"], "inner"),
+                              E_star).K
+    K_out = elliptical_contact(*groove_radii(r_b, r_c, model["outer_conformity"], "outer"),
+                               E_star).K
+    return series_stiffness(K_in, K_out)
+
+
+def _settle(E, clearance, straddle, geometry="plane"):
     model = load_config(overrides=[f"model.youngs_modulus={E}", f"model.clearance={clearance}",
-                                   "model.e_N=0.5"])["model"]
+                                   "model.e_N=0.5", f"model.contact_geometry={geometry}"]
+                        )["model"]
     Z = model["n_balls"]
     phase = np.pi / 2 + (np.pi / Z if straddle else 0.0)
     m, balls = bearing_alone(model, LOAD, phase)
@@ -50,7 +66,8 @@ def _settle(E, clearance, straddle):
     every = int(round(1e-3 / dt))
     run = m.simulate(SolverSettings(dt, duration, contact_model="compliant", output_every=every))
     K_s = ball_stiffness(model["ball_radius"], model["inner_radius"], clearance, E,
-                         model["poisson_ratio"])[2]
+                         model["poisson_ratio"])[2] if geometry == "plane" \
+        else _groove_stiffness(model)
     reference = ball_loads(LOAD, phase + 2 * np.pi * np.arange(Z) / Z, clearance, K_s,
                            load_angle=np.pi / 2)
     return run, Z, reference, tol
@@ -72,6 +89,22 @@ def _check(run, Z, reference, tol):
 @pytest.mark.parametrize("E, clearance, straddle", [(2.1e9, 1e-5, False), (2.1e11, 4e-4, True)])
 def test_bearing_alone_settles_on_the_load_distribution(E, clearance, straddle):
     _check(*_settle(E, clearance, straddle))
+
+
+@pytest.mark.parametrize("E, clearance", [(2.1e9, 1e-5), (2.1e11, 4e-4)])
+def test_grooved_bearing_settles_on_the_load_distribution_of_its_grooves(E, clearance):
+    """model.contact_geometry groove: the same rest state with each ball's two elliptical
+    contacts (2.3-2.9 times stiffer than the in-plane spheres) in series."""
+    run, Z, reference, tol = _settle(E, clearance, True, "groove")
+    _check(run, Z, reference, tol)
+    # and it is not the in-plane distribution: the loaded balls are compressed about
+    # (1/2.6)^(2/3) as much
+    model = load_config(overrides=[f"model.clearance={clearance}"])["model"]
+    K_plane = ball_stiffness(model["ball_radius"], model["inner_radius"], clearance, E,
+                             model["poisson_ratio"])[2]
+    plane = ball_loads(LOAD, np.pi / 2 + np.pi / Z + 2 * np.pi * np.arange(Z) / Z, clearance,
+                       K_plane, load_angle=np.pi / 2)
+    assert reference.compression.max() < 0.7 * plane.compression.max()
 
 
 @pytest.mark.slow

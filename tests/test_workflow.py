@@ -63,6 +63,15 @@ def test_dry_run_smoke_study():
     assert job_counts(out)["simulate"] == 4
 
 
+def test_dry_run_groove_study():
+    """config/groove.yaml (docs/model.md): the three clearances with contacts in the plane and
+    in grooves."""
+    proc = snakemake("-n", "--forceall", "--configfile", "config/groove.yaml")
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0, out
+    assert "study: 6 grid points x 2 models (nonsmooth, compliant) = 12 runs" in out
+
+
 def test_a_setting_null_by_default_can_be_swept():
     """analysis.life_load_rating is null unless given: sweeping it plans the study (the
     reference point is chosen over the other axes)."""

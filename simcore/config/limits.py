@@ -383,7 +383,8 @@ def hertz_contact_time(model: dict, speed: float | None = None) -> float:
     An undamped Hertz impact of mass m at speed v on a contact of stiffness K lasts
     2.94 δ_max / v with δ_max = (5 m v² / (4 K))^(2/5). Here m is the ball mass, K the stiffer
     of the two races (the concave outer race: R = r_B r_C/(r_C − r_B); the inner race:
-    R = r_A r_B/(r_A + r_B); K = (4/3) E* sqrt(R), both bodies of the same material) and v the
+    R = r_A r_B/(r_A + r_B); K = (4/3) E* sqrt(R), both bodies of the same material; with
+    ``model.contact_geometry`` groove the elliptical K of each race's groove) and v the
     speed of the crank pin, |omega0| L_crank, at least 1 m/s: a ball hits a race at about the
     speed the pin carries it, and a faster impact is a shorter one (t ∝ v^(-1/5)).
 
@@ -396,14 +397,15 @@ def hertz_contact_time(model: dict, speed: float | None = None) -> float:
         for the step of a compliant zoom on it); floored at 1e-3 m/s.
     """
     from ..kernels.hertz import hertz_impact_time
-    from ..model.bearing import BearingGeometry
+    from ..model.bearing import BearingGeometry, race_grooves
     from ..model.hertz import hertz_stiffness
 
     E, nu = float(model["youngs_modulus"]), float(model["poisson_ratio"])
     geometry = BearingGeometry.from_model(model)
     r_a, r_b, r_c = geometry.inner_radius, geometry.ball_radius, geometry.outer_radius
-    stiffness = max(hertz_stiffness("outside", r_a, r_b, E, nu),
-                    hertz_stiffness("inside", r_c, r_b, E, nu))
+    groove_in, groove_out = race_grooves(model) or (None, None)
+    stiffness = max(hertz_stiffness("outside", r_a, r_b, E, nu, groove_in),
+                    hertz_stiffness("inside", r_c, r_b, E, nu, groove_out))
     if speed is None:
         speed = max(abs(float(model["omega0"])) * float(model["crank_length"]), 1.0)
     speed = max(float(speed), 1e-3)

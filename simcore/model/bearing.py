@@ -68,8 +68,9 @@ def model_geometry(name: str) -> dict:
     race contact radius r_A of the ball on the pitch circle; ``n_balls`` = Z; the ball's mass
     and inertia as the entry gives them, else a steel sphere (7,850 kg/m^3, m = rho pi D_w^3 / 6,
     I = m D_w^2 / 10); the race masses and inertias as the entry gives them, else those of its
-    steel rings (:func:`ring_masses`), else none (the model's own values stay). The clearance
-    is not part of an entry (``clearance_class``).
+    steel rings (:func:`ring_masses`), else none (the model's own values stay); the groove
+    conformities ``inner_conformity``, ``outer_conformity`` = f_i, f_e where the entry gives
+    them. The clearance is not part of an entry (``clearance_class``).
 
     Raises
     ------
@@ -128,8 +129,10 @@ def model_clearance(bore: float, clearance_class: str) -> float:
 
 #: what each model key the catalogue can fix needs of an entry
 _NEEDS = {"ball_radius": ("D_w",), "n_balls": ("Z",), "inner_radius": ("D_pw", "D_w")}
+#: the groove conformity keys of the model and the entry's values they take
+CONFORMITY_KEYS = {"inner_conformity": "f_i", "outer_conformity": "f_e"}
 #: the ``model`` keys a catalogue entry sets (:func:`catalogue_values`)
-SET_BY_ENTRY = (*_NEEDS, *MASS_KEYS)
+SET_BY_ENTRY = (*_NEEDS, *MASS_KEYS, *CONFORMITY_KEYS)
 
 
 def catalogue_values(name: str, explicit: Mapping[str, Any]) -> dict:
@@ -153,7 +156,8 @@ def catalogue_values(name: str, explicit: Mapping[str, Any]) -> dict:
         count from D_w, D_pw, Z; the ball's mass and inertia as the entry gives them, else a
         steel sphere of the ball's diameter (the explicit ``ball_radius`` when given); the
         race masses and inertias as the entry gives them, else those of its steel rings
-        (:func:`ring_masses`, with that ball's groove), else none.
+        (:func:`ring_masses`, with that ball's groove), else none; the groove conformities
+        ``inner_conformity``, ``outer_conformity`` as the entry's f_i, f_e, else none.
 
     Raises
     ------
@@ -194,6 +198,9 @@ def catalogue_values(name: str, explicit: Mapping[str, Any]) -> dict:
         value = entry[key] if entry.get(key) is not None else rings.get(key)
         if key not in explicit and value is not None:
             values[key] = value
+    for key, field in CONFORMITY_KEYS.items():
+        if key not in explicit and entry.get(field) is not None:
+            values[key] = float(entry[field])
     return values
 
 
@@ -404,3 +411,20 @@ class BearingGeometry:
     def max_balls(self) -> int:
         """Most balls that fit evenly spaced on the pitch circle without overlapping."""
         return int(math.pi / math.asin(min(1.0, self.ball_radius / self.pitch_radius)))
+
+
+def race_grooves(model: Mapping[str, Any]) -> tuple[float, float] | None:
+    """Groove radii of the inner and the outer race, f_i D_w and f_e D_w [m], where
+    ``model.contact_geometry`` is ``groove`` (elliptical ball-race contacts); None for the
+    in-plane contacts of ``plane``.
+
+    Parameters
+    ----------
+    model : mapping
+        A validated ``model`` section (``contact_geometry``, ``ball_radius``,
+        ``inner_conformity``, ``outer_conformity``).
+    """
+    if model.get("contact_geometry", "plane") != "groove":
+        return None
+    d_w = 2.0 * float(model["ball_radius"])
+    return (float(model["inner_conformity"]) * d_w, float(model["outer_conformity"]) * d_w)

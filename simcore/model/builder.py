@@ -66,6 +66,7 @@ class Model:
         self.springs: list[tuple[int, int, tuple]] = []
         self.contacts: list[tuple[int, int, int, tuple, tuple]] = []
         self.contact_names: list[str] = []
+        self.contact_grooves: list[float | None] = []  # groove radius across surface a [m]
         #: Integrity checks the time loop runs on every chunk of output rows, callables
         #: ``(trajectory, row0, row1, settings) -> Violation or None``
         #: (:mod:`simcore.model.integrity`); a scene registers its own.
@@ -155,7 +156,7 @@ class Model:
         return len(self.springs) - 1
 
     def add_contact(self, kind, body_a, point_a, radius_a, body_b, point_b, radius_b,
-                    mu=0.0, e_N=0.0, e_T=0.0, name=None) -> int:
+                    mu=0.0, e_N=0.0, e_T=0.0, name=None, groove_radius=None) -> int:
         """Unilateral frictional contact between a surface on body a and a sphere on body b.
 
         Parameters
@@ -172,6 +173,14 @@ class Model:
             Sphere radius [m].
         mu, e_N, e_T : float
             Friction coefficient, normal and tangential restitution.
+        name : str, optional
+            The contact's name (default ``contact<k>``).
+        groove_radius : float, optional
+            Radius of a groove in surface a across the plane of motion [m], larger than
+            ``radius_b``: the sphere touches it on an ellipse, whose Hertz stiffness the
+            compliant model takes (:func:`simcore.model.hertz.hertz_stiffness`). The contact's
+            kinematics stay those of the plane. None: the circular contact of two spheres (a
+            sphere and a plane).
         """
         if kind not in CONTACT_KINDS:
             raise ValueError(f"contact kind {kind!r} is not allowed; allowed: "
@@ -188,8 +197,14 @@ class Model:
                 raise ValueError(f"{nm}: {e!r} is not allowed; allowed: in [0, 1]")
         if kind == "inside" and rb >= ra:
             raise ValueError(f"radius_b: {rb} must be smaller than the ring radius {ra}")
+        if groove_radius is not None:
+            groove_radius = _finite("groove_radius", groove_radius, positive=True)
+            if groove_radius <= rb:
+                raise ValueError(f"groove_radius: {groove_radius} is not allowed; allowed: "
+                                 f"larger than radius_b ({rb})")
         geom = (point_a[0], point_a[1], point_b[0], point_b[1], ra, rb)
         self.contacts.append((CONTACT_KINDS[kind], a, b, geom, (mu, float(e_N), float(e_T))))
+        self.contact_grooves.append(groove_radius)
         self.contact_names.append(name or f"contact{len(self.contacts) - 1}")
         return len(self.contacts) - 1
 
@@ -224,7 +239,7 @@ class Model:
         ct_hertz = np.zeros((len(self.contacts), 2))
         for k, (code, _a, _b, geom, law) in enumerate(self.contacts):
             ct_hertz[k, 0] = hertz_stiffness(kinds[code], geom[4], geom[5], self.youngs_modulus,
-                                             self.poisson_ratio)
+                                             self.poisson_ratio, self.contact_grooves[k])
             if compliant or law[1] > 0.0 or damping_law != "flores":
                 ct_hertz[k, 1] = damping_factor(law[1], damping_law)
         return nb.ModelArrays(mdiag=mdiag, mass=mass, gvec=np.array([0.0, -self.gravity]),

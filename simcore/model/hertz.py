@@ -10,6 +10,14 @@ delta with F = K delta^(3/2), K = (4/3) E* sqrt(R_eff):
   R_eff = r_b (a sphere on a plane), ``outside`` r_a r_b / (r_a + r_b) (sphere on sphere,
   convex), ``inside`` r_a r_b / (r_a - r_b) (sphere b inside the hollow sphere a, concave).
 
+A ball in the groove of a real race is curved across the groove too (groove radius r_g, larger
+than the ball's): the contact is an ellipse. With R_x the effective radius in the plane (as
+above) and 1/R_y = 1/r_b - 1/r_g across the groove, Hamrock & Brewe (1983) give closed forms in
+alpha = R_y / R_x (:func:`ellipse_constants`): the ellipticity k = alpha^(2/pi) and the complete
+elliptic integrals E = 1 + (pi/2 - 1)/alpha, F = pi/2 + (pi/2 - 1) ln alpha, and with
+1/R = 1/R_x + 1/R_y the stiffness K = pi k 2 E* sqrt(2 E R / 9) / F^(3/2)
+(:func:`elliptical_stiffness`; alpha = 1 gives the circular contact's K exactly).
+
 The Numba kernels receive K per contact in ``ModelArrays.ct_hertz``
 (:meth:`simcore.model.Model.arrays`); ``analysis.hertz_stiffness`` keeps its own signature
 (two materials, a ``concave`` flag) and calls :func:`contact_modulus` and :func:`stiffness`
@@ -75,6 +83,65 @@ def effective_radius(kind: str, radius_a: float, radius_b: float) -> float:
                      + ", ".join(ELEMENT_KINDS))
 
 
+def ellipse_constants(alpha: float) -> tuple[float, float, float]:
+    """Hamrock & Brewe (1983) closed forms of an elliptical Hertz contact.
+
+    Parameters
+    ----------
+    alpha : float
+        Radius ratio R_y / R_x of the two principal directions [-], >= 1.
+
+    Returns
+    -------
+    k, E, F : float
+        Ellipticity (semi-major over semi-minor axis) alpha^(2/pi), complete elliptic integrals
+        of the second kind 1 + (pi/2 - 1)/alpha and of the first kind
+        pi/2 + (pi/2 - 1) ln alpha [-].
+    """
+    q = math.pi / 2.0 - 1.0
+    return (alpha ** (2.0 / math.pi), 1.0 + q / alpha, math.pi / 2.0 + q * math.log(alpha))
+
+
+def elliptical_stiffness(r_x: float, r_y: float, e_star: float) -> float:
+    """Hertz stiffness K [N m^-1.5] of an elliptical contact (Hamrock & Brewe 1983).
+
+    F = K delta^(3/2) with K = pi k E' sqrt(2 E R / 9) / F^(3/2), E' = 2 E*,
+    1/R = 1/R_x + 1/R_y and k, E, F of :func:`ellipse_constants` at alpha = R_y / R_x.
+
+    Parameters
+    ----------
+    r_x, r_y : float
+        Effective radii in the rolling direction and across it [m], r_y >= r_x.
+    e_star : float
+        Contact modulus E* [Pa].
+    """
+    k, e2, f1 = ellipse_constants(r_y / r_x)
+    return ellipse_stiffness(k, e2, f1, 1.0 / (1.0 / r_x + 1.0 / r_y), e_star)
+
+
+def ellipse_stiffness(k: float, e2: float, f1: float, r: float, e_star: float) -> float:
+    """K = pi k E' sqrt(2 E R / 9) / F^(3/2) [N m^-1.5], E' = 2 E*, of an elliptical contact
+    of ellipticity ``k``, elliptic integrals ``e2`` (second kind) and ``f1`` (first kind) [-],
+    curvature-sum radius ``r`` [m] and contact modulus ``e_star`` [Pa]."""
+    return math.pi * k * 2.0 * e_star * math.sqrt(2.0 * e2 * r / 9.0) / f1**1.5
+
+
+def groove_cross_radius(ball_radius: float, groove_radius: float) -> float:
+    """Effective radius across a race groove, r_b r_g / (r_g - r_b) [m].
+
+    Parameters
+    ----------
+    ball_radius : float
+        r_b [m].
+    groove_radius : float
+        Groove radius r_g [m], larger than ``ball_radius`` (f D_w, f the conformity).
+    """
+    if not groove_radius > ball_radius:
+        raise ValueError(f"groove radius {groove_radius!r} m must be larger than the ball's "
+                         f"radius {ball_radius!r} m (conformity > 0.5)")
+    return ball_radius * groove_radius / (groove_radius - ball_radius)
+
+
 def stiffness(r_eff: float, e_star: float) -> float:
     """Hertz stiffness K = (4/3) E* sqrt(R_eff) [N m^-1.5] from the effective radius [m] and
     the contact modulus [Pa]."""
@@ -82,7 +149,7 @@ def stiffness(r_eff: float, e_star: float) -> float:
 
 
 def hertz_stiffness(kind: str, radius_a: float, radius_b: float, youngs_modulus: float,
-                    poisson_ratio: float) -> float:
+                    poisson_ratio: float, groove_radius: float | None = None) -> float:
     """Hertz stiffness K [N m^-1.5] of a contact element, both bodies of the same material.
 
     Parameters
@@ -95,9 +162,16 @@ def hertz_stiffness(kind: str, radius_a: float, radius_b: float, youngs_modulus:
         E [Pa].
     poisson_ratio : float
         nu [-].
+    groove_radius : float, optional
+        Radius of a groove across the surface a [m] (larger than ``radius_b``): the elliptical
+        contact of a ball in its race's groove (:func:`elliptical_stiffness`); None: the
+        circular contact of the sphere in the plane of the element.
     """
-    return stiffness(effective_radius(kind, radius_a, radius_b),
-                     contact_modulus(youngs_modulus, poisson_ratio))
+    r_x = effective_radius(kind, radius_a, radius_b)
+    e_star = contact_modulus(youngs_modulus, poisson_ratio)
+    if groove_radius is None:
+        return stiffness(r_x, e_star)
+    return elliptical_stiffness(r_x, groove_cross_radius(radius_b, groove_radius), e_star)
 
 
 def deflection(force: float, stiffness_K: float) -> float:

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .bearing import BearingGeometry
+from .bearing import BearingGeometry, race_grooves
 from .builder import Model
 from .integrity import BearingChecks
 
@@ -69,13 +69,16 @@ class BearingSpec:
     e_T: float              # tangential restitution [-]
     cage_stiffness: float   # [N/m]
     cage_damping: float     # [N s/m]
+    # groove radii of the inner and the outer race [m] (elliptical contacts); None: in-plane
+    groove_radii: tuple[float, float] | None = None
 
     @classmethod
     def from_model(cls, model: dict) -> BearingSpec:
         """The bearing of a validated ``model`` section."""
         keys = ("inner_radius", "ball_radius", "clearance", "ball_mass", "ball_inertia", "mu",
                 "e_N", "e_T", "cage_stiffness", "cage_damping")
-        return cls(n_balls=int(model["n_balls"]), **{k: float(model[k]) for k in keys})
+        return cls(n_balls=int(model["n_balls"]), groove_radii=race_grooves(model),
+                   **{k: float(model[k]) for k in keys})
 
     @property
     def geometry(self) -> BearingGeometry:
@@ -142,12 +145,13 @@ def add_bearing(m: Model, spec: BearingSpec, inner: tuple, outer: tuple, centre:
             v0=(centre_velocity[0] - cage_speed * pitch * cy,
                 centre_velocity[1] + cage_speed * pitch * cx, spin)))
     law = dict(mu=spec.mu, e_N=spec.e_N, e_T=spec.e_T)
+    groove_in, groove_out = spec.groove_radii or (None, None)
     for k, b in enumerate(balls):
         m.add_contact("outside", inner[0], inner[1], spec.inner_radius, b, (0.0, 0.0),
-                      spec.ball_radius, name=f"ball{k}-inner", **law)
+                      spec.ball_radius, name=f"ball{k}-inner", groove_radius=groove_in, **law)
     for k, b in enumerate(balls):
         m.add_contact("inside", outer[0], outer[1], spec.outer_radius, b, (0.0, 0.0),
-                      spec.ball_radius, name=f"ball{k}-outer", **law)
+                      spec.ball_radius, name=f"ball{k}-outer", groove_radius=groove_out, **law)
     chord = spec.geometry.cage_chord
     for k in range(n):
         m.add_spring(balls[k], (0.0, 0.0), balls[(k + 1) % n], (0.0, 0.0),
@@ -328,14 +332,15 @@ def ball_on_plane(radius=0.1, mass=1.0, height=1.0, spin=0.0, mu=0.0, e_N=0.5, e
 
 def ball_in_ring(ring_radius=0.05, radius=0.005, speed=(1.0, 0.37), e_N=1.0, mu=0.0,
                  gravity=0.0, mass=2.7e-3, start=(0.0, 0.0), youngs_modulus=2.1e11,
-                 poisson_ratio=0.3) -> Model:
+                 poisson_ratio=0.3, groove_radius=None) -> Model:
     """A ball moving inside a fixed ring (the sphere-in-sphere element), starting at ``start``
-    (default: the centre) [m] with velocity ``speed`` [m/s]."""
+    (default: the centre) [m] with velocity ``speed`` [m/s]; with ``groove_radius`` [m] the
+    ring is grooved across the plane (an elliptical contact)."""
     m = Model(gravity=gravity, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio)
     b = m.add_body("ball", mass, 0.4 * mass * radius**2, q0=(start[0], start[1], 0.0),
                    v0=(speed[0], speed[1], 0.0))
     m.add_contact("inside", -1, (0.0, 0.0), ring_radius, b, (0.0, 0.0), radius, mu=mu, e_N=e_N,
-                  name="ball-ring")
+                  name="ball-ring", groove_radius=groove_radius)
     return m
 
 

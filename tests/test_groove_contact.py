@@ -1,0 +1,184 @@
+"""Ball-race contacts in grooves (model.contact_geometry groove): the elliptical Hertz stiffness
+against Hertz's exact solution, its circular limit, an undamped impact in a grooved ring against
+the closed form, the configuration keys, and the analysis taking the run's own grooves.
+
+Hertz's exact elliptical contact (Johnson, Contact Mechanics, §3.5), computed here with SciPy's
+complete elliptic integrals K(e), E(e) of the eccentricity e of the contact ellipse (semi-axes
+a >= b, b = a sqrt(1 - e^2), a across the groove): the gap x^2/(2 R_x) + y^2/(2 R_y) fixes e by
+
+    R_y / R_x = ((a/b)^2 E - K) / (K - E),
+
+the load P the size a^3 = 3 P R_y (K - E) / (pi E* e^2), and the approach is
+delta = p0 b K / E* with p0 = 3 P / (2 pi a b); so K_Hertz = P / delta^(3/2).
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+from scipy.special import ellipe, ellipk
+
+import simcore
+from simcore.config import ConfigError, load_config
+from simcore.model import SolverSettings
+from simcore.model.bearing import race_grooves
+from simcore.model.builder import Model
+from simcore.model.hertz import (
+    contact_modulus,
+    effective_radius,
+    elliptical_stiffness,
+    hertz_stiffness,
+    stiffness,
+)
+from simcore.model.mechanism import ball_in_ring, crank_slider
+
+E_STEEL, NU = 2.1e11, 0.3
+
+
+def exact_stiffness(r_x, r_y, e_star, load=1.0):
+    """K [N m^-1.5] of Hertz's exact elliptical contact (module docstring), r_y > r_x."""
+    alpha = r_y / r_x
+
+    def shape(m):  # m = e^2
+        k, e = ellipk(m), ellipe(m)
+        return (e / (1.0 - m) - k) / (k - e) - alpha
+
+    m = brentq(shape, 1e-12, 1.0 - 1e-15)
+    k, e = ellipk(m), ellipe(m)
+    a = (3.0 * load * r_y * (k - e) / (math.pi * e_star * m)) ** (1.0 / 3.0)
+    b = a * math.sqrt(1.0 - m)
+    delta = 3.0 * load / (2.0 * math.pi * a * b) * b * k / e_star
+    return load / delta**1.5
+
+
+@pytest.mark.parametrize("alpha, tol", [(1.5, 0.03), (2.0, 0.04), (5.0, 0.04), (10.0, 0.03),
+                                        (15.5, 0.015), (30.0, 0.015)])
+def test_elliptical_stiffness_against_hertz_exact(alpha, tol):
+    """Hamrock & Brewe's closed forms against the exact solution: within 3.7 % from alpha 1.5
+    to 30 (a deep-groove race has 15 to 30: within 1.3 % there)."""
+    e_star = contact_modulus(E_STEEL, NU)
+    r_x = 5e-3
+    K = elliptical_stiffness(r_x, alpha * r_x, e_star)
+    assert K == pytest.approx(exact_stiffness(r_x, alpha * r_x, e_star), rel=tol)
+
+
+def test_the_exact_solution_of_the_test_has_the_circular_limit():
+    """Nearly equal radii: the circular contact of their mean curvature."""
+    e_star = contact_modulus(E_STEEL, NU)
+    r_x, r_y = 5e-3, 5.005e-3
+    assert exact_stiffness(r_x, r_y, e_star) == pytest.approx(
+        stiffness(2 * r_x * r_y / (r_x + r_y), e_star), rel=1e-5)
+
+
+def test_a_groove_of_the_rings_own_radius_is_the_in_plane_contact():
+    """A ball in a groove whose radius is the ring's own (a spherical cavity) has equal radii
+    both ways: the elliptical K is the circular one to rounding."""
+    r_ring, r_b = 0.0445, 0.0055
+    plane = hertz_stiffness("inside", r_ring, r_b, E_STEEL, NU)
+    assert hertz_stiffness("inside", r_ring, r_b, E_STEEL, NU, r_ring) == pytest.approx(
+        plane, rel=1e-12)
+
+
+def test_the_crank_sliders_race_contacts_take_the_groove_stiffness():
+    """Every ball-race contact gets its race's elliptical K; the guard contacts stay
+    circular; the 6012's grooves are 2.9 (inner) and 2.3 (outer) times stiffer."""
+    model = load_config(overrides=["model.contact_geometry=groove"])["model"]
+    m, _ = crank_slider(model)
+    grooved = m.arrays(compliant=True).ct_hertz[:, 0]
+    plain = crank_slider(load_config()["model"])[0].arrays(compliant=True).ct_hertz[:, 0]
+    Z = model["n_balls"]
+    e_star = contact_modulus(model["youngs_modulus"], model["poisson_ratio"])
+    r_b, r_a = model["ball_radius"], model["inner_radius"]
+    r_c = r_a + 2 * r_b + model["clearance"]
+    for race, k_slice, r_x, f in (("inner", slice(0, Z), effective_radius("outside", r_a, r_b),
+                                   model["inner_conformity"]),
+                                  ("outer", slice(Z, 2 * Z), effective_radius("inside", r_c, r_b),
+                                   model["outer_conformity"])):
+        r_g = 2 * f * r_b
+        exact = exact_stiffness(r_x, r_b * r_g / (r_g - r_b), e_star)
+        np.testing.assert_allclose(grooved[k_slice], exact, rtol=0.015, err_msg=race)
+    np.testing.assert_array_equal(grooved[2 * Z:], plain[2 * Z:])
+    assert grooved[0] / plain[0] == pytest.approx(2.93, abs=0.01)
+    assert grooved[Z] / plain[Z] == pytest.approx(2.26, abs=0.01)
+
+
+@pytest.mark.parametrize("adaptive", [False, True])
+def test_undamped_impact_in_a_grooved_ring(adaptive):
+    """F_max = K^(2/5) (5 m v^2 / 4)^(3/5) and the rebound speed, with K from Hertz's exact
+    solution: the model's K is within 1.3 % of it here (alpha = 15.7), F_max within 0.5 % more."""
+    v, m, ring, r = 1.0, 2.7e-3, 0.05, 0.0055
+    r_g = 2 * 0.53 * r
+    model = ball_in_ring(ring_radius=ring, radius=r, speed=(0.0, v), e_N=1.0, mass=m,
+                         start=(0.0, ring - r - 5e-5), youngs_modulus=E_STEEL, groove_radius=r_g)
+    K = exact_stiffness(effective_radius("inside", ring, r), r * r_g / (r_g - r),
+                        contact_modulus(E_STEEL, NU))
+    F_exact = K**0.4 * (5.0 * m * v * v / 4.0) ** 0.6
+    settings = (SolverSettings(1e-5, 3e-4, contact_model="compliant", adaptive=True, tol=1e-8,
+                               rho_inf=1.0, output_every=1) if adaptive else
+                SolverSettings(5e-8, 3e-4, contact_model="compliant", rho_inf=1.0,
+                               output_every=20))
+    traj = model.simulate(settings)
+    assert traj.F_N.max() == pytest.approx(F_exact, rel=0.01)
+    assert traj.vn_post[-1, 0] == pytest.approx(v, rel=1e-3)
+
+
+def test_groove_radius_must_hold_the_ball():
+    m = Model()
+    b = m.add_body("ball", 1.0, 1.0)
+    with pytest.raises(ValueError, match="groove_radius: 0.005 is not allowed; allowed: larger "
+                                         "than radius_b"):
+        m.add_contact("inside", -1, (0.0, 0.0), 0.05, b, (0.0, 0.0), 0.005, groove_radius=0.005)
+
+
+@pytest.mark.parametrize("override, key", [
+    ("model.contact_geometry=grooved", "model.contact_geometry"),
+    ("model.inner_conformity=0.5", "model.inner_conformity"),
+    ("model.outer_conformity=1.2", "model.outer_conformity"),
+])
+def test_bad_groove_settings_are_refused_naming_the_key(override, key):
+    with pytest.raises(ConfigError, match=key):
+        load_config(overrides=[override])
+
+
+def test_conformities_come_from_the_catalogue_unless_given(monkeypatch):
+    """A real entry's f_i, f_e set the model's conformities; explicit values win; the
+    paper's bearing (no grooves in the source) takes the defaults."""
+    from simcore.model import bearing
+
+    entry = dict(bearing.bearing("6012"), f_i=0.515, f_e=0.525)
+    catalogue = dict(bearing.catalogue(), **{"6012": entry})
+    monkeypatch.setattr(bearing, "catalogue", lambda: catalogue)
+    model = load_config(overrides=["model.bearing=6012", "model.contact_geometry=groove"])["model"]
+    assert (model["inner_conformity"], model["outer_conformity"]) == (0.515, 0.525)
+    assert race_grooves(model) == pytest.approx((0.515 * 2 * model["ball_radius"],
+                                                 0.525 * 2 * model["ball_radius"]))
+    model = load_config(overrides=["model.bearing=6012", "model.outer_conformity=0.56"])["model"]
+    assert (model["inner_conformity"], model["outer_conformity"]) == (0.515, 0.56)
+    assert race_grooves(model) is None  # contact_geometry plane
+    model = load_config()["model"]
+    assert (model["inner_conformity"], model["outer_conformity"]) == (0.52, 0.53)
+
+
+def test_the_analysis_takes_the_runs_own_grooves():
+    """A run with grooved contacts: the force extraction's stiffnesses are the model's, the
+    rating life's conformities the run's; analysis.groove_conformity still overrides both."""
+    from analysis.impacts import run_geometry
+    from analysis.run_life import conformities
+
+    cfg = load_config(overrides=["model.contact_geometry=groove", "model.inner_conformity=0.51",
+                                 "model.outer_conformity=0.54", "solver.t_end=2e-4"])
+    ds = simcore.run(cfg)
+    m, _ = crank_slider(cfg["model"])
+    K = m.arrays(compliant=True).ct_hertz[:, 0]
+    Z = cfg["model"]["n_balls"]
+    geo = run_geometry(ds)
+    assert geo["K_inner"] == pytest.approx(K[0], rel=1e-12)
+    assert geo["K_outer"] == pytest.approx(K[Z], rel=1e-12)
+    assert conformities(ds, {}) == (0.51, 0.54)
+    assert conformities(ds, {"life_conformity": [0.52, 0.53]}) == (0.52, 0.53)
+    override = run_geometry(ds, groove_conformity=0.6)
+    assert override["K_inner"] < geo["K_inner"]
+    plane = simcore.run(load_config(overrides=["solver.t_end=2e-4"]))
+    assert run_geometry(plane)["K_inner"] == pytest.approx(
+        crank_slider(load_config()["model"])[0].arrays().ct_hertz[0, 0], rel=1e-12)
