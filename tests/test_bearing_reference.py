@@ -164,8 +164,10 @@ def _rigid_pin_reaction(model, t):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("omega0, series_tol", [(5.0, 0.06), (10.0, None)])
-def test_crank_slider_quasi_static_limit(omega0, series_tol):
+@pytest.mark.parametrize("omega0, series_tol, geometry", [(5.0, 0.06, "plane"),
+                                                          (10.0, None, "plane"),
+                                                          (5.0, 0.06, "groove")])
+def test_crank_slider_quasi_static_limit(omega0, series_tol, geometry):
     """At a low crank speed, damped contacts (e_N = 0.5) and a small clearance (10 um,
     E = 2.1e9), the compliant crank-slider's steady ball loads on the outer race follow the
     static distribution of the rigid, clearance-free mechanism's pin reaction (computed above),
@@ -178,10 +180,13 @@ def test_crank_slider_quasi_static_limit(omega0, series_tol):
     every sample's largest ball load follows the distribution within 4.5 % of the peak (bound
     6 %); at 10 rad/s it passes through 0.4 N twice a revolution, the big end crosses the
     clearance and the contact rings for a while (up to 32 % of the peak in single samples), so
-    only the peak is compared there."""
+    only the peak is compared there. With the balls in grooves (model.contact_geometry) and
+    the grooves' stiffness in the distribution, at 5 rad/s: peak ratio 1.001, every sample
+    within 2.8 % of the peak."""
     model = load_config(overrides=["model.youngs_modulus=2.1e9", "model.clearance=1e-5",
                                    "model.e_N=0.5", f"model.omega0={omega0}",
-                                   "model.drive=constant"])["model"]
+                                   "model.drive=constant", f"model.contact_geometry={geometry}"]
+                        )["model"]
     Z, g = model["n_balls"], model["clearance"]
     m, layout = crank_slider(model)
     dt = 2e-5
@@ -197,7 +202,8 @@ def test_crank_slider_quasi_static_limit(omega0, series_tol):
     bx = run.q[steady][:, idx] - model["crank_length"] * np.cos(theta)[:, None]
     by = run.q[steady][:, idx + 1] - model["crank_length"] * np.sin(theta)[:, None]
     K_s = ball_stiffness(model["ball_radius"], model["inner_radius"], g, 2.1e9,
-                         model["poisson_ratio"])[2]
+                         model["poisson_ratio"])[2] if geometry == "plane" \
+        else _groove_stiffness(model)
     Q_ref = np.array([ball_loads(np.hypot(*F), psi, g, K_s, np.arctan2(F[1], F[0])).q_max
                       for F, psi in zip(F_P, np.arctan2(by, bx), strict=True)])
     Q_run = run.F_N[steady][:, Z:].max(axis=1)
