@@ -60,7 +60,8 @@ def bearings_lines() -> list[str]:
     """The catalogue, one block per entry (``python -m simcore bearings``): dimensions and
     ratings as the entry gives them, the balls, rings and masses the model gets
     (:func:`simcore.model.bearing.model_geometry`), the share of the catalogue's bearing mass
-    that rings and balls make, and the model's clearance g of each ISO class for its bore."""
+    that rings and balls make, the groove conformities, and the model's clearance g of each ISO
+    class for its bore."""
     from .model.bearing import CLEARANCE_CLASSES, catalogue, model_clearance, model_geometry
 
     lines = []
@@ -80,7 +81,9 @@ def bearings_lines() -> list[str]:
                      + model["n_balls"] * model["ball_mass"])
             weight = (f"; rings and balls {100 * total / entry['mass']:.1f} % of its "
                       f"{entry['mass']:g} kg")
-        lines.append("  " + ("; ".join(rings) or "the model's race masses") + weight)
+        grooves = (f"; grooves f_i {model['inner_conformity']:g}, f_e {model['outer_conformity']:g}"
+                   if "inner_conformity" in model else "; no grooves given (the model's)")
+        lines.append("  " + ("; ".join(rings) or "the model's race masses") + weight + grooves)
         classes = []
         for cls in CLEARANCE_CLASSES:
             try:

@@ -48,5 +48,8 @@ def test_the_bearings_command_lists_every_entry_with_its_balls_and_classes(capsy
     for name, entry in catalogue().items():
         assert f"{entry['d']:g} x {entry['D']:g} x {entry['B']:g} mm" in blocks[name]
         assert f"{entry['Z']} balls of {entry['D_w']:.3f} mm" in blocks[name]
+        if entry.get("f_i") is not None:
+            grooves = f"grooves f_i {entry['f_i']:g}, f_e {entry['f_e']:g}"
+            assert grooves in shown.split(f"{name}:", 1)[1].split("\n")[1]
     block_6012 = shown.split("6012:", 1)[1].split("6212:", 1)[0]
     assert f"C3 {(23 + 43) / 4:.2f}" in block_6012 and "% of its 0.412 kg" in block_6012
