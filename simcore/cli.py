@@ -175,6 +175,9 @@ def bearing_line(ds) -> str:
     clearance_class = a.get("model.clearance_class")
     line = (f"bearing: {a.get('model.bearing', '?')}, clearance {a['model.clearance']:.4g} m"
             + (f" (class {clearance_class})" if clearance_class else ""))
+    if a.get("model.contact_geometry") == "groove":
+        line += (f", balls in grooves (conformities {a['model.inner_conformity']:g} inner, "
+                 f"{a['model.outer_conformity']:g} outer)")
     if "guard" in ds.coords:
         line += (f"; guard contacts closed on {a['guard_ball_ball_closed_samples']} samples "
                  f"(ball against ball), {a['guard_rings_closed_samples']} (the rings' lands)")

@@ -20,6 +20,7 @@ from scipy.optimize import brentq
 from scipy.special import ellipe, ellipk
 
 import simcore
+from simcore.cli import bearing_line
 from simcore.config import ConfigError, load_config
 from simcore.model import SolverSettings
 from simcore.model.bearing import race_grooves
@@ -182,3 +183,6 @@ def test_the_analysis_takes_the_runs_own_grooves():
     plane = simcore.run(load_config(overrides=["solver.t_end=2e-4"]))
     assert run_geometry(plane)["K_inner"] == pytest.approx(
         crank_slider(load_config()["model"])[0].arrays().ct_hertz[0, 0], rel=1e-12)
+    # what python -m simcore run prints about the bearing
+    assert "balls in grooves (conformities 0.51 inner, 0.54 outer)" in bearing_line(ds)
+    assert "groove" not in bearing_line(plane)
