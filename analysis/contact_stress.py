@@ -1,7 +1,7 @@
 """Contact stresses and deformations of a ball on a race (Hertz; Hamrock-Brewe ellipses).
 
-Circular point contact (the in-plane sphere contact the simulation uses)
-------------------------------------------------------------------------
+Circular point contact (the simulation's in-plane sphere contact, model.contact_geometry plane)
+-------------------------------------------------------------------------------------------
 For two spheres pressed together by a force F [N], with effective radius R [m] (convex:
 R = r1 r2/(r1 + r2); a ball inside a concave race: R = r1 r2/(r2 - r1)) and contact modulus
 E* = 1/((1 - ν1²)/E1 + (1 - ν2²)/E2) [Pa], Hertz's solution gives
@@ -273,7 +273,7 @@ def contact_stress(F, ball_radius, race_radius, race, E, nu, conformity=None, r_
         Young's modulus [Pa] and Poisson ratio [-] of ball and race (same material).
     conformity : float or None
         Groove conformity f (e.g. 0.52) for the elliptical contact; None for the in-plane
-        sphere contact of the simulation (circular Hertz contact).
+        sphere contact (circular Hertz contact).
     r_eff : {"concave", "paper"}
         Effective radius of the outer race in the circular case (``"paper"``: the convex form the
         paper prints).

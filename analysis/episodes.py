@@ -90,7 +90,7 @@ def contact_episodes(run_ds: xr.Dataset, r_eff: str = "concave",
         Effective radius of the outer-race contacts for the stresses.
     groove_conformity : float or None
         Groove radius over ball diameter for elliptical contact stresses; None or 0: the
-        in-plane circular contacts of the simulation.
+        run's own contacts (:func:`analysis.impacts.run_geometry`).
 
     Returns
     -------

@@ -497,7 +497,7 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
         table flagged ``no_approach``, F_max and what follows from it missing (NaN).
     groove_conformity : float or None
         Race groove radius over ball diameter (e.g. 0.52, > 0.5) for elliptical Hamrock-Brewe
-        contacts; None or 0 (default): the in-plane circular contacts of the simulation.
+        contacts; None or 0 (default): the run's own contacts (:func:`run_geometry`).
     contact_long_ratio : float
         An impact whose Hertz contact time exceeds this many time steps is flagged
         ``contact_long`` (the rigid solver resolves it over several steps while the mechanism

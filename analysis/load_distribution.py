@@ -105,7 +105,9 @@ def ball_stiffness(ball_radius: float, inner_radius: float, clearance: float,
     -------
     K_in, K_out, K_s : float
         Inner (convex sphere on sphere), outer (ball inside the race, concave) and the two in
-        series (eq. 2 of the module docstring), as the simulation's contact elements use them.
+        series (eq. 2 of the module docstring), as the simulation's in-plane contact elements
+        use them (``model.contact_geometry: plane``; the grooves' K: ``run_geometry`` of
+        :mod:`analysis.impacts`).
     """
     r_b = positive("ball_radius", ball_radius)
     r_a = positive("inner_radius", inner_radius)

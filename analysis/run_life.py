@@ -24,8 +24,9 @@ mean crank speed of the window (omega0 under the constant drive).
 C: ``analysis.life_load_rating`` where given, else the catalogue's C of ``model.bearing`` where
 the run names an entry that has one, else Lundberg and Palmgren's C of the modelled ring
 (:func:`analysis.life.bearing_capacity_lp`) from its ball diameter, pitch diameter, ball count
-and the groove conformities (:func:`conformities`: ``analysis.life_conformity``, else the
-catalogue entry's typical values, else 0.52 and 0.53; catalogues do not publish a bearing's own).
+and the groove conformities (:func:`conformities`: ``analysis.life_conformity``, else the run's
+``model.inner_conformity`` and ``model.outer_conformity``, which are the catalogue entry's
+typical values or else 0.52 and 0.53; catalogues do not publish a bearing's own).
 
 ISO 76: ``static_safety_factor`` s0 = C0 / P0 with P0 the largest F_r of the window and C0 the
 catalogue's static rating of ``model.bearing``, else the one its definition gives the modelled

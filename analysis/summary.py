@@ -133,9 +133,9 @@ _VARIABLES = {
         "per race (missing with fewer than two revolutions or a median of 0 N)"),
     "p_max": (
         ("race",), "model", "Pa",
-        "largest Hertz contact pressure in the steady window, per race (of the simulation's "
-        "in-plane sphere contacts; a real groove spreads the load over an ellipse and gives "
-        "less: p_max_groove)"),
+        "largest Hertz contact pressure in the steady window, per race (of the run's contacts: "
+        "in-plane spheres, or its grooves, or analysis.groove_conformity's; a real groove "
+        "spreads the load over an ellipse and gives less: p_max_groove)"),
     "p_max_groove": (
         ("race",), "model", "Pa",
         "Hertz contact pressure of a real deep-groove race at peak_force, per race: elliptical "

@@ -32,6 +32,7 @@ from analysis.contact_stress import contact_modulus, elliptical_contact, groove_
 from analysis.impacts import series_stiffness
 from analysis.load_distribution import ball_loads, ball_stiffness
 from simcore.config import load_config
+from simcore.io.dataset import mechanism_series
 from simcore.model import SolverSettings
 from simcore.model.mechanism import bearing_alone, crank_slider
 
@@ -97,14 +98,14 @@ def test_grooved_bearing_settles_on_the_load_distribution_of_its_grooves(E, clea
     contacts (2.3-2.9 times stiffer than the in-plane spheres) in series."""
     run, Z, reference, tol = _settle(E, clearance, True, "groove")
     _check(run, Z, reference, tol)
-    # and it is not the in-plane distribution: the loaded balls are compressed about
-    # (1/2.6)^(2/3) as much
+    # the loads hardly tell the stiffnesses apart, the race's sinking does: the run is far
+    # from the in-plane distribution's (3 % at 0.4 mm with steel, 84 % at 10 um and 2.1e9)
     model = load_config(overrides=[f"model.clearance={clearance}"])["model"]
     K_plane = ball_stiffness(model["ball_radius"], model["inner_radius"], clearance, E,
                              model["poisson_ratio"])[2]
     plane = ball_loads(LOAD, np.pi / 2 + np.pi / Z + 2 * np.pi * np.arange(Z) / Z, clearance,
                        K_plane, load_angle=np.pi / 2)
-    assert reference.compression.max() < 0.7 * plane.compression.max()
+    assert abs(-run.q[-1, 1] / plane.delta_r - 1.0) > 5 * tol
 
 
 @pytest.mark.slow
@@ -182,7 +183,12 @@ def test_crank_slider_quasi_static_limit(omega0, series_tol, geometry):
     clearance and the contact rings for a while (up to 32 % of the peak in single samples), so
     only the peak is compared there. With the balls in grooves (model.contact_geometry) and
     the grooves' stiffness in the distribution, at 5 rad/s: peak ratio 1.001, every sample
-    within 2.8 % of the peak."""
+    within 2.8 % of the peak.
+
+    At 10 um the loads hardly depend on the contacts' stiffness; the rings' offset does: at
+    5 rad/s the largest journal offset of the steady window is the distribution's largest
+    delta_r within 0.2 % (0.9995 in the plane, 1.0017 in grooves; 0.62 and 1.62 with the other
+    geometry's stiffness). Bound: 1 %."""
     model = load_config(overrides=["model.youngs_modulus=2.1e9", "model.clearance=1e-5",
                                    "model.e_N=0.5", f"model.omega0={omega0}",
                                    "model.drive=constant", f"model.contact_geometry={geometry}"]
@@ -210,3 +216,9 @@ def test_crank_slider_quasi_static_limit(omega0, series_tol, geometry):
     assert Q_run.max() == pytest.approx(Q_ref.max(), rel=0.03)
     if series_tol is not None:
         assert np.abs(Q_run - Q_ref).max() < series_tol * Q_ref.max()
+        orbit = mechanism_series(run.q.reshape(len(t), -1, 3), run.v.reshape(len(t), -1, 3),
+                                 layout)
+        offset = np.hypot(orbit["journal_x"], orbit["journal_y"])[steady]
+        delta_r = [ball_loads(np.hypot(*F), psi, g, K_s, np.arctan2(F[1], F[0])).delta_r
+                   for F, psi in zip(F_P, np.arctan2(by, bx), strict=True)]
+        assert offset.max() == pytest.approx(max(delta_r), rel=0.01)

@@ -292,10 +292,10 @@ def validate_config(config: Mapping[str, Any]) -> dict:
 
 
 def _check_bearing_sweep(cfg: Mapping[str, Any], explicit: set) -> None:
-    """Refuse a model key that a catalogue entry sets (radii, ball count, masses) given beside
-    a sweep of ``model.bearing``: each grid point takes them from its own bearing's entry
-    (:func:`simcore.study.plan.run_config`), so one value for all would build every bearing
-    alike."""
+    """Refuse a model key that a catalogue entry sets (radii, ball count, masses, groove
+    conformities) given beside a sweep of ``model.bearing``: each grid point takes them from
+    its own bearing's entry (:func:`simcore.study.plan.run_config`), so one value for all
+    would build every bearing alike."""
     from ..model.bearing import SET_BY_ENTRY
     from .parameters import canonical
 

@@ -223,9 +223,9 @@ def _warn_overridden(model: Mapping[str, Any], explicit: set) -> None:
 
 def resolve_model(model: Mapping[str, Any], explicit: Iterable[str]) -> dict:
     """A ``model`` section with its bearing resolved: the catalogue entry ``model.bearing``
-    fixes the radii, ball count and masses not in ``explicit``, and ``model.clearance_class``
-    (when not None) the clearance (half the middle of the class's ISO 5753-1 range for the
-    entry's bore), whatever ``model.clearance`` says.
+    fixes the radii, ball count, masses and conformities not in ``explicit``, and
+    ``model.clearance_class`` (when not None) the clearance (half the middle of the class's
+    ISO 5753-1 range for the entry's bore), whatever ``model.clearance`` says.
 
     This is what :func:`simcore.config.validate_config` applies, the keys of the ``model``
     section it was given being ``explicit``; a study that sweeps ``model.bearing`` or

@@ -111,10 +111,12 @@ def elliptical_stiffness(r_x: float, r_y: float, e_star: float) -> float:
     Parameters
     ----------
     r_x, r_y : float
-        Effective radii in the rolling direction and across it [m], r_y >= r_x.
+        Effective radii in the rolling direction and across it [m] (in either order: K is
+        symmetric in them, and the closed forms are taken at alpha = larger / smaller).
     e_star : float
         Contact modulus E* [Pa].
     """
+    r_x, r_y = min(r_x, r_y), max(r_x, r_y)  # the closed forms are for alpha >= 1
     k, e2, f1 = ellipse_constants(r_y / r_x)
     return ellipse_stiffness(k, e2, f1, 1.0 / (1.0 / r_x + 1.0 / r_y), e_star)
 

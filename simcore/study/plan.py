@@ -168,7 +168,7 @@ def determiners(axes) -> dict[str, tuple]:
 def shared_model(cfg: Mapping[str, Any], axes: Mapping[str, list]) -> dict:
     """The model settings every grid point of the study shares (the summary's attributes
     ``model_<key>``): neither swept nor set per point by a swept key (the clearance of a swept
-    class, the radii, ball count and masses of a swept bearing)."""
+    class, the radii, ball count, masses and conformities of a swept bearing)."""
     from ..model.bearing import SET_BY_ENTRY
 
     per_point = set(axes) | set(determiners(axes))
@@ -180,7 +180,7 @@ def shared_model(cfg: Mapping[str, Any], axes: Mapping[str, list]) -> dict:
 
 def resolve_point(model: dict, point: Mapping[str, Any]) -> None:
     """Set in a run's ``model`` section the values its grid point's keys determine: a swept
-    ``model.bearing`` its catalogue entry's radii, ball count and masses
+    ``model.bearing`` its catalogue entry's radii, ball count, masses and conformities
     (:data:`simcore.model.bearing.SET_BY_ENTRY`; validate_config refuses them given beside such
     a sweep), and a ``model.clearance_class`` swept or set the clearance of the class for the
     bearing's bore (half the middle of the class's ISO 5753-1 range,
