@@ -58,7 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simcore.model.hertz import ellipse_constants, ellipse_stiffness
+from simcore.model.hertz import ellipse_constants, ellipse_stiffness, groove_cross_radius
 
 from ._checks import poisson_ratio, positive
 from .forces import effective_radius
@@ -159,9 +159,7 @@ def groove_radii(ball_radius, race_radius, conformity, race="inner"):
     if race not in ("inner", "outer"):
         raise ValueError(f"race must be 'inner' or 'outer', got {race!r}")
     R_x = effective_radius(r_b, r_r, concave=(race == "outer"))
-    r_g = 2.0 * f * r_b
-    R_y = r_b * r_g / (r_g - r_b)
-    return R_x, R_y
+    return R_x, groove_cross_radius(r_b, 2.0 * f * r_b)
 
 
 @dataclass(frozen=True)
