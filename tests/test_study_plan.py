@@ -317,6 +317,37 @@ def test_a_run_is_finished_only_when_both_files_carry_its_fingerprint(tmp_path):
     assert not marker.exists() and any("b0001.json" in line for line in lines)
 
 
+def test_a_run_made_by_other_code_is_not_finished(monkeypatch):
+    """The fingerprint holds the digest of the code that makes the files: a run made before an
+    edit of the model or the analysis is made again."""
+    cfg = _study()
+    run = plan.plan_runs(cfg)[0]
+    keep, axes = run.keep(cfg["study"]["keep"]), plan.study_axes(cfg)
+    print_ = plan.fingerprint(run, keep, axes)
+    monkeypatch.setattr(plan, "code_digest", lambda: "another code")
+    assert plan.fingerprint(run, keep, axes) != print_
+
+
+def test_the_code_digest_follows_the_sources_that_make_a_run(tmp_path):
+    """Every module of simcore and analysis counts, but for those that make no number of a
+    run's files (the start-up patches, the command lines, the figures); this installation's
+    own tree is among those digested."""
+    for name in ("simcore/model/hertz.py", "simcore/startup/patches.py", "analysis/impacts.py",
+                 "analysis/figures.py"):
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text("x = 1\n")
+    before = plan.source_digest(tmp_path)
+    for name, counts in (("simcore/model/hertz.py", True), ("analysis/impacts.py", True),
+                         ("simcore/startup/patches.py", False), ("analysis/figures.py", False)):
+        (tmp_path / name).write_text("x = 2\n")
+        assert (plan.source_digest(tmp_path) != before) == counts, name
+        before = plan.source_digest(tmp_path)
+    (tmp_path / "simcore" / "model" / "bearing.py").write_text("")  # a new module counts
+    assert plan.source_digest(tmp_path) != before
+    root = Path(plan.__file__).resolve().parents[2]
+    assert plan.code_digest() == plan.source_digest(root) != plan.source_digest(tmp_path)
+
+
 @pytest.mark.parametrize("twin_rho", ["0.5", "0.8", "null"])
 def test_the_twin_takes_its_own_spectral_radius_or_the_runs(twin_rho):
     cfg = _study("solver.rho_inf=0.2", f"analysis.twin_rho_inf={twin_rho}")

@@ -28,6 +28,8 @@ import json
 import math
 from collections import ChainMap
 from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
 from typing import Any, Mapping
 
 from ..config import ConfigError, check_consistency
@@ -531,13 +533,44 @@ def batches(runs: list[Run], batch_seconds: float, min_jobs: int = MIN_JOBS) -> 
     return [[runs[i] for i in m] for m in jobs]
 
 
+#: the sources that make a run's two files (:func:`code_digest`), under the repository: every
+#: module of these packages but those that cannot change a number of the files
+CODE_PACKAGES = ("simcore", "analysis")
+CODE_EXCLUDED = ("simcore/startup", "simcore/cli.py", "simcore/__main__.py",
+                 "analysis/figures.py", "analysis/__main__.py")
+
+
+@lru_cache(maxsize=1)
+def code_digest() -> str:
+    """A digest of the Python sources that make a run and its impact table
+    (:func:`source_digest` of this installation): files made by other code are made again, as
+    files of another configuration are (the package version does not move with an edit, nor
+    with a checkout of other commits in an editable install)."""
+    return source_digest(Path(__file__).resolve().parents[2])
+
+
+def source_digest(root: Path) -> str:
+    """A digest of the ``*.py`` files of :data:`CODE_PACKAGES` under ``root``, but
+    :data:`CODE_EXCLUDED`: their paths and contents."""
+    digest = hashlib.sha1()
+    for package in CODE_PACKAGES:
+        for path in sorted((root / package).rglob("*.py")):
+            name = path.relative_to(root).as_posix()
+            if any(name == x or name.startswith(x + "/") for x in CODE_EXCLUDED):
+                continue
+            digest.update(name.encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
 def fingerprint(run: Run, keep, axes) -> str:
     """A hash of everything that makes a run's files: its configuration, the point with its
-    model, the study's axes, ``study.keep`` and the package version. A run whose files carry
-    the same fingerprint (attribute ``study_fingerprint``) is not made again."""
+    model, the study's axes, ``study.keep``, the package version and the code that makes
+    them (:func:`code_digest`). A run whose files carry the same fingerprint (attribute
+    ``study_fingerprint``) is not made again."""
     from .. import __version__
 
     text = json.dumps({"config": run.config, "point": run.coordinates(),
-                       "axes": list(axes), "keep": list(keep), "version": __version__},
-                      sort_keys=True, default=str)
+                       "axes": list(axes), "keep": list(keep), "version": __version__,
+                       "code": code_digest()}, sort_keys=True, default=str)
     return hashlib.sha1(text.encode()).hexdigest()
