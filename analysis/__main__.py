@@ -27,7 +27,7 @@ def _common(p):
                    help="smallest approach speed for a Flores force [m/s] (default 1e-3)")
     p.add_argument("--groove-conformity", type=float, default=None,
                    help="race groove radius / ball diameter (e.g. 0.52): elliptical "
-                        "Hamrock-Brewe contacts of both races (default: the run's own "
+                        "Hertz contacts of both races (default: the run's own "
                         "contacts, model.contact_geometry)")
     p.add_argument("--contact-long-ratio", type=float, default=10.0,
                    help="flag contact_long where the Hertz contact time exceeds this many "

@@ -1,4 +1,4 @@
-"""Contact stresses and deformations of a ball on a race (Hertz; Hamrock-Brewe ellipses).
+"""Contact stresses and deformations of a ball on a race (Hertz's circles and ellipses).
 
 Circular point contact (the simulation's in-plane sphere contact, model.contact_geometry plane)
 -------------------------------------------------------------------------------------------
@@ -23,15 +23,18 @@ With x along the rolling direction and y across the groove, the reduced radii ar
     1/R = 1/R_x + 1/R_y,   α = R_y / R_x  (> 1 in a ball bearing),
 
 (R is the curvature-sum radius: for a circular contact, R_x = R_y, it is half the effective
-radius of the sphere formulas above), and Hamrock & Brewe (1983, J. Lubr. Technol. 105:171) give
-closed-form approximations
+radius of the sphere formulas above). Hertz's solution sets the ellipse by its eccentricity e,
 
-    k = α^{2/π}                     ellipticity, semi-major / semi-minor axis
-    Ɛ = 1 + (π/2 - 1)/α             complete elliptic integral of the second kind
-    F_1 = π/2 + (π/2 - 1) ln α      complete elliptic integral of the first kind
+    α = (Ɛ / (1 - e²) - F_1) / (F_1 - Ɛ)
+    k = 1 / √(1 - e²)          ellipticity, semi-major / semi-minor axis
+    Ɛ = E(e), F_1 = K(e)       complete elliptic integrals of the second and first kind
 
-(the older curve fits of Brewe & Hamrock 1977, k = 1.0339 α^0.6360, Ɛ = 1.0003 + 0.5968/α,
-F_1 = 1.5277 + 0.6023 ln α, are available as ``fit="1977"``). With E' = 2 E*:
+solved by :func:`simcore.model.hertz.ellipse_constants`, the model's own (default
+``fit="exact"``). Hamrock & Brewe's (1983, J. Lubr. Technol. 105:171) closed forms k = α^{2/π},
+Ɛ = 1 + (π/2 - 1)/α, F_1 = π/2 + (π/2 - 1) ln α (``fit="1983"``, within 4 % up to α = 30) and
+the older curve fits of Brewe & Hamrock 1977, k = 1.0339 α^0.6360, Ɛ = 1.0003 + 0.5968/α,
+F_1 = 1.5277 + 0.6023 ln α (``fit="1977"``) are there to reproduce published examples.
+With E' = 2 E*:
 
     a_y = (6 k² Ɛ F R / (π E'))^{1/3}      semi-major axis (across the groove) [m]
     b_x = (6 Ɛ F R / (π k E'))^{1/3}        semi-minor axis (rolling direction) [m]
@@ -58,7 +61,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simcore.model.hertz import ellipse_constants, ellipse_stiffness, groove_cross_radius
+from simcore.model.hertz import (
+    ellipse_constants,
+    ellipse_stiffness,
+    groove_cross_radius,
+    hamrock_brewe_constants,
+)
 
 from ._checks import poisson_ratio, positive
 from .forces import effective_radius
@@ -201,8 +209,9 @@ class EllipticalContact:
         Returns
         -------
         a_y, b_x, delta, p_max : ndarray or float
-            Semi-major (across the groove) and semi-minor (rolling) axes [m], indentation [m],
-            largest pressure [Pa].
+            Semi-major (across the groove; along the rolling direction where alpha < 1 with
+            the exact solution) and semi-minor axes [m], indentation [m], largest pressure
+            [Pa].
         """
         F = _forces(F)
         a_y = np.cbrt(6.0 * self.k**2 * self.E2 * F * self.R / (math.pi * self.E_prime))
@@ -218,8 +227,8 @@ class EllipticalContact:
         return a_y, b_x, delta, p
 
 
-def elliptical_contact(R_x, R_y, E_star, fit="1983") -> EllipticalContact:
-    """Hamrock-Brewe elliptical contact constants for reduced radii R_x, R_y.
+def elliptical_contact(R_x, R_y, E_star, fit="exact") -> EllipticalContact:
+    """Elliptical Hertz contact constants for reduced radii R_x, R_y.
 
     Parameters
     ----------
@@ -227,9 +236,10 @@ def elliptical_contact(R_x, R_y, E_star, fit="1983") -> EllipticalContact:
         Reduced radii in the rolling direction and across it [m] (:func:`groove_radii`).
     E_star : float
         Contact modulus [Pa].
-    fit : {"1983", "1977"}
-        Hamrock & Brewe (1983) k = α^{2/π}, Ɛ = 1 + (π/2-1)/α, F = π/2 + (π/2-1) ln α; or the
-        Brewe & Hamrock (1977) curve fits k = 1.0339 α^0.636, Ɛ = 1.0003 + 0.5968/α,
+    fit : {"exact", "1983", "1977"}
+        Hertz's solution (the model's contact stiffness); Hamrock & Brewe (1983)
+        k = α^{2/π}, Ɛ = 1 + (π/2-1)/α, F = π/2 + (π/2-1) ln α; or the Brewe & Hamrock
+        (1977) curve fits k = 1.0339 α^0.636, Ɛ = 1.0003 + 0.5968/α,
         F = 1.5277 + 0.6023 ln α (meant for α >= 1).
 
     Returns
@@ -240,15 +250,16 @@ def elliptical_contact(R_x, R_y, E_star, fit="1983") -> EllipticalContact:
     R_y = positive("R_y", R_y)
     E_star = positive("E_star", E_star)
     alpha = R_y / R_x
-    if fit == "1983":
-
-        k, E2, F1 = ellipse_constants(alpha)
+    if fit == "exact":  # (alpha < 1, a groove flatter than the race: the same ellipse turned)
+        k, E2, F1 = ellipse_constants(max(alpha, 1.0 / alpha))
+    elif fit == "1983":
+        k, E2, F1 = hamrock_brewe_constants(alpha)
     elif fit == "1977":
         k = 1.0339 * alpha**0.6360
         E2 = 1.0003 + 0.5968 / alpha
         F1 = 1.5277 + 0.6023 * math.log(alpha)
     else:
-        raise ValueError(f"fit must be '1983' or '1977', got {fit!r}")
+        raise ValueError(f"fit must be 'exact', '1983' or '1977', got {fit!r}")
     R = 1.0 / (1.0 / R_x + 1.0 / R_y)
     E_prime = 2.0 * E_star
     K = ellipse_stiffness(k, E2, F1, R, E_star)

@@ -145,7 +145,7 @@ def run_geometry(run_ds: xr.Dataset, r_eff: str = "concave", groove_conformity=N
         Not used with a groove conformity.
     groove_conformity : float, (float, float) or None
         Groove radius over ball diameter (e.g. 0.52), one for both races or (inner, outer):
-        elliptical Hamrock-Brewe contacts. None: the run's own contacts, the in-plane spheres
+        elliptical Hertz contacts. None: the run's own contacts, the in-plane spheres
         (circular Hertz) or, where its ``model.contact_geometry`` is ``groove``, its grooves
         (:func:`run_grooves`).
 
@@ -496,7 +496,7 @@ def extract_impacts(run_ds: xr.Dataset, zero_tol=1e-4, zero_floor=1e-12, r_eff="
         Smallest approach speed for a Flores force [m/s]. Impacts with v_pre <= v_min stay in the
         table flagged ``no_approach``, F_max and what follows from it missing (NaN).
     groove_conformity : float or None
-        Race groove radius over ball diameter (e.g. 0.52, > 0.5) for elliptical Hamrock-Brewe
+        Race groove radius over ball diameter (e.g. 0.52, > 0.5) for elliptical Hertz
         contacts; None or 0 (default): the run's own contacts (:func:`run_geometry`).
     contact_long_ratio : float
         An impact whose Hertz contact time exceeds this many time steps is flagged

@@ -117,7 +117,7 @@ def test_hamrock_brewe_against_exact_hertz(race, f):
     Es = contact_modulus(E, NU)
     r_race = R_A if race == "inner" else R_C
     Rx, Ry = groove_radii(R_B, r_race, f, race)
-    ell = elliptical_contact(Rx, Ry, Es)
+    ell = elliptical_contact(Rx, Ry, Es, fit="1983")
     F = 2.0e3
     k, a, b, d, p = _exact_hertz(Rx, Ry, Es, F)
     a_y, b_x, dd, pp = ell.at(F)
@@ -125,6 +125,25 @@ def test_hamrock_brewe_against_exact_hertz(race, f):
     assert a_y == pytest.approx(a, rel=0.03) and b_x == pytest.approx(b, rel=0.03)
     assert dd == pytest.approx(d, rel=0.03) and pp == pytest.approx(p, rel=0.03)
     assert F == pytest.approx(ell.K * dd**1.5, rel=1e-12)
+
+
+@pytest.mark.parametrize("race", ["inner", "outer"])
+@pytest.mark.parametrize("f", [0.5005, 0.506, 0.515, 0.52, 0.53, 0.57, 1.0, 8.0])
+def test_the_default_is_exact_hertz(race, f):
+    """The default contact (the model's constants) against this module's exact solution (a
+    root in the ellipticity, SciPy's elliptic integrals): ellipticity, semi-axes, indentation
+    and p_max to 1e-9, from a nearly closed groove (alpha ~ 1000) to one flatter than the
+    outer race (f = 8, alpha < 1: the ellipse's long axis along the rolling direction)."""
+    Es = contact_modulus(E, NU)
+    r_race = R_A if race == "inner" else R_C
+    Rx, Ry = groove_radii(R_B, r_race, f, race)
+    ell = elliptical_contact(Rx, Ry, Es)
+    F = 2.0e3
+    k, a, b, d, p = _exact_hertz(min(Rx, Ry), max(Rx, Ry), Es, F)
+    a_y, b_x, dd, pp = ell.at(F)
+    assert ell.k == pytest.approx(k, rel=1e-9)
+    assert a_y == pytest.approx(a, rel=1e-9) and b_x == pytest.approx(b, rel=1e-9)
+    assert dd == pytest.approx(d, rel=1e-9) and pp == pytest.approx(p, rel=1e-9)
 
 
 def test_published_worked_example_6206():

@@ -116,7 +116,7 @@ def test_reference_life_with_few_balls_and_lp_c_against_catalogue():
 
 def test_static_load_rating_from_its_definition_against_the_catalogue():
     """ISO 76's C0 from its definition (Stribeck's most loaded ball 5 C0 / Z presses the more
-    stressed groove with 4,200 MPa; conformities 0.52 and 0.53, bearing steel) comes within 4 %
+    stressed groove with 4,200 MPa; conformities 0.52 and 0.53, bearing steel) comes within 2 %
     of the published C0 of every catalogue entry that gives one; C0 grows as the cube of the
     pressure."""
     from simcore.model.bearing import catalogue
@@ -128,7 +128,7 @@ def test_static_load_rating_from_its_definition_against_the_catalogue():
         args = (entry["D_w"] * 1e-3, entry["D_pw"] * 1e-3, entry["Z"],
                 entry.get("f_i") or 0.52, entry.get("f_e") or 0.53)
         C0 = static_load_rating(*args)
-        assert 0.96 < C0 / entry["C0"] < 1.04, (name, C0, entry["C0"])
+        assert 0.98 < C0 / entry["C0"] < 1.02, (name, C0, entry["C0"])
         assert static_load_rating(*args, pressure=2.1e9) == pytest.approx(C0 / 8, rel=1e-12)
         checked += 1
     assert checked >= 3

@@ -136,9 +136,13 @@ def _hertz(force, race, clearance):
 
 def _groove_hertz(force, race, clearance, conformity):
     """p_max [Pa] of the elliptical contact of a ball in a groove of radius conformity times
-    the ball's diameter, on the paper's radii, from Hamrock and Brewe's closed forms (1983):
-    ellipticity k = alpha^(2/pi), elliptic integral E = 1 + (pi/2 - 1)/alpha (alpha = R_y/R_x),
-    semi-axes a = (6 k^2 E F R/(pi E'))^(1/3), b = (6 E F R/(pi k E'))^(1/3), p = 3F/(2 pi a b)."""
+    the ball's diameter, on the paper's radii, from Hertz's solution: the eccentricity e of the
+    ellipse from alpha = R_y/R_x = (E/(1 - e^2) - K)/(K - E) (SciPy's complete elliptic
+    integrals of m = e^2), ellipticity k = 1/sqrt(1 - e^2), semi-axes
+    a = (6 k^2 E F R/(pi E'))^(1/3), b = (6 E F R/(pi k E'))^(1/3), p = 3F/(2 pi a b)."""
+    from scipy.optimize import brentq
+    from scipy.special import ellipe, ellipk
+
     E, nu = PAPER_MODEL["model.youngs_modulus"], PAPER_MODEL["model.poisson_ratio"]
     r_b, r_a = PAPER_MODEL["model.ball_radius"], PAPER_MODEL["model.inner_radius"]
     r_c = r_a + 2 * r_b + clearance
@@ -147,7 +151,9 @@ def _groove_hertz(force, race, clearance, conformity):
     R_y = r_b * r_g / (r_g - r_b)
     R = 1 / (1 / R_x + 1 / R_y)
     alpha = R_y / R_x
-    k, ell = alpha ** (2 / np.pi), 1 + (np.pi / 2 - 1) / alpha
+    m = brentq(lambda m: (ellipe(m) / (1 - m) - ellipk(m)) / (ellipk(m) - ellipe(m)) - alpha,
+               1e-12, 1 - 1e-15, xtol=1e-17)
+    k, ell = 1 / np.sqrt(1 - m), ellipe(m)
     E_prime = E / (1 - nu**2)
     a = (6 * k**2 * ell * force * R / (np.pi * E_prime)) ** (1 / 3)
     b = (6 * ell * force * R / (np.pi * k * E_prime)) ** (1 / 3)
@@ -357,7 +363,7 @@ def test_compliant_twin_against_its_hand_built_forces(study):
         assert float(at["p_max"][r]) == pytest.approx(expected, rel=1e-12)
 
 
-def test_groove_pressure_is_hamrock_brewe_at_the_peak_with_the_life_conformities(study):
+def test_groove_pressure_is_hertz_at_the_peak_with_the_life_conformities(study):
     """p_max_groove: the elliptical contact of a real groove (conformities 0.52 inner, 0.53
     outer, analysis.life_conformity's default) at each race's steady peak; below the in-plane
     p_max, whose sphere contact is far less conforming. A run without the model's radii (the
@@ -366,7 +372,7 @@ def test_groove_pressure_is_hamrock_brewe_at_the_peak_with_the_life_conformities
     at = s.sel(NEW).sel(TWIN)
     for r, (race, f) in enumerate((("inner", 0.52), ("outer", 0.53))):
         expected = _groove_hertz(float(at["peak_force"][r]), race, 1e-4, f)
-        assert float(at["p_max_groove"][r]) == pytest.approx(expected, rel=1e-12)
+        assert float(at["p_max_groove"][r]) == pytest.approx(expected, rel=1e-9)
         assert float(at["p_max_groove"][r]) < float(at["p_max"][r])
     assert s["p_max_groove"].attrs["units"] == "Pa"
     assert bool(s["p_max_groove"].sel(NEW).sel(PAPER).isnull().all())

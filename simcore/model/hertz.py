@@ -12,11 +12,19 @@ delta with F = K delta^(3/2), K = (4/3) E* sqrt(R_eff):
 
 A ball in the groove of a real race is curved across the groove too (groove radius r_g, larger
 than the ball's): the contact is an ellipse. With R_x the effective radius in the plane (as
-above) and 1/R_y = 1/r_b - 1/r_g across the groove, Hamrock & Brewe (1983) give closed forms in
-alpha = R_y / R_x (:func:`ellipse_constants`): the ellipticity k = alpha^(2/pi) and the complete
-elliptic integrals E = 1 + (pi/2 - 1)/alpha, F = pi/2 + (pi/2 - 1) ln alpha, and with
-1/R = 1/R_x + 1/R_y the stiffness K = pi k 2 E* sqrt(2 E R / 9) / F^(3/2)
-(:func:`elliptical_stiffness`; alpha = 1 gives the circular contact's K exactly).
+above) and 1/R_y = 1/r_b - 1/r_g across the groove, alpha = R_y / R_x, Hertz's solution
+(:func:`ellipse_constants`) sets the ellipse's eccentricity e (ellipticity k = 1/sqrt(1 - e^2),
+semi-major over semi-minor axis) by
+
+    alpha = (E(e) / (1 - e^2) - K(e)) / (K(e) - E(e)),
+
+E and K the complete elliptic integrals of the second and first kind (Johnson, *Contact
+Mechanics*, 4.2), and with 1/R = 1/R_x + 1/R_y the stiffness is
+K = pi k 2 E* sqrt(2 E R / 9) / K(e)^(3/2) (:func:`elliptical_stiffness`; alpha = 1 gives the
+circular contact's K). Hamrock & Brewe's (1983) closed forms k = alpha^(2/pi),
+E = 1 + (pi/2 - 1)/alpha, K = pi/2 + (pi/2 - 1) ln alpha (:func:`hamrock_brewe_constants`)
+approximate these within 4 % up to alpha 30 but 6.5 % at 100 (a conformity of 0.506 on the
+6012's inner race); the analysis offers them for comparison with published examples.
 
 The Numba kernels receive K per contact in ``ModelArrays.ct_hertz``
 (:meth:`simcore.model.Model.arrays`); ``analysis.hertz_stiffness`` keeps its own signature
@@ -27,6 +35,7 @@ here: for one material it gives the model's K to the last digit.
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 #: Damping laws of the compliant contact model (:func:`damping_factor`).
 DAMPING_LAWS = ("flores", "hunt_crossley", "lankarani_nikravesh")
@@ -83,8 +92,34 @@ def effective_radius(kind: str, radius_a: float, radius_b: float) -> float:
                      + ", ".join(ELEMENT_KINDS))
 
 
+#: the eccentricity solve of :func:`ellipse_constants` stops at this relative width of ln k
+ELLIPSE_RTOL = 1e-14
+
+
+def complete_elliptic_integrals(m: float) -> tuple[float, float]:
+    """Complete elliptic integrals of the first and second kind, K(m) and E(m) [-], of the
+    parameter m = e^2 in [0, 1), by the arithmetic-geometric mean (Abramowitz & Stegun 17.6):
+    exact to rounding, without importing SciPy (a grooved model is built at every run's
+    start, and ``scipy.special`` costs a run 0.2-0.3 s to import; the tests hold these
+    against it)."""
+    a, b = 1.0, math.sqrt(1.0 - m)
+    c2_sum, weight = 0.5 * m, 0.5  # sum of 2^(n - 1) c_n^2, c_0^2 = m
+    for _ in range(40):  # converges quadratically: a handful of rounds to rounding
+        if a - b <= 4e-16 * a:
+            break
+        c = 0.5 * (a - b)
+        a, b = 0.5 * (a + b), math.sqrt(a * b)
+        weight *= 2.0
+        c2_sum += weight * c * c
+    k1 = math.pi / (2.0 * a)
+    return k1, k1 * (1.0 - c2_sum)
+
+
+@lru_cache(maxsize=64)
 def ellipse_constants(alpha: float) -> tuple[float, float, float]:
-    """Hamrock & Brewe (1983) closed forms of an elliptical Hertz contact.
+    """Hertz's elliptical contact of radius ratio ``alpha``: its ellipticity and complete
+    elliptic integrals, from the eccentricity that solves
+    alpha = (E / (1 - e^2) - K) / (K - E) (bisection on ln k, to :data:`ELLIPSE_RTOL`).
 
     Parameters
     ----------
@@ -94,16 +129,39 @@ def ellipse_constants(alpha: float) -> tuple[float, float, float]:
     Returns
     -------
     k, E, F : float
-        Ellipticity (semi-major over semi-minor axis) alpha^(2/pi), complete elliptic integrals
-        of the second kind 1 + (pi/2 - 1)/alpha and of the first kind
-        pi/2 + (pi/2 - 1) ln alpha [-].
+        Ellipticity (semi-major over semi-minor axis) 1 / sqrt(1 - e^2), complete elliptic
+        integrals of the second kind E(e) and of the first kind K(e) [-].
     """
+    if not alpha >= 1.0:
+        raise ValueError(f"alpha {alpha!r} must be >= 1 (the larger radius over the smaller)")
+
+    def ratio(log_k):  # alpha of the ellipse of ellipticity exp(log_k), growing with it
+        m = -math.expm1(-2.0 * log_k)  # e^2 = 1 - 1/k^2, exact for k near 1
+        k1, e2 = complete_elliptic_integrals(m)
+        return (e2 / (1.0 - m) - k1) / (k1 - e2)
+
+    lo, hi = 0.0, math.log(alpha) + 1.0  # k <= e alpha: k grows as alpha^0.64
+    while alpha > 1.0 and hi - lo > ELLIPSE_RTOL * max(hi, 1.0):
+        mid = 0.5 * (lo + hi)
+        if ratio(mid) < alpha:
+            lo = mid
+        else:
+            hi = mid
+    log_k = 0.5 * (lo + hi) if alpha > 1.0 else 0.0
+    k1, e2 = complete_elliptic_integrals(-math.expm1(-2.0 * log_k))
+    return math.exp(log_k), e2, k1
+
+
+def hamrock_brewe_constants(alpha: float) -> tuple[float, float, float]:
+    """Hamrock & Brewe (1983) closed forms of (k, E, F) of :func:`ellipse_constants`:
+    alpha^(2/pi), 1 + (pi/2 - 1)/alpha and pi/2 + (pi/2 - 1) ln alpha [-] (within 4 % of
+    Hertz's up to alpha 30; 6.5 % at 100, 23 % at 1000)."""
     q = math.pi / 2.0 - 1.0
     return (alpha ** (2.0 / math.pi), 1.0 + q / alpha, math.pi / 2.0 + q * math.log(alpha))
 
 
 def elliptical_stiffness(r_x: float, r_y: float, e_star: float) -> float:
-    """Hertz stiffness K [N m^-1.5] of an elliptical contact (Hamrock & Brewe 1983).
+    """Hertz stiffness K [N m^-1.5] of an elliptical contact.
 
     F = K delta^(3/2) with K = pi k E' sqrt(2 E R / 9) / F^(3/2), E' = 2 E*,
     1/R = 1/R_x + 1/R_y and k, E, F of :func:`ellipse_constants` at alpha = R_y / R_x.
@@ -112,11 +170,11 @@ def elliptical_stiffness(r_x: float, r_y: float, e_star: float) -> float:
     ----------
     r_x, r_y : float
         Effective radii in the rolling direction and across it [m] (in either order: K is
-        symmetric in them, and the closed forms are taken at alpha = larger / smaller).
+        symmetric in them, and the constants are taken at alpha = larger / smaller).
     e_star : float
         Contact modulus E* [Pa].
     """
-    r_x, r_y = min(r_x, r_y), max(r_x, r_y)  # the closed forms are for alpha >= 1
+    r_x, r_y = min(r_x, r_y), max(r_x, r_y)  # (alpha >= 1)
     k, e2, f1 = ellipse_constants(r_y / r_x)
     return ellipse_stiffness(k, e2, f1, 1.0 / (1.0 / r_x + 1.0 / r_y), e_star)
 
