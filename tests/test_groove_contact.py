@@ -29,6 +29,7 @@ from simcore.model.hertz import (
     complete_elliptic_integrals,
     contact_modulus,
     effective_radius,
+    ellipse_constants,
     ellipse_stiffness,
     elliptical_stiffness,
     hamrock_brewe_constants,
@@ -66,6 +67,20 @@ def test_elliptical_stiffness_is_hertz_exact(alpha):
     K = elliptical_stiffness(r_x, alpha * r_x, e_star)
     assert K == pytest.approx(exact_stiffness(r_x, alpha * r_x, e_star), rel=1e-9)
     assert elliptical_stiffness(alpha * r_x, r_x, e_star) == pytest.approx(K, rel=1e-12)
+
+
+@pytest.mark.parametrize("eps", [1e-14, 1e-10, 1e-6, 9.9e-5, 1.01e-4, 1e-3])
+def test_a_nearly_circular_contact_has_the_ellipticity_of_its_series(eps):
+    """Near a circle alpha = 1 + 3 m / 4 + 21 m^2 / 32 (m = e^2, from the series of K(m) and
+    E(m)), so k = 1 + 2 eps / 3 - eps^2 / 9 + O(eps^3) with eps = alpha - 1: the model's
+    ellipticity on both sides of its switch from that series to the bisection (where the ratio
+    of elliptic integrals cancels), and K the circular one to O(eps^2)."""
+    k, e2, f1 = ellipse_constants(1.0 + eps)
+    assert k == pytest.approx(1.0 + 2.0 * eps / 3.0 - eps * eps / 9.0, rel=0, abs=eps**3 + 1e-15)
+    r_x = 5e-3
+    K = elliptical_stiffness(r_x, r_x * (1.0 + eps), 1e11)
+    assert K == pytest.approx(stiffness(r_x * (1.0 + eps) / (1.0 + eps / 2.0), 1e11),
+                              rel=eps * eps + 1e-15)
 
 
 @pytest.mark.parametrize("m", [0.0, 1e-12, 1e-6, 0.3, 0.9, 0.999999, 1.0 - 1e-12])

@@ -92,8 +92,11 @@ def effective_radius(kind: str, radius_a: float, radius_b: float) -> float:
                      + ", ".join(ELEMENT_KINDS))
 
 
-#: the eccentricity solve of :func:`ellipse_constants` stops at this relative width of ln k
+#: the eccentricity solve of :func:`ellipse_constants` stops at this relative width of ln k ...
 ELLIPSE_RTOL = 1e-14
+#: ... and below this alpha - 1 takes its series, k = 1 + 2 (alpha - 1) / 3 - (alpha - 1)^2 / 9
+#: (its error, O((alpha - 1)^3), under 1e-12; the bisection's there about 1e-12 too)
+NEARLY_CIRCULAR = 1e-4
 
 
 def complete_elliptic_integrals(m: float) -> tuple[float, float]:
@@ -119,7 +122,9 @@ def complete_elliptic_integrals(m: float) -> tuple[float, float]:
 def ellipse_constants(alpha: float) -> tuple[float, float, float]:
     """Hertz's elliptical contact of radius ratio ``alpha``: its ellipticity and complete
     elliptic integrals, from the eccentricity that solves
-    alpha = (E / (1 - e^2) - K) / (K - E) (bisection on ln k, to :data:`ELLIPSE_RTOL`).
+    alpha = (E / (1 - e^2) - K) / (K - E) (bisection on ln k, to :data:`ELLIPSE_RTOL`; the
+    series k = 1 + 2 (alpha - 1) / 3 - (alpha - 1)^2 / 9 within :data:`NEARLY_CIRCULAR` of a
+    circle).
 
     Parameters
     ----------
@@ -140,14 +145,20 @@ def ellipse_constants(alpha: float) -> tuple[float, float, float]:
         k1, e2 = complete_elliptic_integrals(m)
         return (e2 / (1.0 - m) - k1) / (k1 - e2)
 
-    lo, hi = 0.0, math.log(alpha) + 1.0  # k <= e alpha: k grows as alpha^0.64
-    while alpha > 1.0 and hi - lo > ELLIPSE_RTOL * max(hi, 1.0):
-        mid = 0.5 * (lo + hi)
-        if ratio(mid) < alpha:
-            lo = mid
-        else:
-            hi = mid
-    log_k = 0.5 * (lo + hi) if alpha > 1.0 else 0.0
+    if alpha - 1.0 < NEARLY_CIRCULAR:
+        # ratio() cancels there (its two differences are O(e^2)); from the series of K and E,
+        # alpha = 1 + 3 e^2 / 4 + 21 e^4 / 32 + O(e^6)
+        eps = alpha - 1.0
+        log_k = math.log1p(2.0 / 3.0 * eps - eps * eps / 9.0)
+    else:
+        lo, hi = 0.0, math.log(alpha) + 1.0  # k <= e alpha: k grows as alpha^0.64
+        while hi - lo > ELLIPSE_RTOL * hi:
+            mid = 0.5 * (lo + hi)
+            if ratio(mid) < alpha:
+                lo = mid
+            else:
+                hi = mid
+        log_k = 0.5 * (lo + hi)
     k1, e2 = complete_elliptic_integrals(-math.expm1(-2.0 * log_k))
     return math.exp(log_k), e2, k1
 
