@@ -1,7 +1,8 @@
 """Random configurations: does the bearing stay whole, and is every violation flagged?
 
     nice python benchmarks/fuzz.py [--runs 300] [--compliant 40] [--seed 2611] [--t-end 0.05]
-                                   [--no-guards] [--adaptive] [--timeout 300] [--json FILE]
+                                   [--no-guards] [--adaptive] [--groove] [--timeout 300]
+                                   [--json FILE]
 
 Each configuration draws clearance 1e-6..2e-3 m, mu 0..0.5, omega0 1..400 rad/s, e_N and e_T
 0..1, 3..22 balls, cage stiffness 1e3..1e7 N/m, cage damping 0 (one in four) or 1..1e4 N s/m,
@@ -10,9 +11,12 @@ them use the compliant contact model, their step then at most the one that resol
 contact (``simcore.config.limits.check_contact_step``; the step is the one drawn where that
 allows it); with ``--adaptive`` they are a study's compliant twins instead (steel, E = 2.1e11
 Pa; :func:`simcore.study.plan.twin_config`: adaptive steps of at most the drawn step, rho_inf
-``analysis.twin_rho_inf``). Every run uses the default settings (guard contacts on unless
-``--no-guards``) except ``solver.on_nonconvergence = warn``, so that flagged steps are counted
-instead of stopping the run.
+``analysis.twin_rho_inf``). With ``--groove`` every run has its balls in grooves
+(``model.contact_geometry: groove``), each race's conformity drawn in 0.505..0.6 from a
+generator of its own (the other draws stay those without the option). Every run uses the
+default settings (guard contacts on unless ``--no-guards``) except
+``solver.on_nonconvergence = warn``, so that flagged steps are counted instead of stopping the
+run.
 
 For every run that is not refused before it starts, the invariants of the bearing are
 recomputed here from the stored arrays, independently of :mod:`simcore.model.integrity`:
@@ -227,6 +231,8 @@ def main(argv=None) -> int:
     p.add_argument("--no-guards", action="store_true", help="model.guard_contacts = false")
     p.add_argument("--adaptive", action="store_true",
                    help="compliant runs as a study's twins: steel, adaptive steps")
+    p.add_argument("--groove", action="store_true",
+                   help="balls in grooves, conformities drawn in 0.505..0.6")
     p.add_argument("--timeout", type=float, default=300.0,
                    help="seconds after which a run's process is stopped")
     p.add_argument("--json", default=None, help="write every run's record to this file")
@@ -237,18 +243,24 @@ def main(argv=None) -> int:
         return 0
     rng = np.random.default_rng(args.seed)
     compliant = set(rng.choice(args.runs, size=min(args.compliant, args.runs), replace=False))
+    groove_rng = np.random.default_rng([args.seed, 1])  # (the main draws stay as they were)
     records = []
     start = time.perf_counter()
     for i in range(args.runs):
         overrides = draw(rng, args.t_end, i in compliant, args.adaptive)
         if args.no_guards:
             overrides.append("model.guard_contacts=false")
+        if args.groove:
+            overrides += ["model.contact_geometry=groove", *(
+                f"model.{race}_conformity={groove_rng.uniform(0.505, 0.6)!r}"
+                for race in ("inner", "outer"))]
         records.append(run_in_process(overrides, args.timeout))
         print(f"{i + 1}/{args.runs} {records[-1]['outcome']} "
               f"{records[-1].get('integrity', '')} {records[-1].get('causes', '')}",
               file=sys.stderr, flush=True)
     print(f"{args.runs} configurations ({len(compliant)} compliant"
-          f"{', adaptive' if args.adaptive else ''}), t_end = {args.t_end} s, "
+          f"{', adaptive' if args.adaptive else ''}{', in grooves' if args.groove else ''}), "
+          f"t_end = {args.t_end} s, "
           f"seed {args.seed}, guard contacts {'off' if args.no_guards else 'on'}, "
           f"{time.perf_counter() - start:.0f} s")
     for line in summary(records):

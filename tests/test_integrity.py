@@ -171,12 +171,14 @@ def test_the_paper_case_is_unchanged_by_the_guard_contacts():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("kinds", [("--compliant", "6"), ("--compliant", "40", "--adaptive")],
-                         ids=["mixed", "adaptive-twins"])
+@pytest.mark.parametrize("kinds", [("--compliant", "6"), ("--compliant", "40", "--adaptive"),
+                                   ("--compliant", "40", "--adaptive", "--groove")],
+                         ids=["mixed", "adaptive-twins", "adaptive-twins-in-grooves"])
 def test_fuzz_finds_no_unflagged_violation_crash_or_nan(kinds):
     """A smaller run of benchmarks/fuzz.py: 40 configurations of 0.02 s each, 6 of them
     compliant with fixed steps, or all of them compliant as a study's twins (steel, adaptive
-    steps); the full runs are in docs/reliability.md."""
+    steps), in the plane or in grooves of random conformity; the full runs are in
+    docs/reliability.md."""
     import subprocess
     import sys
     from pathlib import Path
