@@ -69,7 +69,6 @@ carry no fill value.
 from __future__ import annotations
 
 import datetime
-import hashlib
 import itertools
 import json
 import threading
@@ -767,11 +766,9 @@ def _levels(force_levels) -> np.ndarray:
 def _code_fingerprint() -> str:
     """A digest of the analysis package's sources: numbers stored by other code (a table made
     before an edit of the analysis) are computed again, not reused."""
-    digest = hashlib.sha1()
-    for path in sorted(Path(__file__).parent.glob("*.py")):
-        digest.update(path.name.encode())
-        digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
+    from simcore.study.plan import source_digest
+
+    return source_digest(Path(__file__).resolve().parents[1], ("analysis",), ())
 
 
 def _settings_key(settings: dict) -> str:

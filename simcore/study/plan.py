@@ -549,14 +549,14 @@ def code_digest() -> str:
     return source_digest(Path(__file__).resolve().parents[2])
 
 
-def source_digest(root: Path) -> str:
-    """A digest of the ``*.py`` files of :data:`CODE_PACKAGES` under ``root``, but
-    :data:`CODE_EXCLUDED`: their paths and contents."""
+def source_digest(root: Path, packages=CODE_PACKAGES, excluded=CODE_EXCLUDED) -> str:
+    """A digest of the ``*.py`` files of ``packages`` under ``root``, but ``excluded`` (paths
+    under ``root``, files or folders): their paths and contents."""
     digest = hashlib.sha1()
-    for package in CODE_PACKAGES:
+    for package in packages:
         for path in sorted((root / package).rglob("*.py")):
             name = path.relative_to(root).as_posix()
-            if any(name == x or name.startswith(x + "/") for x in CODE_EXCLUDED):
+            if any(name == x or name.startswith(x + "/") for x in excluded):
                 continue
             digest.update(name.encode())
             digest.update(path.read_bytes())
