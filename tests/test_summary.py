@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
+from hertz_exact import exact_ellipse
 
 from analysis.summary import (
     COMPLIANT,
@@ -136,28 +137,15 @@ def _hertz(force, race, clearance):
 
 def _groove_hertz(force, race, clearance, conformity):
     """p_max [Pa] of the elliptical contact of a ball in a groove of radius conformity times
-    the ball's diameter, on the paper's radii, from Hertz's solution: the eccentricity e of the
-    ellipse from alpha = R_y/R_x = (E/(1 - e^2) - K)/(K - E) (SciPy's complete elliptic
-    integrals of m = e^2), ellipticity k = 1/sqrt(1 - e^2), semi-axes
-    a = (6 k^2 E F R/(pi E'))^(1/3), b = (6 E F R/(pi k E'))^(1/3), p = 3F/(2 pi a b)."""
-    from scipy.optimize import brentq
-    from scipy.special import ellipe, ellipk
-
+    the ball's diameter, on the paper's radii, from Hertz's solution (SciPy's elliptic
+    integrals, ``hertz_exact.exact_ellipse``)."""
     E, nu = PAPER_MODEL["model.youngs_modulus"], PAPER_MODEL["model.poisson_ratio"]
     r_b, r_a = PAPER_MODEL["model.ball_radius"], PAPER_MODEL["model.inner_radius"]
     r_c = r_a + 2 * r_b + clearance
     R_x = r_b * r_a / (r_a + r_b) if race == "inner" else r_b * r_c / (r_c - r_b)
     r_g = 2 * conformity * r_b
     R_y = r_b * r_g / (r_g - r_b)
-    R = 1 / (1 / R_x + 1 / R_y)
-    alpha = R_y / R_x
-    m = brentq(lambda m: (ellipe(m) / (1 - m) - ellipk(m)) / (ellipk(m) - ellipe(m)) - alpha,
-               1e-12, 1 - 1e-15, xtol=1e-17)
-    k, ell = 1 / np.sqrt(1 - m), ellipe(m)
-    E_prime = E / (1 - nu**2)
-    a = (6 * k**2 * ell * force * R / (np.pi * E_prime)) ** (1 / 3)
-    b = (6 * ell * force * R / (np.pi * k * E_prime)) ** (1 / 3)
-    return 3 * force / (2 * np.pi * a * b)
+    return exact_ellipse(R_x, R_y, E / (2 * (1 - nu**2)), force)[4]
 
 
 @pytest.fixture(scope="module")
