@@ -4,6 +4,7 @@ twins, cost, batches, size limit, fingerprints): simcore.config.parameters, simc
 from __future__ import annotations
 
 import copy
+import json
 import math
 from pathlib import Path
 
@@ -328,10 +329,11 @@ def test_a_run_made_by_other_code_is_not_finished(monkeypatch):
     assert plan.fingerprint(run, keep, axes) != print_
 
 
-def test_the_code_digest_follows_the_sources_that_make_a_run(tmp_path):
+def test_the_code_digest_follows_the_sources_that_make_a_run(tmp_path, monkeypatch):
     """Every module of simcore and analysis counts, but for those that make no number of a
     run's files (the start-up patches, the command lines, the figures); this installation's
     own tree is among those digested."""
+    monkeypatch.setattr(plan, "DIGEST_CACHE", tmp_path / "cache" / "digests.json")
     for name in ("simcore/model/hertz.py", "simcore/startup/patches.py", "analysis/impacts.py",
                  "analysis/figures.py"):
         (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
@@ -485,3 +487,61 @@ def test_the_sweep_of_config_readme_is_a_valid_grid():
     assert len(runs) == points * len(cfg["study"]["models"])
     assert set(runs[0].point) == {f"model.{key}" if key in ("clearance", "mu") else key
                                   for key in example} | {"model.omega0", "model.e_N"}
+
+
+MODULE = b'''"""A module."""
+import math
+
+#: a constant
+SCALE = 2.0
+
+
+def area(r):
+    """The area [m^2] of a disc of radius r [m]."""
+    return math.pi * r ** 2 * SCALE  # why: both faces
+'''
+
+
+def _digest_of(tmp_path, source: bytes) -> str:
+    (tmp_path / "simcore").mkdir(exist_ok=True)
+    (tmp_path / "simcore" / "geometry.py").write_bytes(source)
+    return plan.source_digest(tmp_path)
+
+
+@pytest.mark.parametrize("edit, same", [
+    ((b'"""A module."""', b'"""Another module."""'), True),
+    ((b"The area [m^2]", b"The area of both faces [m^2]"), True),
+    ((b"# why: both faces", b"# two faces"), True),
+    ((b"#: a constant\n", b""), True),
+    ((b"return math.pi", b"return  math.pi"), True),
+    ((b"\n\n\ndef area", b"\n\ndef area"), True),
+    ((b"SCALE = 2.0", b"SCALE = 2.5"), False),
+    ((b"r ** 2", b"r ** 3"), False),
+    ((b"import math\n", b"import math\nNAME = 'disc'\n"), False),
+])
+def test_the_code_digest_ignores_comments_docstrings_and_layout(tmp_path, monkeypatch, edit,
+                                                               same):
+    """An edit of what a module says about itself (comments, docstrings, blank lines, spaces)
+    keeps the digest, so a study is not made again for it; an edit of what it computes, or a
+    string that is not a docstring, changes it."""
+    monkeypatch.setattr(plan, "DIGEST_CACHE", tmp_path / "cache" / "digests.json")
+    before = _digest_of(tmp_path, MODULE)
+    assert MODULE.count(edit[0]) == 1
+    assert (_digest_of(tmp_path, MODULE.replace(*edit)) == before) == same
+
+
+def test_the_code_digest_cache_gives_what_parsing_gives(tmp_path, monkeypatch):
+    """The digest looked up in the cache equals the one computed without it; a cache that is
+    missing, unreadable or of other sources is computed again, not trusted."""
+    cache = tmp_path / "cache" / "digests.json"
+    monkeypatch.setattr(plan, "DIGEST_CACHE", cache)
+    fresh = _digest_of(tmp_path, MODULE)
+    assert cache.exists() and list(json.loads(cache.read_text()).values()) == [fresh]
+    with monkeypatch.context() as m:  # the same sources again: looked up, not parsed
+        m.setattr(plan, "code_text", lambda *_: pytest.fail("parsed again"))
+        assert _digest_of(tmp_path, MODULE) == fresh
+    cache.write_text("{not json")
+    assert _digest_of(tmp_path, MODULE) == fresh
+    other = _digest_of(tmp_path, MODULE.replace(b"2.0", b"3.0"))
+    assert other != fresh and _digest_of(tmp_path, MODULE) == fresh
+    assert len(json.loads(cache.read_text())) == 2

@@ -21,11 +21,14 @@ Size
 
 from __future__ import annotations
 
+import ast
 import copy
 import hashlib
 import itertools
 import json
 import math
+import os
+import sys
 from collections import ChainMap
 from dataclasses import dataclass
 from functools import lru_cache
@@ -540,6 +543,13 @@ CODE_EXCLUDED = ("simcore/startup", "simcore/cli.py", "simcore/__main__.py",
                  "analysis/figures.py", "analysis/__main__.py")
 
 
+#: where :func:`source_digest` keeps the code digests of the sources it has read (a file per
+#: installation, beside this module's compiled code), so that a process pays for parsing only
+#: after an edit
+DIGEST_CACHE = Path(__file__).resolve().parent / "__pycache__" / "source_digests.json"
+DIGEST_CACHE_ENTRIES = 8
+
+
 @lru_cache(maxsize=1)
 def code_digest() -> str:
     """A digest of the Python sources that make a run and its impact table
@@ -551,16 +561,77 @@ def code_digest() -> str:
 
 def source_digest(root: Path, packages=CODE_PACKAGES, excluded=CODE_EXCLUDED) -> str:
     """A digest of the ``*.py`` files of ``packages`` under ``root``, but ``excluded`` (paths
-    under ``root``, files or folders): their paths and contents."""
-    digest = hashlib.sha1()
+    under ``root``, files or folders): their paths and their code (:func:`code_text`), so that
+    an edit of comments, docstrings or layout alone leaves it as it is.
+
+    Parsing the sources takes a few tenths of a second; the digest of sources already read is
+    looked up (:data:`DIGEST_CACHE`, by a digest of their bytes and the Python version, whose
+    syntax trees differ)."""
+    files = []
     for package in packages:
         for path in sorted((root / package).rglob("*.py")):
             name = path.relative_to(root).as_posix()
-            if any(name == x or name.startswith(x + "/") for x in excluded):
-                continue
+            if not any(name == x or name.startswith(x + "/") for x in excluded):
+                files.append((name, path.read_bytes()))
+    raw = hashlib.sha1(repr(sys.version_info[:2]).encode())
+    for name, source in files:
+        raw.update(name.encode() + b"\0" + source)
+    known = _read_digest_cache()
+    key = raw.hexdigest()
+    if key not in known:
+        digest = hashlib.sha1()
+        for name, source in files:
             digest.update(name.encode())
-            digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
+            digest.update(code_text(source, name))
+        known = {k: known[k] for k in list(known)[-(DIGEST_CACHE_ENTRIES - 1):]}
+        known[key] = digest.hexdigest()[:16]
+        _write_digest_cache(known)
+    return known[key]
+
+
+def _read_digest_cache() -> dict:
+    try:
+        known = json.loads(DIGEST_CACHE.read_text())
+    except (OSError, ValueError):
+        return {}
+    return known if isinstance(known, dict) else {}
+
+
+def _write_digest_cache(known: dict) -> None:
+    """Write to a file of this process, then rename it into place: jobs that start together
+    never read half a file. A read-only installation goes without."""
+    partial = DIGEST_CACHE.with_name(f"{DIGEST_CACHE.name}.{os.getpid()}.tmp")
+    try:
+        DIGEST_CACHE.parent.mkdir(exist_ok=True)
+        partial.write_text(json.dumps(known))
+        os.replace(partial, DIGEST_CACHE)
+    except OSError:
+        try:
+            partial.unlink(missing_ok=True)
+        except OSError:
+            pass
+
+
+def code_text(source: bytes, name: str = "<source>") -> bytes:
+    """What a module does, as text: its syntax tree without positions and without the bare
+    string statements (docstrings, which make no number); comments and layout are not in a
+    tree. A file that does not parse counts as its bytes."""
+    try:
+        tree = ast.parse(source, filename=name)
+    except SyntaxError:
+        return source
+    for node in ast.walk(tree):
+        for field in ("body", "orelse", "finalbody"):
+            body = getattr(node, field, None)
+            if isinstance(body, list) and body:
+                kept = [s for s in body if not _is_bare_string(s)]
+                setattr(node, field, kept or [ast.Pass()])
+    return ast.dump(tree).encode()
+
+
+def _is_bare_string(statement) -> bool:
+    return (isinstance(statement, ast.Expr) and isinstance(statement.value, ast.Constant)
+            and isinstance(statement.value.value, str))
 
 
 def fingerprint(run: Run, keep, axes) -> str:
