@@ -329,11 +329,18 @@ def test_a_run_made_by_other_code_is_not_finished(monkeypatch):
     assert plan.fingerprint(run, keep, axes) != print_
 
 
-def test_the_code_digest_follows_the_sources_that_make_a_run(tmp_path, monkeypatch):
+@pytest.fixture
+def digest_cache(tmp_path, monkeypatch):
+    """The digest cache of these tests, in their own folder: the installation's stays as it is."""
+    cache = tmp_path / "cache" / "digests.json"
+    monkeypatch.setattr(plan, "DIGEST_CACHE", cache)
+    return cache
+
+
+def test_the_code_digest_follows_the_sources_that_make_a_run(tmp_path, digest_cache):
     """Every module of simcore and analysis counts, but for those that make no number of a
     run's files (the start-up patches, the command lines, the figures); this installation's
     own tree is among those digested."""
-    monkeypatch.setattr(plan, "DIGEST_CACHE", tmp_path / "cache" / "digests.json")
     for name in ("simcore/model/hertz.py", "simcore/startup/patches.py", "analysis/impacts.py",
                  "analysis/figures.py"):
         (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
@@ -519,22 +526,20 @@ def _digest_of(tmp_path, source: bytes) -> str:
     ((b"r ** 2", b"r ** 3"), False),
     ((b"import math\n", b"import math\nNAME = 'disc'\n"), False),
 ])
-def test_the_code_digest_ignores_comments_docstrings_and_layout(tmp_path, monkeypatch, edit,
+def test_the_code_digest_ignores_comments_docstrings_and_layout(tmp_path, digest_cache, edit,
                                                                same):
     """An edit of what a module says about itself (comments, docstrings, blank lines, spaces)
     keeps the digest, so a study is not made again for it; an edit of what it computes, or a
     string that is not a docstring, changes it."""
-    monkeypatch.setattr(plan, "DIGEST_CACHE", tmp_path / "cache" / "digests.json")
     before = _digest_of(tmp_path, MODULE)
     assert MODULE.count(edit[0]) == 1
     assert (_digest_of(tmp_path, MODULE.replace(*edit)) == before) == same
 
 
-def test_the_code_digest_cache_gives_what_parsing_gives(tmp_path, monkeypatch):
+def test_the_code_digest_cache_gives_what_parsing_gives(tmp_path, monkeypatch, digest_cache):
     """The digest looked up in the cache equals the one computed without it; a cache that is
     missing, unreadable or of other sources is computed again, not trusted."""
-    cache = tmp_path / "cache" / "digests.json"
-    monkeypatch.setattr(plan, "DIGEST_CACHE", cache)
+    cache = digest_cache
     fresh = _digest_of(tmp_path, MODULE)
     assert cache.exists() and list(json.loads(cache.read_text()).values()) == [fresh]
     with monkeypatch.context() as m:  # the same sources again: looked up, not parsed
