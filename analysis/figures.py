@@ -25,6 +25,7 @@ from simcore.model.driver import CONTACT_MODELS  # noqa: E402
 
 from .filtering import impact_masks, split_impulses, zero_threshold  # noqa: E402
 from .impacts import STUDY_PARAMETERS  # noqa: E402
+from .reads import run_setting  # noqa: E402
 
 __all__ = ["plot_run", "plot_reference", "plot_study", "plot_life", "run_label", "run_prefix",
            "figure_layout",
@@ -42,12 +43,8 @@ _PARAM = {
 
 
 def _param_value(ds, name):
-    if name in ds.coords and ds[name].size == 1:  # scalar or length-1 coordinate
-        return float(ds[name].values.item())
-    key = f"model.{name}"
-    if key in ds.attrs:
-        return float(ds.attrs[key])
-    return None
+    value = run_setting(ds, name, None)
+    return None if value is None else float(value)
 
 
 def _run_parameters(ds):

@@ -32,6 +32,7 @@ from ._checks import positive
 from .contact_stress import contact_modulus, elliptical_contact, groove_radii, hertz_circular
 from .filtering import impact_masks, split_impulses, zero_threshold
 from .forces import effective_radius, hertz_stiffness, peak_forces
+from .reads import run_setting
 
 __all__ = ["extract_impacts", "top_forces", "loaded_stretches", "run_geometry",
            "series_stiffness", "STUDY_PARAMETERS", "race_name", "kind_name", "flag_names",
@@ -87,13 +88,8 @@ _VARS = {
 
 
 def _model_value(run_ds: xr.Dataset, key: str) -> float:
-    """A model setting: the scalar coordinate if present, else attrs['model.<key>']."""
-    if key in run_ds.coords and run_ds[key].size == 1:  # scalar or length-1 coordinate
-        return float(run_ds[key].values.item())
-    name = f"model.{key}"
-    if name in run_ds.attrs:
-        return float(run_ds.attrs[name])
-    raise ValueError(f"run dataset lacks the setting {name!r} (attribute) needed by the analysis")
+    """A numeric model setting of a run (:func:`~analysis.reads.run_setting`), required."""
+    return float(run_setting(run_ds, key))
 
 
 def _time_step(run_ds: xr.Dataset) -> float:

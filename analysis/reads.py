@@ -13,11 +13,51 @@ jobs read run files again:
 A study whose ``study.keep`` leaves one of them out is refused before any job
 (:func:`check_keep`), rather than failing in the last job or giving a summary with missing
 numbers.
+
+Every analysis reads a run's model settings through :func:`run_setting`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
+
+#: :func:`run_setting`'s default: the setting is required.
+REQUIRED = object()
+
+
+def run_setting(run_ds, key: str, default=REQUIRED):
+    """A model setting of a run (``key`` as in the configuration's ``model`` section, e.g.
+    ``"clearance"``): its scalar coordinate where a study swept it, else the run's attribute
+    ``model.<key>`` (which every run file states).
+
+    Parameters
+    ----------
+    run_ds : xarray.Dataset
+        One run file's dataset.
+    key : str
+        The setting's name without the ``model.`` prefix.
+    default : optional
+        What a file that states neither gives; by default such a file is refused.
+
+    Returns
+    -------
+    The value as the file stores it (a Python scalar; callers convert to the type they need).
+
+    Raises
+    ------
+    ValueError
+        The file states neither and no default is given (naming ``model.<key>``).
+    """
+    if key in run_ds.coords and run_ds[key].size == 1:  # scalar or length-1 coordinate
+        return run_ds[key].values.item()
+    name = f"model.{key}"
+    if name in run_ds.attrs:
+        return run_ds.attrs[name]
+    if default is REQUIRED:
+        raise ValueError(f"run dataset lacks the setting {name!r} (attribute) needed by the "
+                         "analysis")
+    return default
+
 
 #: Run variables the summary numbers of a run of each contact model read.
 SUMMARY_READS = {"nonsmooth": ("crank_angle", "iterations", "converged", "Lambda_N"),

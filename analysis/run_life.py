@@ -39,6 +39,7 @@ import numpy as np
 import xarray as xr
 
 from . import life
+from .reads import run_setting
 
 __all__ = ["compliant_life", "ring_geometry", "conformities", "LIFE_NAMES",
            "DEFAULT_CONFORMITY"]
@@ -62,22 +63,14 @@ LIFE_NAMES = ("L10", "L10r", "L10h", "L10rh", "equivalent_load", "load_rating",
               "static_load_rating", "static_equivalent_load", "static_safety_factor")
 
 
-def _attr(run_ds, key, default=None):
-    name = f"model.{key}"
-    if name in run_ds.attrs:
-        return run_ds.attrs[name]
-    if key in run_ds.coords and run_ds[key].size == 1:
-        return float(run_ds[key].values.item())
-    return default
-
-
 def _catalogue_entry(run_ds: xr.Dataset) -> dict:
     """The catalogue entry the run names (``model.bearing``), else an empty one."""
-    if _attr(run_ds, "bearing") is None:
+    name = run_setting(run_ds, "bearing", None)
+    if name is None:
         return {}
     from simcore.model.bearing import bearing
 
-    return bearing(str(_attr(run_ds, "bearing")))
+    return bearing(str(name))
 
 
 def conformities(run_ds: xr.Dataset, settings: dict) -> tuple[float, float]:
@@ -95,7 +88,8 @@ def _conformities(settings: dict, entry: dict, run_ds=None) -> tuple[float, floa
         f_i, f_e = given
         return float(f_i), float(f_e)
     if run_ds is not None:
-        f_i, f_e = _attr(run_ds, "inner_conformity"), _attr(run_ds, "outer_conformity")
+        f_i = run_setting(run_ds, "inner_conformity", None)
+        f_e = run_setting(run_ds, "outer_conformity", None)
         if f_i is not None and f_e is not None:
             return float(f_i), float(f_e)
     if entry.get("f_i") is not None and entry.get("f_e") is not None:
@@ -107,8 +101,8 @@ def ring_geometry(run_ds: xr.Dataset, settings: dict) -> dict:
     """Ball diameter, pitch diameter [m], ball count, conformities (:func:`conformities`) and
     the raceway capacities Q_ci, Q_ce [N], C [N] (with where C comes from) and C0 [N] of a run's
     bearing."""
-    r_b, r_a = float(_attr(run_ds, "ball_radius")), float(_attr(run_ds, "inner_radius"))
-    n_balls = int(_attr(run_ds, "n_balls"))
+    r_b, r_a = float(run_setting(run_ds, "ball_radius")), float(run_setting(run_ds, "inner_radius"))
+    n_balls = int(run_setting(run_ds, "n_balls"))
     entry = _catalogue_entry(run_ds)
     f_i, f_e = _conformities(settings, entry, run_ds)
     D_w, D_pw = 2.0 * r_b, 2.0 * (r_a + r_b)
@@ -136,7 +130,7 @@ def _ball_frames(run_ds: xr.Dataset, n_balls: int):
     """Per sample: unit vectors pin -> ball (n, Z, 2), ball angles in the inner and the outer
     race's frames (n, Z) [rad]."""
     theta = np.asarray(run_ds["crank_angle"].values, dtype=float)
-    L1 = float(_attr(run_ds, "crank_length"))
+    L1 = float(run_setting(run_ds, "crank_length"))
     pin = L1 * np.stack([np.cos(theta), np.sin(theta)], axis=-1)
     big_end = pin + np.stack([_stored(run_ds["journal_x"].values),
                               _stored(run_ds["journal_y"].values)], axis=-1)

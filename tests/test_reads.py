@@ -14,11 +14,17 @@ import numpy as np
 import pytest
 
 import simcore
-from analysis.reads import FIGURE_READS, check_keep, keep_needs
+from analysis.reads import FIGURE_READS, check_keep, keep_needs, run_setting
 from simcore.io.variables import DEFAULT_KEEP
 from simcore.study import plan
 
 MODELS = ("nonsmooth", "compliant")
+
+
+def _study_config():
+    return simcore.load_config("config/config.yaml", overrides=[
+        "study.revolutions=0.5", "analysis.settle=0.5", "analysis.zoom_top=0",
+        "sweep.clearance=[1e-4]", "sweep.mu=[0.01]", "sweep.omega0=[100]", "sweep.e_N=[0.9]"])
 
 
 @pytest.fixture(scope="module")
@@ -27,13 +33,10 @@ def study_runs():
     small clearance (a steady window of 0.5 revolutions after 0.5)."""
     from analysis.study_tables import impact_table
 
-    cfg = simcore.load_config("config/config.yaml", overrides=[
-        "study.revolutions=0.5", "analysis.settle=0.5", "analysis.zoom_top=0",
-        "sweep.clearance=[1e-4]", "sweep.mu=[0.01]", "sweep.omega0=[100]", "sweep.e_N=[0.9]"])
     out = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for run in plan.plan_runs(cfg):
+        for run in plan.plan_runs(_study_config()):
             ds = simcore.io.keep_variables(simcore.run(run.config), run.keep(DEFAULT_KEEP))
             settings = dict(run.config["analysis"])
             out[run.model] = (ds, impact_table(ds, settings, dict(run.point)), settings)
@@ -105,3 +108,22 @@ def test_a_keep_without_a_needed_variable_is_refused_naming_it(name):
     keep = [v for v in DEFAULT_KEEP if v != name]
     with pytest.raises(simcore.ConfigError, match=rf"^study\.keep lacks '{name}' \(the "):
         check_keep(keep, MODELS)
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_run_setting_reads_back_every_model_setting_of_the_run(study_runs, model):
+    """Every scalar model setting a run was made with comes back from its file as configured
+    (the swept ones from the point), and a setting the file lacks is refused naming it."""
+    ds = study_runs[model][0]
+    run = next(r for r in plan.plan_runs(_study_config()) if r.model == model)
+    settings = {k: v for k, v in run.config["model"].items()
+                if isinstance(v, (bool, int, float, str))}
+    assert {"clearance", "mu", "omega0", "e_N", "ball_radius"} <= set(settings)
+    for key, value in settings.items():
+        got = run_setting(ds, key)
+        assert (got == pytest.approx(value)) if isinstance(value, float) else got == value, key
+    for key, value in run.point.items():  # {"model.clearance": ...}
+        assert float(run_setting(ds, key.removeprefix("model."))) == pytest.approx(value), key
+    assert run_setting(ds, "no_such_setting", None) is None
+    with pytest.raises(ValueError, match="'model.no_such_setting'"):
+        run_setting(ds, "no_such_setting")
