@@ -27,8 +27,10 @@ REQUIRED = object()
 
 def run_setting(run_ds, key: str, default=REQUIRED):
     """A model setting of a run (``key`` as in the configuration's ``model`` section, e.g.
-    ``"clearance"``): its scalar coordinate where a study swept it, else the run's attribute
-    ``model.<key>`` (which every run file states).
+    ``"clearance"``): the run's attribute ``model.<key>``, which every run file states as
+    configured, else (a file without it) its scalar coordinate of that name. (A study's
+    coordinate of a swept category, ``bearing`` or ``clearance_class``, holds the category's
+    int8 code, not its name.)
 
     Parameters
     ----------
@@ -41,18 +43,18 @@ def run_setting(run_ds, key: str, default=REQUIRED):
 
     Returns
     -------
-    The value as the file stores it (a Python scalar; callers convert to the type they need).
+    The value as the file stores it (callers convert to the type they need).
 
     Raises
     ------
     ValueError
         The file states neither and no default is given (naming ``model.<key>``).
     """
-    if key in run_ds.coords and run_ds[key].size == 1:  # scalar or length-1 coordinate
-        return run_ds[key].values.item()
     name = f"model.{key}"
     if name in run_ds.attrs:
         return run_ds.attrs[name]
+    if key in run_ds.coords and run_ds[key].size == 1 and "flag_meanings" not in run_ds[key].attrs:
+        return run_ds[key].values.item()  # a scalar or length-1 coordinate
     if default is REQUIRED:
         raise ValueError(f"run dataset lacks the setting {name!r} (attribute) needed by the "
                          "analysis")

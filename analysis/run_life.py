@@ -58,6 +58,8 @@ def _schema_conformities() -> tuple[float, float]:
 #: the defaults of ``model.inner_conformity`` and ``model.outer_conformity`` (0.52, 0.53, the
 #: usual values of deep-groove ball bearings, docs/life.md).
 DEFAULT_CONFORMITY = _schema_conformities()
+#: The model settings :func:`compliant_life` needs of a run file.
+GEOMETRY_SETTINGS = ("ball_radius", "inner_radius", "n_balls", "crank_length")
 #: The numbers :func:`compliant_life` returns.
 LIFE_NAMES = ("L10", "L10r", "L10h", "L10rh", "equivalent_load", "load_rating",
               "static_load_rating", "static_equivalent_load", "static_safety_factor")

@@ -86,7 +86,7 @@ from simcore.io.variables import STAGES
 from simcore.model.driver import CONTACT_MODELS
 
 from .impacts import largest_first, loaded_stretches
-from .reads import LIFE_READS, SUMMARY_READS
+from .reads import LIFE_READS, SUMMARY_READS, run_setting
 from .run_life import conformities
 
 __all__ = ["summarize", "summary_table", "steady_window", "SteadyWindow", "category_codes",
@@ -739,21 +739,18 @@ def point_numbers(run_ds: xr.Dataset, impacts_ds: xr.Dataset | None, settings: d
 
 def _life_numbers(run_ds: xr.Dataset, window: SteadyWindow, settings: dict) -> dict:
     """The rating lives of a compliant run (:func:`analysis.run_life.compliant_life`); missing
-    where the run file lacks what they read or the model's geometry."""
-    from .run_life import LIFE_NAMES, compliant_life
+    where the run file lacks what they read (variables, or the model's geometry: a hand-made
+    file). Any other error is the analysis's and is raised."""
+    from .run_life import GEOMETRY_SETTINGS, LIFE_NAMES, compliant_life
 
-    if any(name not in run_ds for name in LIFE_READS) or "body" not in run_ds.coords:
+    if (any(name not in run_ds for name in LIFE_READS) or "body" not in run_ds.coords
+            or any(run_setting(run_ds, key, None) is None for key in GEOMETRY_SETTINGS)):
         return dict.fromkeys(LIFE_NAMES, np.nan)
-    try:
-        return compliant_life(run_ds, window.settle_time, settings)
-    except (TypeError, ValueError):  # no model attributes (a hand-made file)
-        return dict.fromkeys(LIFE_NAMES, np.nan)
+    return compliant_life(run_ds, window.settle_time, settings)
 
 
 def _clearance(run_ds: xr.Dataset) -> float:
-    if "clearance" in run_ds.coords and run_ds["clearance"].size == 1:
-        return float(run_ds["clearance"].values.item())
-    return float(run_ds.attrs.get("model.clearance", np.nan))
+    return float(run_setting(run_ds, "clearance", np.nan))
 
 
 # --- the numbers stored in a study's impact tables -----------------------------------------------

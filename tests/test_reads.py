@@ -15,7 +15,7 @@ import pytest
 
 import simcore
 from analysis.reads import FIGURE_READS, check_keep, keep_needs, run_setting
-from simcore.io.variables import DEFAULT_KEEP
+from simcore.io.variables import DEFAULT_KEEP, study_coords
 from simcore.study import plan
 
 MODELS = ("nonsmooth", "compliant")
@@ -112,13 +112,17 @@ def test_a_keep_without_a_needed_variable_is_refused_naming_it(name):
 
 @pytest.mark.parametrize("model", MODELS)
 def test_run_setting_reads_back_every_model_setting_of_the_run(study_runs, model):
-    """Every scalar model setting a run was made with comes back from its file as configured
-    (the swept ones from the point), and a setting the file lacks is refused naming it."""
-    ds = study_runs[model][0]
+    """Every scalar model setting a run was made with comes back from its file as configured,
+    with the coordinates a study gives its runs (the swept ones from the point; a swept
+    category, the bearing, as its int8 code), and a setting the file lacks is refused naming
+    it."""
     run = next(r for r in plan.plan_runs(_study_config()) if r.model == model)
+    point = dict(run.point) | {"model.bearing": run.config["model"]["bearing"]}
+    ds = study_coords(study_runs[model][0], point, list(point))
+    assert ds["bearing"].dtype == np.int8  # what a study writes, not the name
     settings = {k: v for k, v in run.config["model"].items()
                 if isinstance(v, (bool, int, float, str))}
-    assert {"clearance", "mu", "omega0", "e_N", "ball_radius"} <= set(settings)
+    assert {"clearance", "mu", "omega0", "e_N", "ball_radius", "bearing"} <= set(settings)
     for key, value in settings.items():
         got = run_setting(ds, key)
         assert (got == pytest.approx(value)) if isinstance(value, float) else got == value, key
@@ -127,3 +131,14 @@ def test_run_setting_reads_back_every_model_setting_of_the_run(study_runs, model
     assert run_setting(ds, "no_such_setting", None) is None
     with pytest.raises(ValueError, match="'model.no_such_setting'"):
         run_setting(ds, "no_such_setting")
+
+
+def test_run_setting_of_a_file_without_attributes_reads_its_coordinates(study_runs):
+    """A file that lost its attributes (e.g. combined with ``combine_attrs="drop"``) still
+    gives a swept number from its coordinate, but not a category's code as its name."""
+    ds = study_coords(study_runs["nonsmooth"][0], {"model.clearance": 1e-4,
+                                                   "model.bearing": "6012-paper"},
+                      ["model.clearance", "model.bearing"])
+    ds.attrs = {}
+    assert run_setting(ds, "clearance") == pytest.approx(1e-4)
+    assert run_setting(ds, "bearing", None) is None
