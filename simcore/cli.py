@@ -358,6 +358,27 @@ def check_outdir(outdir: str, option: str = "--outdir") -> str | None:
     return _writable_folder(existing, option)
 
 
+def refuse_sweep(cfg) -> None:
+    """Refuse a configuration with a sweep in ``python -m simcore run``, which makes one run at
+    the ``model``, ``solver`` and ``analysis`` settings: a sweep read by nothing would give one
+    run where a study was meant (and a one-value sweep a run at another value than the
+    study's).
+
+    Raises
+    ------
+    simcore.ConfigError
+        One line naming the sweep's keys and what is allowed.
+    """
+    from .config import ConfigError
+
+    swept = list(cfg.get("sweep") or {})
+    if swept:
+        raise ConfigError(
+            f"sweep: a sweep ({', '.join(swept)}) is not allowed in one run; allowed: no "
+            "sweep (set the run's values with --set model.KEY=VALUE); a study runs a sweep: "
+            "snakemake -j2 --configfile FILE")
+
+
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):
     return f"warning: {message}\n"
 
@@ -388,6 +409,7 @@ def _main(argv=None) -> int:
     warnings.formatwarning = _one_line_warning
     try:
         cfg = load_config(args.config, args.overrides)
+        refuse_sweep(cfg)
         check_memory_of_config(cfg)  # before any model or array is built
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)

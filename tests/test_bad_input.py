@@ -60,6 +60,17 @@ def test_a_mapping_with_keys_of_mixed_types_names_the_key(tmp_path):
                                    str(tmp_path / "r.nc")], ["model.1", "unknown key"], tmp_path)
 
 
+def test_a_sweep_in_one_run_is_refused(tmp_path):
+    """``simcore run`` makes one run: a sweep, from --set or from a study's file, would be
+    read by nothing."""
+    out = str(tmp_path / "r.nc")
+    _assert_refused(simcore_main, ["run", "--set", "sweep.model.cage_stiffness=[1.0e+4, 1.0e+5]",
+                                   "--out", out], ["sweep", "model.cage_stiffness", "snakemake"],
+                    tmp_path)
+    _assert_refused(simcore_main, ["run", "--config", "config/smoke.yaml", "--out", out],
+                    ["sweep", "clearance, mu, omega0, e_N", "--set model.KEY=VALUE"], tmp_path)
+
+
 def test_an_output_name_too_long_for_the_file_system(tmp_path):
     out = str(tmp_path / ("a" * 300 + ".nc"))
     line = _assert_refused(simcore_main, ["run", "--out", out], ["--out", "303 bytes"], tmp_path)
