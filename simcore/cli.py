@@ -43,10 +43,12 @@ def _parser() -> argparse.ArgumentParser:
     z.add_argument("run", help="netCDF file of a run (with its restart state)")
     z.add_argument("--time", type=float, required=True,
                    help="time of interest [s]; the zoom starts from the run's sample before it")
-    z.add_argument("--window", type=float, default=2e-3, help="longest zoom duration [s]")
+    z.add_argument("--window", type=float, default=2e-3,
+                   help="longest zoom duration [s] (default: %(default)g)")
     z.add_argument("--dt", type=float, default=1e-6,
-                   help="largest step of the zoom and its output interval [s] (adaptive steps; "
-                        "a fixed step with --set solver.adaptive=false)")
+                   help="largest step of the zoom and its output interval [s] (default: "
+                        "%(default)g; adaptive steps, a fixed step with --set "
+                        "solver.adaptive=false)")
     z.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a setting of the zoom, e.g. --set model.youngs_modulus=2.1e11")
     z.add_argument("--out", required=True, help="output netCDF file")

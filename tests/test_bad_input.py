@@ -71,6 +71,16 @@ def test_a_sweep_in_one_run_is_refused(tmp_path):
                     ["sweep", "clearance, mu, omega0, e_N", "--set model.KEY=VALUE"], tmp_path)
 
 
+def test_zoom_of_a_run_file_without_its_state_names_the_variables(tmp_path):
+    run = tmp_path / "keep.nc"
+    assert call(simcore_main, ["run", "--set", "study.keep=[Lambda_N, vn_free, gap_N]",
+                               "--set", "solver.t_end=0.003", "--quiet", "--out", str(run)])[0] == 0
+    _assert_refused(simcore_main, ["zoom", str(run), "--time", "1e-3", "--out",
+                                   str(tmp_path / "z.nc")],
+                    ["RUN", "lacks position, angle, velocity, angular_velocity", "study.keep"],
+                    tmp_path)
+
+
 def test_an_output_name_too_long_for_the_file_system(tmp_path):
     out = str(tmp_path / ("a" * 300 + ".nc"))
     line = _assert_refused(simcore_main, ["run", "--out", out], ["--out", "303 bytes"], tmp_path)

@@ -26,10 +26,13 @@ def check_run_dataset(run_ds) -> None:
     if not any(str(key).startswith("model.") for key in run_ds.attrs):
         raise ConfigError("run: the file has no model.* attributes (the configuration of the "
                           "run); allowed: a run file of python -m simcore run (or simcore.run)")
-    for name, parts in GENERALIZED_PARTS.items():  # a run file has q and v in parts
-        if name not in run_ds and not all(part in run_ds for part in parts):
-            raise ConfigError(f"run: the run file has no variable {name!r} (needed to restart "
-                              "from its state)")
+    # a run file has the state q, v in parts (a run in memory whole)
+    missing = [part for name, parts in GENERALIZED_PARTS.items() if name not in run_ds
+               for part in parts if part not in run_ds]
+    if missing:
+        needed = ", ".join(part for parts in GENERALIZED_PARTS.values() for part in parts)
+        raise ConfigError(f"run: the run file lacks {', '.join(missing)} (its state, to restart "
+                          f"from); allowed: a run file whose study.keep holds {needed}")
 
 
 def config_of_run(run_ds) -> dict:
