@@ -39,7 +39,8 @@ def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="python -m analysis", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
-    p = sub.add_parser("impacts", help="write the impact table of a run")
+    p = sub.add_parser("impacts", help="write the impact table of a run (of a compliant run or "
+                                       "zoom: its contact episodes)")
     p.add_argument("run")
     p.add_argument("--out", required=True)
     p.add_argument("--r-eff", choices=("concave", "paper"), default="concave")
@@ -244,6 +245,39 @@ def _study_figures(args) -> int:
     return 0
 
 
+#: The commands of the paper's method, which reads a nonsmooth run's impulses.
+NONSMOOTH_COMMANDS = ("filter", "top-forces", "dt-check", "figures")
+
+
+def _is_compliant(run_ds) -> bool:
+    from .summary import COMPLIANT, run_model
+
+    return run_model(run_ds) == COMPLIANT
+
+
+def _compliant_run(args, run_ds) -> int:
+    """A compliant run (or zoom): ``impacts`` writes its contact episodes, as a study's table of
+    a compliant twin holds them; the paper's method is refused (its contact forces are the
+    run's own ``F_N``, not impulses to filter)."""
+    if args.cmd in NONSMOOTH_COMMANDS:
+        print(f"error: RUN: {args.run} is a compliant run (model.contact_model = compliant), "
+              f"whose contact forces F_N are in the file; allowed for {args.cmd}: a nonsmooth "
+              "run (the paper's method reads its impulses); a compliant run's table: python -m "
+              "analysis impacts", file=sys.stderr)
+        return 2
+    from simcore.io import write_netcdf
+
+    from .episodes import contact_episodes
+
+    table = contact_episodes(run_ds, args.r_eff, args.groove_conformity)
+    write_netcdf(table, args.out)
+    largest = (f", the largest F_max {float(table['F_max'].max()):.4g} N" if table.sizes["impact"]
+               else "")
+    print(f"{args.out}: {table.attrs['n_episodes']} contact episodes of a compliant run "
+          f"(peak force F_N of each stretch of contact{largest})")
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point; returns the exit status."""
     args = build_parser().parse_args(argv)
@@ -258,6 +292,8 @@ def main(argv=None) -> int:
             return _study_figures(args)
         with xr.open_dataset(args.run) as ds:
             run_ds = ds.load()
+        if _is_compliant(run_ds):
+            return _compliant_run(args, run_ds)
         if args.cmd == "impacts":
             from simcore.io import write_netcdf
 

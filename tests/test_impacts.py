@@ -401,6 +401,34 @@ def test_cli(run, tmp_path, capsys):
     assert "--groove-conformity" in capsys.readouterr().err  # checked before any work
 
 
+def test_cli_of_a_compliant_run(tmp_path, capsys):
+    """A compliant run's table is its contact episodes (each stretch of contact's largest F_N,
+    the file's own forces); the paper's method, which reads impulses, refuses it."""
+    import simcore
+
+    rpath = write_netcdf(simcore.run(simcore.load_config(overrides=[
+        "model.contact_model=compliant", "model.youngs_modulus=2.1e11", "solver.adaptive=true",
+        "solver.dt=1e-5", "solver.t_end=0.004"])), tmp_path / "hertz.nc")
+    out = tmp_path / "episodes.nc"
+    assert main(["impacts", str(rpath), "--out", str(out)]) == 0
+    assert "contact episodes of a compliant run" in capsys.readouterr().out
+    with xr.open_dataset(out) as table, xr.open_dataset(rpath) as run:
+        assert table.sizes["impact"] > 0
+        F = run["F_N"].values
+        assert float(table["F_max"].max()) == pytest.approx(float(F.max()), rel=1e-6)
+        for row in range(table.sizes["impact"]):  # each peak is the run's force there
+            k = int(table["contact"][row])
+            i = int(np.searchsorted(run["time"].values, float(table["time"][row])))
+            assert F[i, k] == pytest.approx(float(table["F_max"][row]), rel=1e-6)
+    for command in ("top-forces", "filter", "dt-check", "figures"):
+        extra = {"filter": ["--out", str(tmp_path / "f.nc")],
+                 "figures": ["--outdir", str(tmp_path / "figs")]}.get(command, [])
+        assert main([command, str(rpath), *extra]) == 2, command
+        err = capsys.readouterr().err
+        assert "compliant run" in err and f"allowed for {command}" in err, err
+    assert not (tmp_path / "f.nc").exists() and not (tmp_path / "figs").exists()
+
+
 def test_paper_style_line_says_why_an_impulse_has_no_force(run, lone):
     """The paper's way lists the largest impulses of one contact whatever their force: one
     without a Flores force names its flags instead of printing nan."""
