@@ -81,6 +81,12 @@ def test_zoom_of_a_run_file_without_its_state_names_the_variables(tmp_path):
                     tmp_path)
 
 
+def test_study_figures_of_a_file_that_is_not_a_summary(tmp_path, run_file):
+    _assert_refused(analysis_main, ["study-figures", str(run_file), "--outdir",
+                                    str(tmp_path / "figs")], ["SUMMARY", "not a study's summary"],
+                    tmp_path)
+
+
 def test_an_output_name_too_long_for_the_file_system(tmp_path):
     out = str(tmp_path / ("a" * 300 + ".nc"))
     line = _assert_refused(simcore_main, ["run", "--out", out], ["--out", "303 bytes"], tmp_path)
