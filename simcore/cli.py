@@ -92,7 +92,8 @@ def bearings_lines() -> list[str]:
                 classes.append(f"{cls} {1e6 * model_clearance(entry['d'], cls):.2f}")
             except ValueError:  # a class the table lacks for this bore
                 continue
-        lines.append("  clearance g [um]: " + ", ".join(classes))
+        lines.append("  clearance g [um] (half the ISO radial internal clearance): "
+                     + ", ".join(classes))
     return lines
 
 
@@ -175,8 +176,10 @@ def bearing_line(ds) -> str:
     """The bearing of a run, its guard contacts and its integrity checks, in one line."""
     a = ds.attrs
     clearance_class = a.get("model.clearance_class")
-    line = (f"bearing: {a.get('model.bearing', '?')}, clearance {a['model.clearance']:.4g} m"
-            + (f" (class {clearance_class})" if clearance_class else ""))
+    g = a["model.clearance"]
+    line = (f"bearing: {a.get('model.bearing', '?')}, clearance g {g:.4g} m (ISO radial "
+            f"internal clearance 2g = {2e6 * g:.4g} um"
+            + (f", class {clearance_class})" if clearance_class else ")"))
     if a.get("model.contact_geometry") == "groove":
         line += (f", balls in grooves (conformities {a['model.inner_conformity']:g} inner, "
                  f"{a['model.outer_conformity']:g} outer)")
