@@ -236,9 +236,9 @@ def _study_figures(args) -> int:
         fixed[axis] = value  # a number or a category's name (analysis.figures.figure_layout)
     with xr.open_dataset(args.summary) as ds:
         summary = ds.load()
-    if not ("study_axes" in summary.attrs and "model" in summary.dims and "peak_force" in summary):
-        print(f"error: SUMMARY: {args.summary} is not a study's summary (it has no study_axes, "
-              "model dimension and peak_force); allowed: the summary.nc a study writes",
+    if not ("model" in summary.dims and "peak_force" in summary):
+        print(f"error: SUMMARY: {args.summary} is not a study's summary (it has no model "
+              "dimension and peak_force); allowed: the summary.nc a study writes",
               file=sys.stderr)
         return 2
     for p in plot_study(summary, outdir, figure_axes=args.axes, figure_fixed=fixed):
