@@ -384,18 +384,32 @@ def refuse_sweep(cfg) -> None:
             "snakemake -j2 --configfile FILE")
 
 
-def _one_line_warning(message, category, filename, lineno, file=None, line=None):
-    return f"warning: {message}\n"
+class _WarnOnce:
+    """``warnings.showwarning`` of the command line: each warning as one line ``warning: ...``
+    on standard error, once (a setting checked again by the run warns again, from the same
+    line, once the filters were reset by a ``catch_warnings`` block in between)."""
+
+    def __init__(self):
+        self.shown = set()
+
+    def __call__(self, message, category, filename, lineno, file=None, line=None):
+        text = f"warning: {message}\n"
+        if text not in self.shown:
+            self.shown.add(text)
+            (file or sys.stderr).write(text)
 
 
 def main(argv=None) -> int:
     """The command line (module docstring); returns the exit code. Python's cyclic garbage
     collector is paused while it runs (a command loads much and frees little: start-up patch
     ``gc_freeze``, :func:`simcore.startup.patches.collector_paused`) and runs again
-    afterwards."""
+    afterwards; warnings are printed as one line each, once (:class:`_WarnOnce`)."""
+    import warnings
+
     from .startup.patches import collector_paused
 
-    with collector_paused():
+    with collector_paused(), warnings.catch_warnings():
+        warnings.showwarning = _WarnOnce()
         return _main(argv)
 
 
@@ -411,7 +425,6 @@ def _main(argv=None) -> int:
     from .config import ConfigError, load_config
     from .config.limits import check_memory_of_config, check_run_of_config
 
-    warnings.formatwarning = _one_line_warning
     try:
         cfg = load_config(args.config, args.overrides)
         refuse_sweep(cfg)

@@ -53,3 +53,17 @@ def test_the_bearings_command_lists_every_entry_with_its_balls_and_classes(capsy
             assert grooves in shown.split(f"{name}:", 1)[1].split("\n")[1]
     block_6012 = shown.split("6012:", 1)[1].split("6212:", 1)[0]
     assert f"C3 {(23 + 43) / 4:.2f}" in block_6012 and "% of its 0.412 kg" in block_6012
+
+
+def test_a_warning_is_one_line_once(tmp_path):
+    """The configuration is checked when it is read and again by the run: its warning (a
+    catalogue bearing's ball count overridden) is printed once, as one line."""
+    code, lines = call(main, ["run", "--set", "model.bearing=6205", "--set", "model.n_balls=5",
+                              "--set", "solver.t_end=0.001", "--quiet",
+                              "--out", str(tmp_path / "r.nc")])
+    from simcore.model.bearing import catalogue
+
+    assert code == 0
+    assert lines == [f"warning: model.n_balls = 5 is given and overrides the "
+                     f"{catalogue()['6205']['Z']} of bearing '6205' (catalogue); leave it out to "
+                     "take the catalogue's"], lines
