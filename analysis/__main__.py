@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 
 import numpy as np
@@ -241,7 +242,12 @@ def _study_figures(args) -> int:
               "dimension and peak_force); allowed: the summary.nc a study writes",
               file=sys.stderr)
         return 2
-    for p in plot_study(summary, outdir, figure_axes=args.axes, figure_fixed=fixed):
+    try:
+        figures = plot_study(summary, outdir, figure_axes=args.axes, figure_fixed=fixed)
+    except ValueError as exc:  # named by the study's keys, which these options set
+        message = str(exc).replace("study.figure_axes:", "--axes:")
+        raise ValueError(re.sub(r"study\.figure_fixed\.(\S+):", r"--fixed \1:", message)) from None
+    for p in figures:
         print(p)
     table = summary_table(summary)
     table.to_csv(outdir / "summary_table.csv", index=False)

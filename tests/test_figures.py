@@ -305,8 +305,9 @@ def test_study_figures_command_takes_the_layout(tmp_path, capsys):
     assert "study_peak_force_outer_nonsmooth.png" in printed
     assert main(["study-figures", str(path), "--axes", "speed"]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("error: study.figure_axes: 'speed' is not allowed") and "\n" not in err
+    assert err.startswith("error: --axes: 'speed' is not allowed") and "\n" not in err
     assert main(["study-figures", str(path), "--fixed", "mu=x"]) == 2
+    assert capsys.readouterr().err.startswith("error: --fixed mu: 'x' is not allowed")
 
 
 def test_a_category_axis_is_labelled_by_its_names(tmp_path):
