@@ -87,7 +87,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="x, y (and panel columns, rows) of the heat maps (default: the first "
                         "swept axes)")
     p.add_argument("--fixed", nargs="+", default=(), metavar="AXIS=VALUE",
-                   help="hold other swept axes at a grid value (default: the middle value)")
+                   help="hold other swept axes at a grid value (default: the study's reference "
+                        "point, as the study's figures; the middle value for a summary that "
+                        "does not name one)")
     return ap
 
 
@@ -223,7 +225,7 @@ def _study_figures(args) -> int:
 
     import xarray as xr
 
-    from .figures import plot_study
+    from .figures import plot_study, stored_reference
     from .summary import summary_table
 
     outdir = Path(args.outdir or Path(args.summary).parent / "figures")
@@ -243,7 +245,8 @@ def _study_figures(args) -> int:
               file=sys.stderr)
         return 2
     try:
-        figures = plot_study(summary, outdir, figure_axes=args.axes, figure_fixed=fixed)
+        figures = plot_study(summary, outdir, figure_axes=args.axes, figure_fixed=fixed,
+                             reference=stored_reference(summary))
     except ValueError as exc:  # named by the study's keys, which these options set
         message = str(exc).replace("study.figure_axes:", "--axes:")
         raise ValueError(re.sub(r"study\.figure_fixed\.(\S+):", r"--fixed \1:", message)) from None

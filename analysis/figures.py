@@ -659,6 +659,27 @@ def _axis_value(summary_ds, axis, value) -> float:
     return float(values[hit[0]])
 
 
+#: The summary's attribute that names the study's reference point (the grid point nearest its
+#: ``model`` section, where heat maps hold an axis they do not draw): ``"clearance=0.0004
+#: mu=0.01 ..."``, each value as the coordinate stores it (a category by its code).
+REFERENCE_ATTRIBUTE = "study_reference"
+
+
+def reference_attribute(reference: dict) -> str:
+    """The text of :data:`REFERENCE_ATTRIBUTE` for ``{coordinate name: stored value}``."""
+    return " ".join(f"{name}={float(value)!r}" for name, value in reference.items())
+
+
+def stored_reference(summary_ds: xr.Dataset) -> dict | None:
+    """``{coordinate name: value}`` of the study's reference point a summary states
+    (:data:`REFERENCE_ATTRIBUTE`), or None (a summary made without a study)."""
+    text = summary_ds.attrs.get(REFERENCE_ATTRIBUTE)
+    if not text:
+        return None
+    return {name: float(value) for name, _, value in
+            (item.partition("=") for item in str(text).split())}
+
+
 def figure_layout(summary_ds: xr.Dataset, figure_axes=None, figure_fixed=None,
                   reference=None) -> FigureLayout:
     """The layout of the study figures (``study.figure_axes``, ``study.figure_fixed``).

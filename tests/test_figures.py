@@ -310,6 +310,43 @@ def test_study_figures_command_takes_the_layout(tmp_path, capsys):
     assert capsys.readouterr().err.startswith("error: --fixed mu: 'x' is not allowed")
 
 
+def test_study_figures_command_holds_an_axis_at_the_study_reference(tmp_path, monkeypatch):
+    """A redraw from the summary file holds an undrawn axis where the study's own figures held
+    it: the reference point the summary states, not the middle value."""
+    import analysis.figures
+    from analysis.__main__ import main
+    from analysis.figures import (
+        REFERENCE_ATTRIBUTE,
+        figure_layout,
+        reference_attribute,
+        stored_reference,
+    )
+    from simcore.io import write_netcdf
+
+    ds = _summary((3, 3, 1, 1))[["peak_force", "failed"]]
+    reference = {"clearance": 1e-4, "mu": 0.05, "omega0": 25.0, "e_N": 0.7}
+    ds.attrs[REFERENCE_ATTRIBUTE] = reference_attribute(reference)
+    path = write_netcdf(ds, tmp_path / "s.nc")
+    with xr.open_dataset(path) as back:
+        assert stored_reference(back) == reference  # through the file, exactly
+    layouts = []
+    real = analysis.figures.plot_study
+
+    def spy(summary, outdir, *args, **kwargs):
+        layouts.append(figure_layout(summary, kwargs.get("figure_axes"),
+                                     kwargs.get("figure_fixed"), kwargs.get("reference")))
+        return real(summary, outdir, *args, **kwargs)
+
+    monkeypatch.setattr(analysis.figures, "plot_study", spy)
+    assert main(["study-figures", str(path), "--axes", "clearance", "omega0"]) == 0
+    assert layouts[-1].fixed == {"mu": 0.05}  # the reference's, not the middle 0.01
+    del ds.attrs[REFERENCE_ATTRIBUTE]
+    assert stored_reference(ds) is None
+    assert main(["study-figures", str(write_netcdf(ds, tmp_path / "t.nc")), "--axes",
+                 "clearance", "omega0"]) == 0
+    assert layouts[-1].fixed == {"mu": 0.01}  # no reference stated: the middle value
+
+
 def test_a_category_axis_is_labelled_by_its_names(tmp_path):
     from analysis.figures import _fmt_axis
 

@@ -21,6 +21,7 @@ rule summarize:
         own_settings=SWEPT_ANALYSIS,
         fixed_model=FIXED_MODEL,
         revolutions=config["study"]["revolutions"],
+        reference=REFERENCE_COORDS,
     threads: 2
     resources:
         runtime=30,

@@ -17,6 +17,7 @@ sm = snakemake  # noqa: F821  (injected by Snakemake)
 with job_log(sm.log[0]):
     remove_stale(sm.output)
     import simcore
+    from analysis.figures import REFERENCE_ATTRIBUTE, reference_attribute
     from analysis.summary import summarize
 
     imported = time.time()
@@ -28,6 +29,7 @@ with job_log(sm.log[0]):
                         settings=settings, models=list(sm.params.runs),
                         axes=list(sm.params.axes), own_settings=list(sm.params.own_settings))
     summary.attrs["study_axes"] = " ".join(sm.params.axes)
+    summary.attrs[REFERENCE_ATTRIBUTE] = reference_attribute(dict(sm.params.reference))
     from simcore.io import setting_attribute
 
     for key, value in sm.params.fixed_model.items():  # what every grid point shares
