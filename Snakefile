@@ -15,7 +15,12 @@ from snakemake.utils import min_version
 min_version("8.0")
 
 
-configfile: "config/config.yaml"
+# the study's base settings, which a --configfile is merged over (workflow/rules/common.smk
+# stops a study whose working folder lacks it)
+BASE_CONFIG = "config/config.yaml"
+
+
+configfile: BASE_CONFIG
 
 
 include: "workflow/rules/common.smk"

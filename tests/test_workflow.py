@@ -128,6 +128,23 @@ def test_bad_config_stops_before_any_job(results, override, key):
     assert "rule simulate" not in message
 
 
+def test_a_study_outside_the_repository_without_its_base_settings_stops(tmp_path):
+    """Run from a folder that lacks config/config.yaml, with only a smaller --configfile (which
+    Snakemake then reads alone), the study stops naming the base settings instead of running
+    at the schema's defaults."""
+    (tmp_path / "config").mkdir()
+    shutil.copy(ROOT / "config" / "smoke.yaml", tmp_path / "config" / "smoke.yaml")
+    proc = subprocess.run([sys.executable, "-m", "snakemake", "--nolock", "-j1", "-s",
+                           str(ROOT / "Snakefile"), "--configfile", "config/smoke.yaml"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    message = proc.stdout + proc.stderr
+    assert proc.returncode == 2, message
+    lines = [x for x in message.splitlines() if "invalid configuration" in x]
+    assert len(lines) == 1 and lines[0].startswith(
+        "invalid configuration: config/config.yaml: not found in"), message
+    assert not (tmp_path / "results").exists() and not (tmp_path / "logs").exists()
+
+
 def test_a_sweep_of_ten_thousand_points_stops_before_any_job_until_max_runs_allows_it(results):
     study = f"'results_dir': '{results}'"
     proc = snakemake("-j2", "--configfile", "benchmarks/study10000.yaml", "--config",

@@ -85,6 +85,17 @@ def _study_config():
         _stop(exc)
 
 
+def _check_base_config():
+    """Stop a study whose working folder lacks the base settings: Snakemake skips a missing
+    ``configfile:`` without a word when a --configfile is given, and the study would run at
+    the schema's defaults instead of the study's (another drive, modulus and window)."""
+    if not Path(BASE_CONFIG).is_file():
+        _stop(f"{BASE_CONFIG}: not found in {Path.cwd()} (the study's base settings, which "
+              "--configfile files are merged over); allowed: run snakemake in the "
+              "repository's folder, or --directory to it")
+
+
+_check_base_config()
 _full = _checked_config(_study_config())
 config.clear()
 config.update(_full)
