@@ -199,6 +199,11 @@ def _zoom_main(args) -> int:
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2
+    try:
+        check_sweep({}, args.overrides)
+    except ConfigError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     import xarray as xr
 
     try:
@@ -363,25 +368,32 @@ def check_outdir(outdir: str, option: str = "--outdir") -> str | None:
     return _writable_folder(existing, option)
 
 
-def refuse_sweep(cfg) -> None:
-    """Refuse a configuration with a sweep in ``python -m simcore run``, which makes one run at
-    the ``model``, ``solver`` and ``analysis`` settings: a sweep read by nothing would give one
-    run where a study was meant (and a one-value sweep a run at another value than the
-    study's).
+def check_sweep(cfg, overrides) -> None:
+    """The sweep of a configuration in ``python -m simcore run``, which makes one run at the
+    ``model``, ``solver`` and ``analysis`` settings: one given with ``--set`` is refused (a
+    sweep was meant); one in a ``--config`` file (a study's file, run once) is warned of,
+    naming the values the run takes instead.
 
     Raises
     ------
     simcore.ConfigError
-        One line naming the sweep's keys and what is allowed.
+        For a sweep given with ``--set``: one line naming it and what is allowed.
     """
-    from .config import ConfigError
+    import warnings
 
-    swept = list(cfg.get("sweep") or {})
+    from .config import ConfigError
+    from .config.parameters import parameter
+
+    given = [item.split("=", 1)[0] for item in overrides if item.startswith("sweep")]
+    if given:
+        raise ConfigError(f"{given[0]}: a sweep is not allowed in one run; allowed: the run's "
+                          "own values (--set model.KEY=VALUE); a study runs a sweep: snakemake "
+                          "-j2 --configfile FILE")
+    swept = [parameter(key) for key in cfg.get("sweep") or {}]
     if swept:
-        raise ConfigError(
-            f"sweep: a sweep ({', '.join(swept)}) is not allowed in one run; allowed: no "
-            "sweep (set the run's values with --set model.KEY=VALUE); a study runs a sweep: "
-            "snakemake -j2 --configfile FILE")
+        values = ", ".join(f"{p.key} = {cfg[p.section][p.setting]}" for p in swept)
+        warnings.warn(f"sweep: not read by one run (a study's: snakemake -j2 --configfile "
+                      f"FILE); this run takes {values}", UserWarning, stacklevel=2)
 
 
 class _WarnOnce:
@@ -427,7 +439,7 @@ def _main(argv=None) -> int:
 
     try:
         cfg = load_config(args.config, args.overrides)
-        refuse_sweep(cfg)
+        check_sweep(cfg, args.overrides)
         check_memory_of_config(cfg)  # before any model or array is built
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)

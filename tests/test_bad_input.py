@@ -60,15 +60,22 @@ def test_a_mapping_with_keys_of_mixed_types_names_the_key(tmp_path):
                                    str(tmp_path / "r.nc")], ["model.1", "unknown key"], tmp_path)
 
 
-def test_a_sweep_in_one_run_is_refused(tmp_path):
-    """``simcore run`` makes one run: a sweep, from --set or from a study's file, would be
-    read by nothing."""
+def test_a_sweep_in_one_run_is_refused_or_named(tmp_path, run_file):
+    """``simcore run`` makes one run: a sweep given with --set is refused (by the zoom too); a
+    study's file run once warns that its sweep is not read, naming the values the run takes."""
     out = str(tmp_path / "r.nc")
     _assert_refused(simcore_main, ["run", "--set", "sweep.model.cage_stiffness=[1.0e+4, 1.0e+5]",
-                                   "--out", out], ["sweep", "model.cage_stiffness", "snakemake"],
+                                   "--out", out], ["sweep.model.cage_stiffness", "snakemake"],
                     tmp_path)
-    _assert_refused(simcore_main, ["run", "--config", "config/smoke.yaml", "--out", out],
-                    ["sweep", "clearance, mu, omega0, e_N", "--set model.KEY=VALUE"], tmp_path)
+    _assert_refused(simcore_main, ["zoom", str(run_file), "--time", "1e-3", "--set",
+                                   "sweep.mu=[0.0, 0.1]", "--out", out], ["sweep.mu"], tmp_path)
+    code, lines = call(simcore_main, ["run", "--config", "config/smoke.yaml", "--set",
+                                      "solver.t_end=0.001", "--quiet", "--out", out])
+    cfg = simcore.load_config("config/smoke.yaml")
+    assert code == 0 and len(lines) == 1, lines
+    assert lines[0].startswith("warning: sweep: not read by one run"), lines
+    assert lines[0].endswith(", ".join(f"model.{key} = {cfg['model'][key]}"
+                                       for key in ("clearance", "mu", "omega0", "e_N"))), lines
 
 
 def test_zoom_of_a_run_file_without_its_state_names_the_variables(tmp_path):
