@@ -225,7 +225,7 @@ def _study_figures(args) -> int:
 
     import xarray as xr
 
-    from .figures import plot_study, stored_reference
+    from .figures import figure_layout, plot_study, stored_reference
     from .summary import summary_table
 
     outdir = Path(args.outdir or Path(args.summary).parent / "figures")
@@ -244,12 +244,15 @@ def _study_figures(args) -> int:
               "dimension and peak_force); allowed: the summary.nc a study writes",
               file=sys.stderr)
         return 2
-    try:
-        figures = plot_study(summary, outdir, figure_axes=args.axes, figure_fixed=fixed,
-                             reference=stored_reference(summary))
+    reference = stored_reference(summary)
+    try:  # the layout first: a bad one leaves no folder behind
+        figure_layout(summary, args.axes, fixed, reference)
     except ValueError as exc:  # named by the study's keys, which these options set
-        message = str(exc).replace("study.figure_axes:", "--axes:")
-        raise ValueError(re.sub(r"study\.figure_fixed\.(\S+):", r"--fixed \1:", message)) from None
+        message = re.sub(r"study\.figure_fixed\.(\S+?):", r"--fixed \1:", str(exc))
+        raise ValueError(message.replace("study.figure_fixed", "--fixed")
+                         .replace("study.figure_axes", "--axes")) from None
+    figures = plot_study(summary, outdir, figure_axes=args.axes, figure_fixed=fixed,
+                         reference=reference)
     for p in figures:
         print(p)
     table = summary_table(summary)

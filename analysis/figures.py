@@ -715,6 +715,9 @@ def figure_layout(summary_ds: xr.Dataset, figure_axes=None, figure_fixed=None,
     held = {a: float(summary_ds[a].values[0]) for a in grid if a not in swept}
     fixed_in = dict(figure_fixed or {})
     axes = check_figure_settings({a: summary_ds.sizes[a] for a in grid}, figure_axes, fixed_in)
+    for a in held:
+        if a in fixed_in:  # an axis of one value: held there anyway, but only at a grid value
+            _axis_value(summary_ds, a, fixed_in[a])
     if not figure_axes:
         axes = [a for a in swept if a not in fixed_in][:4]
     fixed = {}

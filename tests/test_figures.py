@@ -308,6 +308,17 @@ def test_study_figures_command_takes_the_layout(tmp_path, capsys):
     assert err.startswith("error: --axes: 'speed' is not allowed") and "\n" not in err
     assert main(["study-figures", str(path), "--fixed", "mu=x"]) == 2
     assert capsys.readouterr().err.startswith("error: --fixed mu: 'x' is not allowed")
+    (tmp_path / "other").mkdir()  # a summary whose figures folder no call made yet
+    other = write_netcdf(_summary((2, 2, 2, 1))[["peak_force", "failed"]],
+                         tmp_path / "other" / "s.nc")
+    assert main(["study-figures", str(other), "--fixed", "speed=1"]) == 2
+    assert capsys.readouterr().err.startswith("error: --fixed speed: 'speed' is not allowed")
+    assert main(["study-figures", str(other), "--fixed", "e_N=0.5"]) == 2  # one value, 0.7
+    assert capsys.readouterr().err.startswith("error: --fixed e_N: '0.5' is not allowed")
+    assert main(["study-figures", str(other), "--axes", "mu", "--fixed", "mu=0.01"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --axes: ['mu'] is not allowed") and "in --fixed" in err, err
+    assert not (tmp_path / "other" / "figures").exists()  # refused before the folder is made
 
 
 def test_study_figures_command_holds_an_axis_at_the_study_reference(tmp_path, monkeypatch):

@@ -476,10 +476,12 @@ def check_figure_settings(sizes: Mapping[str, int], figure_axes=None, figure_fix
     """
     fixed = dict(figure_fixed or {})
     named = list(figure_axes or [])
-    for name in named + list(fixed):
-        if name not in sizes:
-            raise ConfigError(f"study.figure_axes: {name!r} is not allowed; allowed: the "
-                              f"swept axes {', '.join(sizes)}")
+    for setting, names in (("study.figure_axes", named),
+                           *((f"study.figure_fixed.{name}", [name]) for name in fixed)):
+        for name in names:
+            if name not in sizes:
+                raise ConfigError(f"{setting}: {name!r} is not allowed; allowed: the swept "
+                                  f"axes {', '.join(sizes)}")
     if not named:
         return []
     if len(set(named)) != len(named) or not 1 <= len(named) <= 4 or set(named) & set(fixed):
