@@ -309,6 +309,11 @@ def main(argv=None) -> int:
             return _study_figures(args)
         with xr.open_dataset(args.run) as ds:
             run_ds = ds.load()
+        if int(run_ds.attrs.get("failed", 0)):
+            print(f"error: RUN: {args.run} is the marker of a failed run (its error: "
+                  f"{run_ds.attrs.get('error', 'not given')}); allowed: a file that holds a run",
+                  file=sys.stderr)
+            return 2
         if _is_compliant(run_ds):
             return _compliant_run(args, run_ds)
         if args.cmd == "impacts":

@@ -94,6 +94,33 @@ def test_study_figures_of_a_file_that_is_not_a_summary(tmp_path, run_file):
                     tmp_path)
 
 
+def test_zoom_of_a_compliant_twin_points_to_the_nonsmooth_run(tmp_path):
+    from simcore.study.plan import TWIN_DROPS
+
+    run = tmp_path / "twin.nc"
+    ds = simcore.run(simcore.load_config(overrides=[
+        "model.contact_model=compliant", "model.youngs_modulus=2.1e11", "solver.adaptive=true",
+        "solver.dt=1e-5", "solver.t_end=0.002"]))
+    simcore.write_netcdf(ds.drop_vars(list(TWIN_DROPS)), run)  # what a study keeps of a twin
+    _assert_refused(simcore_main, ["zoom", str(run), "--time", "1e-3", "--out",
+                                   str(tmp_path / "z.nc")],
+                    ["lacks velocity, angular_velocity", "compliant twin",
+                     "the grid point's nonsmooth run"], tmp_path)
+
+
+def test_the_analysis_of_a_failed_run_marker_names_it(tmp_path):
+    from simcore.io import failed_run_dataset
+
+    marker = tmp_path / "failed.nc"
+    simcore.write_netcdf(failed_run_dataset(simcore.load_config(), "SolverError: step 12"),
+                         marker)
+    for argv in (["impacts", str(marker), "--out", str(tmp_path / "i.nc")],
+                 ["figures", str(marker), "--outdir", str(tmp_path / "figs")],
+                 ["top-forces", str(marker)]):
+        _assert_refused(analysis_main, argv, ["RUN", "marker of a failed run",
+                                              "SolverError: step 12"], tmp_path)
+
+
 def test_an_output_name_too_long_for_the_file_system(tmp_path):
     out = str(tmp_path / ("a" * 300 + ".nc"))
     line = _assert_refused(simcore_main, ["run", "--out", out], ["--out", "303 bytes"], tmp_path)

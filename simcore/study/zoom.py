@@ -31,8 +31,11 @@ def check_run_dataset(run_ds) -> None:
                for part in parts if part not in run_ds]
     if missing:
         needed = ", ".join(part for parts in GENERALIZED_PARTS.values() for part in parts)
+        twin = (" a study's compliant twin keeps no velocities;"
+                if run_ds.attrs.get("model.contact_model") == "compliant" else "")
         raise ConfigError(f"run: the run file lacks {', '.join(missing)} (its state, to restart "
-                          f"from); allowed: a run file whose study.keep holds {needed}")
+                          f"from;{twin} allowed: a run file whose study.keep holds {needed}"
+                          + (", such as the grid point's nonsmooth run)" if twin else ")"))
 
 
 def config_of_run(run_ds) -> dict:
