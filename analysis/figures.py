@@ -235,13 +235,12 @@ def _plot_slider(run_ds, path):
     if any(n not in run_ds for n in needed):
         warnings.warn("run has no slider_x/crank_angle: slider figure skipped", stacklevel=3)
         return None
-    try:
-        L1 = float(run_ds.attrs["model.crank_length"])
-        L2 = float(run_ds.attrs["model.rod_length"])
-    except KeyError:
+    L1, L2 = (run_setting(run_ds, key, None) for key in ("crank_length", "rod_length"))
+    if L1 is None or L2 is None:
         warnings.warn("run lacks model.crank_length/rod_length: slider figure skipped",
                       stacklevel=3)
         return None
+    L1, L2 = float(L1), float(L2)
     t = np.asarray(run_ds["time"].values, dtype=float)
     th = np.asarray(run_ds["crank_angle"].values, dtype=float)
     x = np.asarray(run_ds["slider_x"].values, dtype=float)
@@ -400,7 +399,7 @@ def _ball_angles(run_ds, cols):
         run_ds = generalized(run_ds)
     q = np.asarray(run_ds["q"].transpose("time", "body", "dof").values, dtype=float)
     t = np.asarray(run_ds["time"].values, dtype=float)
-    L1 = float(run_ds.attrs["model.crank_length"])
+    L1 = float(run_setting(run_ds, "crank_length"))
     theta = np.asarray(run_ds["crank_angle"].values, dtype=float)
     idx = np.clip(np.searchsorted(t, cols["time"]), 0, t.size - 1)
     balls = cols["ball"].astype(int)
@@ -420,7 +419,7 @@ def _ball_angles(run_ds, cols):
 
 def _plot_ball_load(run_ds, cols, path, settle):
     angles = _ball_angles(run_ds, cols)
-    n_balls = int(run_ds.attrs.get("model.n_balls", np.nanmax(cols["ball"]) + 1))
+    n_balls = int(run_setting(run_ds, "n_balls", np.nanmax(cols["ball"]) + 1))
     fig, axes = plt.subplots(1, 2, figsize=(13, 8.2), subplot_kw={"projection": "polar"},
                              layout="constrained")
     cmap = plt.get_cmap("tab10")

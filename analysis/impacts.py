@@ -121,7 +121,7 @@ def run_grooves(run_ds: xr.Dataset) -> tuple[float, float] | None:
     (attribute ``model.contact_geometry`` = ``groove``, conformities from
     ``model.inner_conformity`` and ``model.outer_conformity``); None for the in-plane
     contacts (``plane``, or a file that does not say)."""
-    if str(run_ds.attrs.get("model.contact_geometry", "plane")) != "groove":
+    if str(run_setting(run_ds, "contact_geometry", "plane")) != "groove":
         return None
     return (_model_value(run_ds, "inner_conformity"), _model_value(run_ds, "outer_conformity"))
 
