@@ -262,6 +262,9 @@ def _study_figures(args) -> int:
     return 0
 
 
+#: The options of the impulse filter and the Flores forces, which a compliant run's episodes
+#: do not use.
+FILTER_OPTIONS = ("zero_tol", "zero_floor", "v_min", "contact_long_ratio")
 #: The commands of the paper's method, which reads a nonsmooth run's impulses.
 NONSMOOTH_COMMANDS = ("filter", "top-forces", "dt-check", "figures")
 
@@ -276,6 +279,14 @@ def _compliant_run(args, run_ds) -> int:
     """A compliant run (or zoom): ``impacts`` writes its contact episodes, as a study's table of
     a compliant twin holds them; the paper's method is refused (its contact forces are the
     run's own ``F_N``, not impulses to filter)."""
+    defaults = vars(build_parser().parse_args(["impacts", "RUN", "--out", "OUT"]))
+    for name in FILTER_OPTIONS:
+        if args.cmd == "impacts" and getattr(args, name) != defaults[name]:
+            option = "--" + name.replace("_", "-")
+            print(f"error: {option}: not used on a compliant run ({args.run}: its episodes are "
+                  f"its own forces, with no filter or Flores force); allowed: leave {option} "
+                  "out", file=sys.stderr)
+            return 2
     if args.cmd in NONSMOOTH_COMMANDS:
         print(f"error: RUN: {args.run} is a compliant run (model.contact_model = compliant), "
               f"whose contact forces F_N are in the file; allowed for {args.cmd}: a nonsmooth "

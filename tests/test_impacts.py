@@ -420,6 +420,9 @@ def test_cli_of_a_compliant_run(tmp_path, capsys):
             k = int(table["contact"][row])
             i = int(np.searchsorted(run["time"].values, float(table["time"][row])))
             assert F[i, k] == pytest.approx(float(table["F_max"][row]), rel=1e-6)
+    assert main(["impacts", str(rpath), "--out", str(tmp_path / "x.nc"), "--zero-tol",
+                 "1e-3"]) == 2
+    assert capsys.readouterr().err.startswith("error: --zero-tol: not used on a compliant run")
     for command in ("top-forces", "filter", "dt-check", "figures"):
         extra = {"filter": ["--out", str(tmp_path / "f.nc")],
                  "figures": ["--outdir", str(tmp_path / "figs")]}.get(command, [])
