@@ -679,6 +679,15 @@ def stored_reference(summary_ds: xr.Dataset) -> dict | None:
             (item.partition("=") for item in str(text).split())}
 
 
+def _held_value(summary_ds: xr.Dataset, axis: str, reference=None) -> float:
+    """Where a figure holds a swept ``axis`` it does not draw: the grid value nearest the
+    study's reference point (``reference``, {axis: value}), else the middle value."""
+    values = np.asarray(summary_ds[axis].values, dtype=float)
+    if reference and axis in reference:
+        return float(values[np.argmin(np.abs(values - float(reference[axis])))])
+    return float(values[(values.size - 1) // 2])
+
+
 def figure_layout(summary_ds: xr.Dataset, figure_axes=None, figure_fixed=None,
                   reference=None) -> FigureLayout:
     """The layout of the study figures (``study.figure_axes``, ``study.figure_fixed``).
@@ -726,11 +735,7 @@ def figure_layout(summary_ds: xr.Dataset, figure_axes=None, figure_fixed=None,
         if a in fixed_in:
             fixed[a] = _axis_value(summary_ds, a, fixed_in[a])
         else:
-            values = np.asarray(summary_ds[a].values, dtype=float)
-            if reference and a in reference:
-                fixed[a] = float(values[np.argmin(np.abs(values - float(reference[a])))])
-            else:
-                fixed[a] = float(values[(values.size - 1) // 2])
+            fixed[a] = _held_value(summary_ds, a, reference)
     axes += [None] * (4 - len(axes))
     return FigureLayout(x=axes[0], y=axes[1], col=axes[2], row=axes[3], fixed=fixed,
                         held=held)
@@ -1181,7 +1186,8 @@ def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
                                             and "clearance" in summary_ds.coords)
     if index == 0 and model in (None, "compliant") and "L10h" in summary_ds \
             and by_clearance and bool(summary_ds["L10h"].notnull().any()):
-        paths.append(plot_life(summary_ds, outdir / "life_clearance_speed.png", layout))
+        paths.append(plot_life(summary_ds, outdir / "life_clearance_speed.png", layout,
+                               reference=reference))
     for q in quantities[index::parts]:
         paths += _quantity_figures(summary_ds, q, layout, swept, outdir)
     return paths
@@ -1264,7 +1270,7 @@ def _class_bands(ax, bore):
 
 
 def plot_life(summary_ds: xr.Dataset, path, layout: FigureLayout | None = None,
-              bore: float | None = None) -> Path:
+              bore: float | None = None, reference=None) -> Path:
     """Rating lives against clearance, one line per crank speed (the compliant twins' L10h and
     L10rh), with the ISO 5753-1 clearance classes of the bearing's bore marked.
 
@@ -1282,18 +1288,21 @@ def plot_life(summary_ds: xr.Dataset, path, layout: FigureLayout | None = None,
         Bore of the bearing [mm] for the class bands (default: that of the catalogue entry
         drawn, a swept bearing held where the layout holds it, else the one the summary's
         attribute ``model_bearing`` names, else :data:`DEFAULT_BORE`).
+    reference : dict, optional
+        {axis: value} of the study's reference point: an axis the layout does not hold (one
+        the heat maps draw) is held at its grid value nearest this one, else at its middle
+        value.
 
     Returns
     -------
     Path
     """
-    layout = layout or figure_layout(summary_ds)
+    layout = layout or figure_layout(summary_ds, reference=reference)
     keep = {"clearance", "clearance_class", "omega0"}  # (a class: its clearance along it)
-    at = {}  # every other axis held: where the layout holds it, else at its middle value
+    at = {}  # every other axis held: where the layout holds it, else at the reference point
     for d in grid_axes(summary_ds):
         if d not in keep:
-            values = np.asarray(summary_ds[d].values, dtype=float)
-            at[d] = {**layout.held, **layout.fixed}.get(d, float(values[(values.size - 1) // 2]))
+            at[d] = {**layout.held, **layout.fixed}.get(d, _held_value(summary_ds, d, reference))
     bore = float(bore or _bore(summary_ds, at))
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True, layout="constrained")
     for ax, name, what in ((axes[0], "L10h", "ISO 281 L10 (transmitted load)"),

@@ -273,6 +273,36 @@ def test_a_class_sweep_gets_the_life_figure_over_its_clearances(tmp_path):
                for p in plot_study(ds.drop_vars("clearance"), tmp_path / "b", part=(0, 8)))
 
 
+def test_the_life_figure_holds_the_axes_it_does_not_draw_at_the_reference_point(tmp_path):
+    """Over clearance and speed, the life figure holds the friction (an axis the heat maps
+    draw) where the study's reference point is (mu 0.01, the second of two values), not at the
+    middle index (the first): its lines are the summary's lives there."""
+    from unittest import mock
+
+    import matplotlib.axes
+
+    ds = _summary((3, 2, 2, 1))
+    assert not np.allclose(ds["L10h"].sel(mu=0.0), ds["L10h"].sel(mu=0.01))
+    drawn = []
+    real = matplotlib.axes.Axes.plot
+
+    def spy(self, x, *args, **kwargs):
+        if args[1:2] == ("o-",):  # the lives
+            drawn.append(np.asarray(args[0], dtype=float))
+        return real(self, x, *args, **kwargs)
+
+    reference = {"clearance": 4e-4, "mu": 0.01, "omega0": 50.0, "e_N": 0.7}
+    with mock.patch.object(matplotlib.axes.Axes, "plot", spy):
+        paths = plot_study(ds, tmp_path, part=(0, 8), reference=reference)
+    assert paths[0].name == "life_clearance_speed.png"
+    at = ds.sel(mu=0.01, e_N=0.7)
+    expected = [at[name].sel(omega0=w).values for name in ("L10h", "L10rh")
+                for w in ds["omega0"].values]
+    assert len(drawn) == len(expected)
+    for got, want in zip(drawn, expected, strict=True):
+        np.testing.assert_array_equal(got, want)
+
+
 def _life_lines(ds, tmp_path):
     """The x data [µm] of every line of lives in the life figure of ``ds``."""
     from unittest import mock
