@@ -660,23 +660,33 @@ def _axis_value(summary_ds, axis, value) -> float:
 
 #: The summary's attribute that names the study's reference point (the grid point nearest its
 #: ``model`` section, where heat maps hold an axis they do not draw): ``"clearance=0.0004
-#: mu=0.01 ..."``, each value as the coordinate stores it (a category by its code).
+#: mu=0.01 ... bearing=6205"``, a category by its name.
 REFERENCE_ATTRIBUTE = "study_reference"
 
 
-def reference_attribute(reference: dict) -> str:
-    """The text of :data:`REFERENCE_ATTRIBUTE` for ``{coordinate name: stored value}``."""
-    return " ".join(f"{name}={float(value)!r}" for name, value in reference.items())
+def reference_attribute(reference: dict, summary_ds: xr.Dataset) -> str:
+    """The text of :data:`REFERENCE_ATTRIBUTE` for ``{coordinate name: stored value}`` (a
+    category's code, named by the summary's ``flag_meanings``)."""
+    items = []
+    for name, value in reference.items():
+        category = _category(summary_ds, name, value) if name in summary_ds.coords else None
+        items.append(f"{name}={category if category is not None else repr(float(value))}")
+    return " ".join(items)
 
 
 def stored_reference(summary_ds: xr.Dataset) -> dict | None:
-    """``{coordinate name: value}`` of the study's reference point a summary states
-    (:data:`REFERENCE_ATTRIBUTE`), or None (a summary made without a study)."""
+    """``{coordinate name: value}`` (a category by its code) of the study's reference point a
+    summary states (:data:`REFERENCE_ATTRIBUTE`), or None (a summary made without a study)."""
     text = summary_ds.attrs.get(REFERENCE_ATTRIBUTE)
     if not text:
         return None
-    return {name: float(value) for name, _, value in
-            (item.partition("=") for item in str(text).split())}
+    reference = {}
+    for name, _, value in (item.partition("=") for item in str(text).split()):
+        if _category(summary_ds, name, 0) is not None:  # a category, by its name ("6012")
+            reference[name] = _axis_value(summary_ds, name, value)
+        else:
+            reference[name] = float(value)
+    return reference
 
 
 def _held_value(summary_ds: xr.Dataset, axis: str, reference=None) -> float:

@@ -366,10 +366,20 @@ def test_study_figures_command_holds_an_axis_at_the_study_reference(tmp_path, mo
 
     ds = _summary((3, 3, 1, 1))[["peak_force", "failed"]]
     reference = {"clearance": 1e-4, "mu": 0.05, "omega0": 25.0, "e_N": 0.7}
-    ds.attrs[REFERENCE_ATTRIBUTE] = reference_attribute(reference)
+    ds.attrs[REFERENCE_ATTRIBUTE] = reference_attribute(reference, ds)
     path = write_netcdf(ds, tmp_path / "s.nc")
     with xr.open_dataset(path) as back:
         assert stored_reference(back) == reference  # through the file, exactly
+    # a category by its name, read back as its code
+    swept = ds.expand_dims(bearing=2).copy(deep=True).assign_coords(bearing=(
+        "bearing", np.array([2, 4], "i1"), {"flag_values": np.arange(6, dtype="i1"),
+                                            "flag_meanings": "6012-paper 6203 6205 6010 6012 "
+                                                             "6212"}))
+    text = reference_attribute(reference | {"bearing": 4}, swept)
+    assert text.endswith(" bearing=6012"), text
+    swept.attrs[REFERENCE_ATTRIBUTE] = text
+    with xr.open_dataset(write_netcdf(swept, tmp_path / "b.nc")) as back:
+        assert stored_reference(back) == reference | {"bearing": 4.0}
     layouts = []
     real = analysis.figures.plot_study
 

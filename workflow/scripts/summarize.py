@@ -29,7 +29,7 @@ with job_log(sm.log[0]):
                         settings=settings, models=list(sm.params.runs),
                         axes=list(sm.params.axes), own_settings=list(sm.params.own_settings))
     summary.attrs["study_axes"] = " ".join(sm.params.axes)
-    summary.attrs[REFERENCE_ATTRIBUTE] = reference_attribute(dict(sm.params.reference))
+    summary.attrs[REFERENCE_ATTRIBUTE] = reference_attribute(dict(sm.params.reference), summary)
     from simcore.io import setting_attribute
 
     for key, value in sm.params.fixed_model.items():  # what every grid point shares
