@@ -42,6 +42,16 @@ _PARAM = {
 }
 
 
+def _default_bearing() -> str:
+    from simcore.config import load_schema
+
+    return str(load_schema()["properties"]["model"]["properties"]["bearing"]["default"])
+
+
+#: The bearing a run title does not name: the default, the paper's as modelled.
+PAPER_BEARING = _default_bearing()
+
+
 def _param_value(ds, name):
     value = run_setting(ds, name, None)
     return None if value is None else float(value)
@@ -63,7 +73,8 @@ def _fmt_param(name, value):
 
 
 def run_label(ds) -> str:
-    """Human-readable parameters of a run, e.g. ``g = 400 µm, μ = 0.01, ω0 = 50 rad/s, e_N = 0.9``.
+    """Human-readable parameters of a run, e.g. ``g = 400 µm, μ = 0.01, ω0 = 50 rad/s, e_N = 0.9``
+    (a catalogue bearing other than the paper's named first: ``6205 in C3, g = 10.25 µm, ...``).
 
     Parameters
     ----------
@@ -75,6 +86,10 @@ def run_label(ds) -> str:
     str
     """
     parts = [_fmt_param(name, v) for name, v in _run_parameters(ds)]
+    bearing = run_setting(ds, "bearing", None)
+    if bearing is not None and str(bearing) != PAPER_BEARING:  # a catalogue bearing: name it
+        clearance_class = run_setting(ds, "clearance_class", None)
+        parts.insert(0, str(bearing) + (f" in {clearance_class}" if clearance_class else ""))
     return ", ".join(parts) if parts else "run"
 
 

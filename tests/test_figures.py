@@ -39,6 +39,9 @@ def test_plot_run_without_journal_or_impacts(run, tmp_path):
 
 def test_run_label(run):
     assert run_label(run) == "g = 400 µm, μ = 0.01, ω0 = 50 rad/s, e_N = 0.9"
+    catalogue = run.assign_attrs({"model.bearing": "6205", "model.clearance_class": "C3",
+                                  "model.clearance": 1.025e-5})
+    assert run_label(catalogue) == "6205 in C3, g = 10.25 µm, μ = 0.01, ω0 = 50 rad/s, e_N = 0.9"
 
 
 def _summary(shape, fill=None, failed_at=None, extra_axes=None):
