@@ -1202,12 +1202,13 @@ def _provenance(summary: xr.Dataset, settle: float, method_tol: float, settings:
 
 # --- the study in one table -----------------------------------------------------------------
 
-def _where(da: xr.DataArray) -> str:
-    """``clearance=0.0004, mu=0.05, ...`` of the largest finite value of ``da``."""
+def _where(da: xr.DataArray, smallest: bool = False) -> str:
+    """``clearance=0.0004, mu=0.05, ...`` of the largest (``smallest``: the smallest) finite
+    value of ``da``."""
     values = np.asarray(da.values, dtype=float)
     if not np.isfinite(values).any():
         return ""
-    idx = np.unravel_index(np.nanargmax(values), values.shape)
+    idx = np.unravel_index((np.nanargmin if smallest else np.nanargmax)(values), values.shape)
     return ", ".join(f"{d}={_axis_value(da[d], i)}" for d, i in zip(da.dims, idx, strict=True))
 
 
@@ -1261,6 +1262,13 @@ def _table_rows(summary: xr.Dataset, models: list[int]) -> list:
     if "impacts_per_rev" in summary and NONSMOOTH in models:
         rows.append(("impacts per revolution (nonsmooth, relative zero threshold)", "1",
                      summary["impacts_per_rev"].sum(["race", "kind"], min_count=1), 1.0))
+    for name, what, unit in (("L10h", "rating life L10 (ISO 281), compliant", "h"),
+                             ("L10rh", "reference rating life L10r (ball loads), compliant",
+                              "h"),
+                             ("static_safety_factor", "static safety factor s0 = C0 / P0 "
+                              "(ISO 76), compliant", "1")):
+        if name in summary and COMPLIANT in models:
+            rows.append((what, unit, of(name, COMPLIANT), 1.0))
     if "revolutions" in summary:
         rows.append(("steady revolutions per run", "1", of("revolutions", models[0]), 1.0))
     if "iter_max" in summary and NONSMOOTH in models:
@@ -1287,8 +1295,10 @@ def summary_table(summary: xr.Dataset, model: str | None = None):
     Returns
     -------
     pandas.DataFrame
-        Columns ``quantity``, ``unit``, ``min``, ``median``, ``max``, ``largest at`` (the grid
-        point of the largest value); failed runs are left out (their values are missing).
+        Columns ``quantity``, ``unit``, ``min``, ``median``, ``max``, ``largest at`` and
+        ``smallest at`` (the grid points of the largest and the smallest value: for a life or
+        a safety factor the smallest is the one to read); failed runs are left out (their
+        values are missing).
     """
     import pandas as pd
 
@@ -1304,19 +1314,19 @@ def summary_table(summary: xr.Dataset, model: str | None = None):
     grid = " x ".join(f"{summary.sizes[d]} {d}" for d in summary["failed"].dims if d != "model")
     rows = [{"quantity": f"runs, of which {n_failed} failed", "unit": "1", "min": "",
              "median": "", "max": str(int(summary["failed"].notnull().sum())),
-             "largest at": f"grid: {grid}"}]
+             "largest at": f"grid: {grid}", "smallest at": ""}]
     if "peak_force_flagged" in summary:
         flagged = summary["peak_force_flagged"]
         rows.append({"quantity": "nonsmooth peak forces flagged (flag or method check)",
                      "unit": "1", "min": "", "median": "",
                      "max": f"{int((flagged > 0).sum())} of {int(flagged.notnull().sum())}",
-                     "largest at": ""})
+                     "largest at": "", "smallest at": ""})
     for quantity, unit, da, scale in _table_rows(summary, models):
         values = np.asarray(da.values, dtype=float) * scale
         finite = values[np.isfinite(values)]
         if finite.size:
             rows.append({"quantity": quantity, "unit": unit, "min": f"{finite.min():.4g}",
                          "median": f"{np.median(finite):.4g}", "max": f"{finite.max():.4g}",
-                         "largest at": _where(da)})
+                         "largest at": _where(da), "smallest at": _where(da, smallest=True)})
     return pd.DataFrame(rows, columns=["quantity", "unit", "min", "median", "max",
-                                       "largest at"])
+                                       "largest at", "smallest at"])

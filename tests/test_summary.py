@@ -565,6 +565,29 @@ def test_summary_table_shows_both_models_and_their_ratio(study):
     assert not one["quantity"].str.contains("nonsmooth, |method ratio").any()
 
 
+def test_summary_table_gives_the_lives_and_where_the_shortest_is():
+    """Rating lives and the static safety factor of the compliant twins are rows of the table,
+    with the grid point of their smallest value (the one to read) beside the largest's."""
+    from analysis.summary import summary_table
+
+    grid = {"mu": [0.0, 0.01], "omega0": [50.0, 100.0, 200.0]}
+    rng = np.random.default_rng(3)
+    life = rng.uniform(100.0, 5000.0, (2, 3))
+    coords = {**grid, "model": np.array([0, 1], np.int8)}
+    s = xr.Dataset({"failed": (("mu", "omega0", "model"), np.zeros((2, 3, 2))),
+                    "L10h": (("mu", "omega0"), life), "L10rh": (("mu", "omega0"), 0.7 * life),
+                    "static_safety_factor": (("mu", "omega0"), 3000.0 / life)}, coords=coords)
+    table = summary_table(s).set_index("quantity")
+    row = table.loc["rating life L10 (ISO 281), compliant"]
+    i, j = np.unravel_index(np.argmin(life), life.shape)
+    assert float(row["min"]) == pytest.approx(life.min(), rel=1e-3)
+    assert row["smallest at"] == f"mu={grid['mu'][i]:g}, omega0={grid['omega0'][j]:g}"
+    s0 = table.loc["static safety factor s0 = C0 / P0 (ISO 76), compliant"]
+    assert s0["largest at"] == row["smallest at"]  # s0 falls as the life rises here
+    assert "reference rating life L10r (ball loads), compliant" in table.index
+    assert not summary_table(s, model="nonsmooth")["quantity"].str.contains("life").any()
+
+
 @pytest.mark.parametrize("turned, expected", [(2.4, 2), (2.6, 3), (3.0, 3), (0.3, 1), (0.0, 0)])
 def test_revolutions_of_the_window_and_the_short_tail(turned, expected):
     """A last piece shorter than half a revolution joins the revolution before it; a window
