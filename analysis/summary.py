@@ -207,7 +207,11 @@ _VARIABLES = {
         (), "compliant", "N",
         "dynamic equivalent load P of L10: cubic mean of the transmitted radial load, weighted "
         "by revolutions"),
-    "load_rating": ((), "compliant", "N", "basic dynamic load rating C of L10"),
+    "load_rating": (
+        (), "compliant", "N",
+        "basic dynamic load rating C of L10: analysis.life_load_rating where given, else the "
+        "catalogue's (model.bearing), else Lundberg-Palmgren's from the model's balls and "
+        "grooves (the paper's bearing)"),
     "static_load_rating": (
         (), "compliant", "N",
         "basic static load rating C0 (ISO 76): the catalogue's, else the radial load under "
