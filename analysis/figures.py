@@ -21,6 +21,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from simcore.config import schema_default  # noqa: E402
 from simcore.model.driver import CONTACT_MODELS  # noqa: E402
 
 from .filtering import impact_masks, split_impulses, zero_threshold  # noqa: E402
@@ -42,14 +43,8 @@ _PARAM = {
 }
 
 
-def _default_bearing() -> str:
-    from simcore.config import load_schema
-
-    return str(load_schema()["properties"]["model"]["properties"]["bearing"]["default"])
-
-
 #: The bearing a run title does not name: the default, the paper's as modelled.
-PAPER_BEARING = _default_bearing()
+PAPER_BEARING = str(schema_default("model", "bearing"))
 
 
 def _param_value(ds, name):

@@ -45,13 +45,11 @@ __all__ = ["compliant_life", "ring_geometry", "conformities", "LIFE_NAMES",
            "DEFAULT_CONFORMITY"]
 
 
-
 def _schema_conformities() -> tuple[float, float]:
-    from simcore.config import load_schema
+    from simcore.config import schema_default
 
-    model = load_schema()["properties"]["model"]["properties"]
-    return (float(model["inner_conformity"]["default"]),
-            float(model["outer_conformity"]["default"]))
+    return (float(schema_default("model", "inner_conformity")),
+            float(schema_default("model", "outer_conformity")))
 
 
 #: Groove radius over ball diameter, inner and outer race, of a file that does not record them:

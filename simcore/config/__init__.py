@@ -173,6 +173,12 @@ def load_schema() -> dict:
     return schema
 
 
+def schema_default(section: str, key: str):
+    """The default of the setting ``section.key`` as the schema gives it (e.g.
+    ``schema_default("model", "bearing")``)."""
+    return load_schema()["properties"][section]["properties"][key]["default"]
+
+
 def _allowed(schema: Mapping[str, Any]) -> str:
     """Describe in words what a schema node allows (for one-line error messages)."""
     if "enum" in schema:
