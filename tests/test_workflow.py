@@ -81,6 +81,15 @@ def test_a_setting_null_by_default_can_be_swept():
     assert "study: 8 grid points x 2 models" in proc.stdout + proc.stderr
 
 
+def test_a_boolean_can_be_set_and_swept_from_the_command_line():
+    """Snakemake passes --config values as text: true and false are booleans, as in a file."""
+    proc = snakemake("-n", "--forceall", "--configfile", "config/smoke.yaml", "--config",
+                     "sweep={'analysis.zoom_adaptive': [true, false]}",
+                     "model={'guard_contacts': True}")
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    assert "study: 8 grid points x 2 models" in proc.stdout + proc.stderr
+
+
 def test_batches_are_sized_by_work_whatever_the_axes():
     """The same 8 runs along other axes: one job per run when each run exceeds
     study.batch_seconds, one job for all (at least four) when they fit in it."""

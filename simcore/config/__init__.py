@@ -583,7 +583,8 @@ _FLOAT_TEXT = re.compile(r"^[-+]?(?:\d[\d_]*\.?[\d_]*|\.\d[\d_]*)(?:[eE][-+]?\d+
 
 
 def _strings_to_numbers(node):
-    """Number-looking strings as numbers, "null" as None (Snakemake's --config values)."""
+    """Number-looking strings as numbers, "null" as None, "true"/"false" as booleans
+    (Snakemake's --config values)."""
     if isinstance(node, Mapping):
         return {key: _strings_to_numbers(value) for key, value in node.items()}
     if isinstance(node, (list, tuple)):
@@ -596,4 +597,6 @@ def _strings_to_numbers(node):
             return float(text.replace("_", ""))
         if text in ("null", "Null", "NULL", "~"):
             return None
+        if text in ("true", "True", "TRUE", "false", "False", "FALSE"):  # YAML's booleans
+            return text.lower() == "true"
     return node
