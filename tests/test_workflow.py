@@ -154,6 +154,22 @@ def test_a_study_outside_the_repository_without_its_base_settings_stops(tmp_path
     assert not (tmp_path / "results").exists() and not (tmp_path / "logs").exists()
 
 
+@pytest.mark.parametrize("folder", ["", "/", "//", "{file}", "{file}/results"])
+def test_a_results_folder_that_cannot_hold_results_is_refused(folder, tmp_path):
+    """The root (where an empty results_dir would put the study) or a file is refused, naming
+    study.results_dir (a dry run: nothing would be written even if the check were missing)."""
+    existing = tmp_path / "a_file"
+    existing.write_text("not a folder")
+    folder = folder.format(file=existing)
+    proc = snakemake("-n", "-j1", "--configfile", "config/smoke.yaml", "--config",
+                     f"study={{'results_dir': '{folder}'}}")
+    message = proc.stdout + proc.stderr
+    assert proc.returncode == 2, message
+    lines = [x for x in message.splitlines() if "invalid configuration" in x]
+    assert len(lines) == 1 and "study.results_dir" in lines[0], message
+    assert "Traceback" not in message
+
+
 def test_a_sweep_of_ten_thousand_points_stops_before_any_job_until_max_runs_allows_it(results):
     study = f"'results_dir': '{results}'"
     proc = snakemake("-j2", "--configfile", "benchmarks/study10000.yaml", "--config",

@@ -201,6 +201,8 @@ def _allowed(schema: Mapping[str, Any]) -> str:
         parts.append(("> " if left[0] == "(" else ">= ") + left[1:])
     elif right:
         parts.append(("< " if right[-1] == ")" else "<= ") + right[:-1])
+    if "pattern" in schema:  # the schema's words for what the pattern asks
+        parts.append(f"({schema.get('description', 'matching ' + schema['pattern'])})")
     return " ".join(parts) if parts else "see the schema"
 
 
