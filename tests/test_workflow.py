@@ -90,6 +90,17 @@ def test_a_boolean_can_be_set_and_swept_from_the_command_line():
     assert "study: 8 grid points x 2 models" in proc.stdout + proc.stderr
 
 
+def test_a_bearing_axis_is_held_by_its_name_from_the_command_line():
+    """--config passes 6205 as a number: held in study.figure_fixed it is the bearing's name,
+    as in a sweep's list; a name the axis lacks is still refused."""
+    proc = snakemake("-n", "--forceall", "--configfile", "config/smoke_bearings.yaml",
+                     "--config", "study={'figure_fixed': {'bearing': '6205'}}")
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    proc = snakemake("-n", "--forceall", "--configfile", "config/smoke_bearings.yaml",
+                     "--config", "study={'figure_fixed': {'bearing': '6206'}}")
+    assert proc.returncode == 2 and "study.figure_fixed.bearing" in proc.stdout + proc.stderr
+
+
 def test_batches_are_sized_by_work_whatever_the_axes():
     """The same 8 runs along other axes: one job per run when each run exceeds
     study.batch_seconds, one job for all (at least four) when they fit in it."""

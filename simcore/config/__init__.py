@@ -351,23 +351,30 @@ def _coerce_scalars(cfg: dict, schema: Mapping[str, Any]) -> None:
             elif sub.get("type") == "string":
                 values[key] = str(value)
     _coerce_swept_names(cfg.get("sweep"), schema)
+    study = cfg.get("study")
+    if isinstance(study, dict):  # a held value of a category axis too: figure_fixed.bearing
+        _coerce_swept_names(study.get("figure_fixed"), schema, lists=False)
 
 
-def _coerce_swept_names(sweep, schema: Mapping[str, Any]) -> None:
+def _coerce_swept_names(sweep, schema: Mapping[str, Any], lists: bool = True) -> None:
     """A whole number as its text in the list of a swept key that takes a name
-    (``sweep: {bearing: [6012, 6205]}``), as :func:`_coerce_scalars` does for the key itself."""
+    (``sweep: {bearing: [6012, 6205]}``), as :func:`_coerce_scalars` does for the key itself
+    (``lists`` False: in the value of each key, ``study.figure_fixed: {bearing: 6205}``)."""
     from .parameters import canonical
 
     if not isinstance(sweep, dict):
         return
+
+    def text(v):
+        return str(v) if isinstance(v, int) and not isinstance(v, bool) else v
+
     for written, values in sweep.items():
         key = canonical(str(written))
-        if key is None or not isinstance(values, list):
+        if key is None or (lists and not isinstance(values, list)):
             continue
         section, name = key.split(".", 1)
         if schema["properties"][section]["properties"][name].get("type") == "string":
-            sweep[written] = [str(v) if isinstance(v, int) and not isinstance(v, bool) else v
-                              for v in values]
+            sweep[written] = [text(v) for v in values] if lists else text(values)
 
 
 def _check_magnitudes(cfg: Mapping[str, Any]) -> None:
