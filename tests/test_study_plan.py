@@ -292,6 +292,20 @@ def test_every_run_is_checked_before_any_job():
     assert "cage_stiffness=1000000000.0" in str(err.value) and "solver.dt" in str(err.value)
 
 
+def test_a_swept_key_the_twins_set_themselves_is_named():
+    """Swept solver.rho_inf: the twins take analysis.twin_rho_inf whatever its value, so their
+    points along that axis are one run; the plan says so, and not where they follow it."""
+    sweep = {"solver.rho_inf": [0.0, 0.5]}
+    runs = plan.plan_runs(_study(sweep=sweep))
+    twins = [r for r in runs if r.model == "compliant"]
+    assert {r.config["solver"]["rho_inf"] for r in twins} == {0.5}  # one run, twice
+    messages = [m for m in plan.check_runs(runs) if m.startswith("sweep.solver.rho_inf")]
+    assert len(messages) == 1 and "analysis.twin_rho_inf: null" in messages[0], messages
+    follow = plan.plan_runs(_study("analysis.twin_rho_inf=null", sweep=sweep))
+    assert {r.config["solver"]["rho_inf"] for r in follow if r.model == "compliant"} == {0.0, 0.5}
+    assert not [m for m in plan.check_runs(follow) if m.startswith("sweep.")]
+
+
 # --- skipping what is done ------------------------------------------------------------------
 
 def test_a_run_is_finished_only_when_both_files_carry_its_fingerprint(tmp_path):

@@ -451,10 +451,29 @@ def check_runs(runs: list[Run]) -> list[str]:
                 found = check_run_of_config(run.config)
         except ConfigError as exc:
             raise ConfigError(f"run {label(run.point)} ({run.model}): {exc}") from None
-        for text in list(found) + [str(item.message) for item in caught]:
+        for text in list(found) + [str(item.message) for item in caught] + _unswept(run):
             if text not in messages:
                 messages.append(text)
     return messages
+
+
+def _unswept(run: Run) -> list[str]:
+    """A swept key a run does not take (a compliant twin sets its own ``solver.rho_inf``,
+    ``solver.adaptive``, ...): along that axis its points are one run, labelled apart."""
+    texts = []
+    for key, value in run.point.items():
+        section, name = key.split(".", 1)
+        actual = run.config[section].get(name)
+        same = (math.isclose(float(value), float(actual), rel_tol=1e-9)
+                if isinstance(value, (int, float)) and isinstance(actual, (int, float))
+                else value == actual)
+        if not same:
+            hint = (" (analysis.twin_rho_inf: null makes them follow it)"
+                    if key == "solver.rho_inf" else "")
+            texts.append(f"sweep.{key}: the {run.model} runs set {key} = {actual} themselves, "
+                         f"whatever the swept value; along this axis they are one run, "
+                         f"labelled apart{hint}")
+    return texts
 
 
 def check_figure_settings(sizes: Mapping[str, int], figure_axes=None, figure_fixed=None
