@@ -1213,10 +1213,17 @@ def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
     return paths
 
 
+def _number(value) -> str:
+    """A number as ``:g`` formats it; a name (a swept setting's axis) as it is."""
+    return value if isinstance(value, str) else f"{value:g}"
+
+
 def _quantity_figures(summary_ds, q: StudyQuantity, layout: FigureLayout, swept, outdir):
     """``study_<stem>.png`` of one quantity over the layout, and ``pairs_<stem>.png`` with three
     or more swept axes."""
     settle = summary_ds.attrs.get("settle_revolutions", summary_ds.attrs.get("analysis_settle"))
+    if settle is None and "analysis_settle" in summary_ds.coords:  # swept: an axis of the grid
+        settle = "analysis_settle"
     held = ", ".join(_fmt_axis(summary_ds, d, v) for d, v in {**layout.held,
                                                               **layout.fixed}.items())
     held = f"; {held}" if held else ""
@@ -1229,9 +1236,9 @@ def _quantity_figures(summary_ds, q: StudyQuantity, layout: FigureLayout, swept,
     if settle is None:
         note = held[2:]
     elif q.stem.startswith("startup"):
-        note = f"start-up: the first {settle:g} crank revolution(s) of each run{held}"
+        note = f"start-up: the first {_number(settle)} crank revolution(s) of each run{held}"
     else:
-        note = f"steady window: after the first {settle:g} crank revolution(s){held}"
+        note = f"steady window: after the first {_number(settle)} crank revolution(s){held}"
     title = f"{q.label}: every grid point" + (f"\n({note})" if note else "")
     path = outdir / f"study_{q.stem}.png"
     if not layout.y and not layout.col:
@@ -1242,7 +1249,7 @@ def _quantity_figures(summary_ds, q: StudyQuantity, layout: FigureLayout, swept,
                                failed.transpose(*layout.axes) if failed is not None else None,
                                title)]
     if len(swept) >= 3:
-        note = f"\n(steady window: after the first {settle:g} crank revolution(s))" \
+        note = f"\n(steady window: after the first {_number(settle)} crank revolution(s))" \
             if settle is not None and not q.stem.startswith("startup") else ""
         paths.append(_pairs_figure(
             StudyQuantity(q.stem, full.transpose(*swept), q.label, q.how, q.kind), swept,

@@ -1176,11 +1176,14 @@ def summarize(run_files, impact_files, scheduler=None, num_workers: int | None =
     summary = _across_models(summary, method_tol)
     grid = [d for d in summary.dims if d not in _ORDER]
     summary = _describe(summary.transpose(*grid, *[d for d in _ORDER if d in summary.dims]))
-    _provenance(summary, settings["settle"], settings["method_tol"], settings_in or {})
+    _provenance(summary, settings["settle"], settings["method_tol"], settings_in or {}, own)
     return summary
 
 
-def _provenance(summary: xr.Dataset, settle: float, method_tol: float, settings: dict) -> None:
+def _provenance(summary: xr.Dataset, settle: float, method_tol: float, settings: dict,
+                own=()) -> None:
+    """The summary's global attributes: what made it, and the analysis settings every grid
+    point shares (a swept one, in ``own``, is an axis, not an attribute)."""
     from simcore import __version__
 
     runs = summary["failed"].notnull()
@@ -1194,13 +1197,15 @@ def _provenance(summary: xr.Dataset, settle: float, method_tol: float, settings:
                 "(analysis.summary.summarize)",
         n_runs=n_runs,
         n_failed=int((summary["failed"] > 0).sum()),
-        settle_revolutions=settle,
-        method_tol=method_tol,
     )
+    shared = {"settle_revolutions": ("settle", settle), "method_tol": ("method_tol", method_tol)}
+    for name, (key, value) in shared.items():
+        if key not in own:
+            summary.attrs[name] = value
     from simcore.io import setting_attribute
 
     for key, value in settings.items():
-        if value is not None:
+        if value is not None and key not in own:
             summary.attrs[f"analysis_{key}"] = setting_attribute(value)
 
 

@@ -641,6 +641,9 @@ def test_a_swept_analysis_key_is_read_from_each_run(tmp_path):
                                atol=dt)
     shared = summarize({"compliant": files}, {}, **common)
     assert (shared["peak_force"].sel(model=COMPLIANT, race=1) == 5000.0).all()
+    # the swept setting is an axis, not a global attribute that would state one value for all
+    assert "settle_revolutions" not in own.attrs and "analysis_settle" not in own.attrs
+    assert shared.attrs["settle_revolutions"] == 1.0 and shared.attrs["analysis_settle"] == 1.0
 
 
 def test_the_table_names_a_category_axis_by_its_name_not_its_code():
