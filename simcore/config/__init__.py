@@ -179,6 +179,19 @@ def schema_default(section: str, key: str):
     return load_schema()["properties"][section]["properties"][key]["default"]
 
 
+def _list_words(schema: Mapping[str, Any]) -> str:
+    """What a list node of the schema allows, in words ("a list of 1 to 4 distinct names")."""
+    lo, hi = schema.get("minItems"), schema.get("maxItems")
+    items = schema.get("items", {})
+    what = {"string": "names", "number": "numbers", "integer": "integers"}.get(
+        items.get("type"), "values")
+    distinct = "distinct " if schema.get("uniqueItems") else ""
+    of = (" from " + ", ".join(repr(v) for v in items["enum"])) if "enum" in items else ""
+    if lo is not None and hi is not None:
+        return f"a list of {lo} to {hi} {distinct}{what}{of}"
+    return f"a {'non-empty ' if lo else ''}list of {distinct}{what}{of}"
+
+
 def _allowed(schema: Mapping[str, Any]) -> str:
     """Describe in words what a schema node allows (for one-line error messages)."""
     if "enum" in schema:
@@ -187,8 +200,8 @@ def _allowed(schema: Mapping[str, Any]) -> str:
     kind = schema.get("type")
     if kind in ("number", "integer"):
         parts.append("an integer" if kind == "integer" else "a number")
-    elif kind == "array":
-        parts.append("a non-empty list")
+    elif kind == "array" or kind == ["array", "null"]:
+        parts.append(("null or " if kind != "array" else "") + _list_words(schema))
     elif kind is not None:
         parts.append(f"a {kind}" if isinstance(kind, str) else "one of types " + "/".join(kind))
     lo, xlo = schema.get("minimum"), schema.get("exclusiveMinimum")
