@@ -120,10 +120,6 @@ try:
     check_keep(config["study"]["keep"], config["study"]["models"])  # what later jobs read
 except simcore.ConfigError as exc:
     _stop(exc)
-if workflow.is_main_process:
-    print(f"study: {SIZE}", file=sys.stderr, flush=True)
-    for line in _WARNINGS:
-        print(f"WARNING: {line}", file=sys.stderr)
 PARAMS = registry()
 AXIS_NAMES = [PARAMS[key].name for key in AXES]  # coordinates and summary dimensions, in order
 # the model settings every grid point shares: the summary's attributes model_<key>
@@ -295,6 +291,11 @@ try:  # (the figures job checks them again on the summary)
                                FIGURE_AXES, FIGURE_FIXED)
 except simcore.ConfigError as exc:
     _stop(exc)
+# the study's size once every setting is checked (a bad one stops the study in one line)
+if workflow.is_main_process:
+    print(f"study: {SIZE}", file=sys.stderr, flush=True)
+    for line in _WARNINGS:
+        print(f"WARNING: {line}", file=sys.stderr)
 
 
 def failed_points(summary_path):
