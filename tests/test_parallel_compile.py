@@ -67,7 +67,7 @@ from simcore.startup import parallel_compile as pc
 s.start_helper = lambda: None
 s.warm_up(simcore.load_config())
 tasks = pc.compile_tasks()
-for name in ("loop", "contact_velocities", "initial_acceleration", "energy"):
+for name in ("loop", "contact_velocities", "initial_acceleration", "energy", "energy_scale"):
     kernel, args = tasks[name]
     print(name, tuple(typeof(a) for a in args) in kernel.signatures, len(kernel.signatures))
 """
@@ -81,7 +81,8 @@ def test_the_tasks_have_the_run_s_argument_types():
                          text=True).stdout.split("\n")
     assert [line.split() for line in out if line] == [
         [name, "True", "1"]
-        for name in ("loop", "contact_velocities", "initial_acceleration", "energy")]
+        for name in ("loop", "contact_velocities", "initial_acceleration", "energy",
+                     "energy_scale")]
     assert set(parallel_compile.compile_tasks()) == set(
         parallel_compile.HELPER_TASKS + parallel_compile.MAIN_TASKS + ("loop",))
 

@@ -15,10 +15,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+from independent_energy import (
+    independent_energy,
+    independent_energy_parts,
+    independent_energy_scale,
+)
 
 import simcore
+from simcore import kernels as nb
 from simcore.config import ConfigError, load_config
 from simcore.config.limits import OMEGA_DT_MAX, memory_estimate, spring_scales, values_per_step
+from simcore.io import generalized
 from simcore.model import SolverSettings
 from simcore.model.audit import ENERGY_FLOOR_J, EnergyAudit
 from simcore.model.mechanism import crank_slider
@@ -229,19 +236,24 @@ def test_audit_balances_drive_work_and_catches_a_gain():
     assert "step 25" in audit.message(24) and "solver.energy_tol" in audit.message(24)
 
 
-def _independent_energy(ds, cfg):
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        from fuzz_corners import independent_energy
-    finally:
-        sys.path.pop(0)
-    return independent_energy(ds, cfg)
+def test_audit_scale_is_the_larger_of_E_and_the_terms_given():
+    """E near 0 (the datum) with 1 J of kinetic energy: a gain of 1e-6 J is rounding against
+    the terms given (5e-3 J allowed), a gain against |E| alone (1e-9 J allowed)."""
+    h, n = 1e-4, 10
+    energy = np.full(n + 1, 1e-12)
+    energy[6:] += 1e-6
+    torque = np.zeros(n + 1)
+    audit = EnergyAudit(_Drive(0.0), h, n, energy_tol=5e-3)
+    assert audit.check(energy, torque, np.ones(n + 1, np.int8), 0, n, np.ones(n)) == -1
+    assert audit.tolerance[1:] == pytest.approx(5e-3 + ENERGY_FLOOR_J)
+    audit = EnergyAudit(_Drive(0.0), h, n, energy_tol=5e-3)
+    assert audit.check(energy, torque, np.ones(n + 1, np.int8), 0, n) == 5
 
 
 def test_stored_energy_is_kinetic_plus_potential_plus_springs():
     cfg = load_config(overrides=["solver.t_end=0.01", "model.drive=constant"])
     ds = simcore.run(cfg)
-    np.testing.assert_allclose(ds["energy"].values, _independent_energy(ds, cfg),
+    np.testing.assert_allclose(ds["energy"].values, independent_energy(ds, cfg),
                                rtol=1e-12, atol=1e-12)
     # the audit's error is the energy change minus the drive's work, step by step
     rate, h = cfg["model"]["omega0"], cfg["solver"]["dt"]
@@ -256,7 +268,7 @@ def test_dissipative_runs_never_gain_energy(drive):
                                  f"model.drive={drive}"])
     ds = simcore.run(cfg)  # on_nonconvergence = error: a gain would have stopped it
     assert int(ds["converged"][1:].min()) == 1
-    scale = np.maximum.accumulate(np.abs(ds["energy"].values))[:-1]
+    scale = independent_energy_scale(ds, cfg)
     assert np.all(ds["energy_error"].values[1:] <= cfg["solver"]["energy_tol"] * scale
                   + ENERGY_FLOOR_J)
     assert ds.attrs["energy_balance_J"] < 0  # over the run, energy was dissipated
@@ -310,6 +322,42 @@ def test_paper_case_has_no_gain(drive):
     ds = simcore.run(cfg)
     assert ds.attrs["n_energy_gain_steps"] == 0
     assert ds.attrs["energy_max_gain_relative"] < 1e-4
+
+
+def test_a_mechanism_released_from_rest_is_judged_against_its_kinetic_energy():
+    """The crank released from rest under gravity (free drive, omega0 0): gravity's potential
+    turns into kinetic energy and E stays at its start, near 0 by the choice of datum. The
+    audit's scale is then the kinetic and spring energy (recomputed here apart from the
+    kernels); against max |E| alone the floor of 1e-9 J would judge the rounding of the run's
+    kinetic energy, and some step would be refused."""
+    cfg = load_config(overrides=["model.drive=free", "model.omega0=0", "solver.t_end=0.02"])
+    ds = simcore.run(cfg)  # on_nonconvergence = error: a gain would have stopped it
+    energy = ds["energy"].values
+    scale = independent_energy_scale(ds, cfg)
+    # E stays near its start (0: the datum), what impacts dissipate; the kinetic energy grows
+    assert scale[-1] > 100 * np.abs(energy).max()
+    error = ds["energy_error"].values[1:]
+    tol = cfg["solver"]["energy_tol"]
+    assert np.all(error <= tol * scale + ENERGY_FLOOR_J)
+    datum_bound = tol * np.maximum.accumulate(np.abs(energy))[:-1] + ENERGY_FLOOR_J
+    assert np.any(error > datum_bound)  # |E| alone: a false gain
+    assert 0 < ds.attrs["energy_max_gain_relative"] < 1e-4
+
+
+def test_the_kernels_energy_scale_is_the_larger_of_E_and_E_without_gravity():
+    """:func:`simcore.kernels.energy_scale_terms_into` against the parts recomputed from the
+    stored state, on rows where either part is the larger."""
+    cfg = load_config(overrides=["model.drive=free", "model.omega0=0", "solver.t_end=0.01"])
+    ds = simcore.run(cfg)
+    model, _ = crank_slider(cfg["model"])
+    q = generalized(ds)["q"].values.reshape(ds.sizes["time"], -1)
+    terms = np.empty(q.shape[0])
+    energy = ds["energy"].values
+    nb.energy_scale_terms_into(energy, q, model.arrays(), 0, q.shape[0], terms)
+    expected = np.maximum(np.abs(energy), independent_energy_parts(ds, cfg)[0])
+    np.testing.assert_allclose(terms, expected, rtol=1e-9, atol=1e-12)
+    assert terms[0] == pytest.approx(abs(energy[0]))  # at rest: |E|, no kinetic energy
+    assert terms[-1] > 1e3 * abs(energy[-1])  # falling: the kinetic energy
 
 
 # --- disk full --------------------------------------------------------------------------------

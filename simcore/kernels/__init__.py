@@ -108,7 +108,13 @@ from .nonsmooth_step import (  # noqa: E402
     solve_velocity_problem,
     velocity_step,
 )
-from .springs import smooth_forces, spring_damping, spring_state, total_energy  # noqa: E402
+from .springs import (  # noqa: E402
+    energy_scale_terms_into,
+    smooth_forces,
+    spring_damping,
+    spring_state,
+    total_energy,
+)
 
 __all__ = [
     "CACHE_DIR", "CONTACT_INSIDE", "CONTACT_OUTSIDE", "CONTACT_PLANE", "JOINT_ANGLE",
@@ -127,7 +133,8 @@ __all__ = [
     "nonsmooth_work",
     "pair_point_jacobians", "point_pair_row", "position_step", "row_dot", "scatter_row",
     "smooth_forces", "spring_damping",
-    "smooth_step", "solve_velocity_problem", "spring_state", "total_energy", "transverse_form",
+    "smooth_step", "solve_velocity_problem", "spring_state", "total_energy",
+    "energy_scale_terms_into", "transverse_form",
     "unit_direction", "velocity_step", "contact_forces", "elastic_energy", "normal_force",
     "compliant_work", "integrate_compliant_chunk", "project_joints", "AdaptiveSettings",
     "AdaptiveState", "integrate_compliant_adaptive", "ACCEPTED", "BELOW_DT_MIN",

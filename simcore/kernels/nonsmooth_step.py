@@ -25,7 +25,7 @@ from .generalized_alpha import alpha_coefficients, smooth_step, smooth_work, ste
 from .jit import loop_kernel, stage
 from .linalg import copy_vector
 from .position_correction import PositionWork, position_step, position_work
-from .springs import total_energy
+from .springs import energy_scale_term, total_energy
 from .velocity_jump import (
     VelocityWork,
     _solve_velocity_problem,
@@ -49,9 +49,9 @@ RETRY_VELOCITY_ITERATIONS = 4
 #: Settings of the retries of :func:`integrate_chunk`: ``max_halvings`` (a failed step is
 #: taken again as 2, 4, ... 2^max_halvings substeps; 0: never), and the energy audit's
 #: criterion that makes a step fail (:class:`simcore.model.audit.EnergyAudit`): a step fails
-#: when (E[k+1] - E[k]) - drive_torque[k+1] drive_rate h > energy_tol max_{j <= k} |E[j]| +
-#: energy_floor, with ``energy_tol`` [-], ``energy_floor`` [J], ``drive_rate`` the prescribed
-#: crank speed [rad/s] (0 without one).
+#: when (E[k+1] - E[k]) - drive_torque[k+1] drive_rate h > energy_tol S_k + energy_floor, S_k
+#: the largest :func:`~.springs.energy_scale_term` of rows j <= k, with ``energy_tol`` [-],
+#: ``energy_floor`` [J], ``drive_rate`` the prescribed crank speed [rad/s] (0 without one).
 RetrySettings = namedtuple("RetrySettings", ["max_halvings", "energy_tol", "energy_floor",
                                              "drive_rate"])
 
@@ -59,7 +59,7 @@ RetrySettings = namedtuple("RetrySettings", ["max_halvings", "energy_tol", "ener
 #: :class:`~.bundles.StepState` of copies) and the position correction's multipliers ``nu_c``,
 #: ``nu_b``; per contact the largest normal impulse of the step's substeps so far
 #: (``lam_best``, which picks the substep whose ``vn_free`` is kept); and the energy audit's
-#: scale, the largest |E| of the run up to the current step (``energy_scale``, one entry,
+#: scale, S_k of :data:`RetrySettings` up to the current step (``energy_scale``, one entry,
 #: carried from chunk to chunk).
 RetryWork = namedtuple("RetryWork", ["start", "nu_c", "nu_b", "lam_best", "energy_scale"])
 
@@ -233,10 +233,11 @@ def _record_substep(k, j, n_sub, hs, its, st, state, out, contact, lam_best):
 
 
 @stage
-def _update_energy_scale(k, energy, scale):
-    """The energy audit's scale up to step k, ``scale[0]`` = max_{j <= k} |E[j]| (NaN once an
-    energy was NaN, as NumPy's maximum gives it)."""
-    e = abs(energy[k])
+def _update_energy_scale(k, energy, q, ma, scale):
+    """The energy audit's scale up to step k, ``scale[0]`` = max_{j <= k} of
+    :func:`~.springs.energy_scale_term` of row j (NaN once an energy was NaN, as NumPy's
+    maximum gives it)."""
+    e = energy_scale_term(energy[k], q[k], ma)
     if not (scale[0] >= e or scale[0] != scale[0]):
         scale[0] = e
 
@@ -301,7 +302,7 @@ def integrate_chunk(k0, k1, st, ma, state, out, work, rs):
                             st.eta, st.drive_row, st.t0, st.v_reg, st.v_pre_min)
     first_bad = -1
     for k in range(k0, k1):
-        _update_energy_scale(k, out.energy, rw.energy_scale)
+        _update_energy_scale(k, out.energy, out.q, ma, rw.energy_scale)
         if rs.max_halvings > 0:
             _save_step_start(state, rw, nu_c, nu_b)
         halvings = 0

@@ -511,7 +511,7 @@ class _Loop:
     def __init__(self, model, settings: SolverSettings, start: _Start, out: Trajectory,
                  t0: float, release: ReleaseStop | None):
         self.settings, self.out, self.t0 = settings, out, float(t0)
-        self.state, self.work = start.state, start.work
+        self.state, self.work, self.arrays = start.state, start.work, start.arrays
         self.first_bad = -1
         self.adaptive = None
         kset = _kernel_settings(settings, start.drive_row, t0)
@@ -602,7 +602,9 @@ class _Loop:
         """The energy audit and the convergence of the chunk's steps: the first failure of
         the run stops it or is flagged (``on_nonconvergence``)."""
         out, every = self.out, self.settings.output_every
-        gain = self.audit.check(out.energy, out.drive_torque, out.converged, row0, row1)
+        terms = np.empty(row1 - row0)
+        nb.energy_scale_terms_into(out.energy, out.q, self.arrays, row0, row1, terms)
+        gain = self.audit.check(out.energy, out.drive_torque, out.converged, row0, row1, terms)
         if self.adaptive is not None and bad >= 0:  # (the kernel returns a row)
             bad = bad * every - 1
         if gain >= 0 and self.first_bad < 0 and (bad < 0 or gain * every < bad):

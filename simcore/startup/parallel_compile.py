@@ -3,7 +3,8 @@
 With an empty cache, a run's first call compiles every kernel it needs, one after the other:
 the start's kernels (contact velocities, initial acceleration, energy), then the time loop,
 whose typing compiles its three stages (the smooth stage, the position correction, the velocity
-jump) before the loop itself, which links them all. Numba looks a kernel up in its on-disk cache
+jump) before the loop itself, which links them all, then the energy audit's scale (called
+between the loop's chunks). Numba looks a kernel up in its on-disk cache
 when it first needs it, so a second process can compile part of that list meanwhile and this
 process then loads it. :func:`start_helper` starts that process on :data:`HELPER_TASKS` (the
 position correction first, then the start's kernels); this process compiles
@@ -33,7 +34,7 @@ import time
 HELPER_TASKS = ("velocity_solver", "position", "initial_acceleration")
 #: what this process compiles meanwhile (the smooth stage first: the velocity jump then finds
 #: its contact solver in the cache)
-MAIN_TASKS = ("smooth", "velocity", "contact_velocities", "energy")
+MAIN_TASKS = ("smooth", "velocity", "contact_velocities", "energy", "energy_scale")
 #: the loop's callees that the helper compiles; this process waits for them, then compiles
 #: the loop
 LOOP_NEEDS = ("velocity_solver", "position")
@@ -79,6 +80,9 @@ def compile_tasks() -> dict:
                           np.zeros(rows), np.zeros(rows, np.int8))
     retry = nb.RetrySettings(4, 0.005, 1e-9, 0.0)  # the types of Model.simulate's
     tasks["loop"] = (nb.integrate_chunk, (0, 1, st, arr, state, out, work, retry))
+    # the energy audit's, between chunks
+    tasks["energy_scale"] = (nb.energy_scale_terms_into,
+                             (out.energy, out.q, arr, 0, 1, np.zeros(1)))
     return tasks
 
 
