@@ -86,7 +86,7 @@ from simcore.io.variables import STAGES
 from simcore.model.driver import CONTACT_MODELS
 
 from .impacts import largest_first, loaded_stretches
-from .reads import LIFE_READS, SUMMARY_READS, run_setting
+from .reads import LIFE_READS, SUMMARY_ONLY_SETTINGS, SUMMARY_READS, run_setting
 from .run_life import conformities
 
 __all__ = ["summarize", "summary_table", "steady_window", "SteadyWindow", "category_codes",
@@ -113,8 +113,7 @@ _TWO_PI = 2.0 * np.pi
 _STRUCTURAL = {"time", "contact", "ball", "race", "body", "axis", "dof", "stage", "impact",
                "kind", "level", "rank", "model"}
 #: The settings the numbers of a run depend on (stored with them, compared before reuse).
-_NUMBER_SETTINGS = ("settle", "force_levels", "r_eff", "groove_conformity", "life_conformity",
-                    "life_load_rating")
+_NUMBER_SETTINGS = ("settle", "r_eff", "groove_conformity") + SUMMARY_ONLY_SETTINGS
 
 # name: (dims besides the grid's, scope, units, long_name); scope: "model" (the variable has
 # the model dimension), or the one model it comes from ("nonsmooth", "compliant")

@@ -138,3 +138,46 @@ def test_summary_from_the_numbers_stored_in_the_tables_equals_the_one_from_the_f
     other = summarize(files["runs"][:2], files["stored"][:2], **dict(kw, settings=dict(
         settings, settle=0.0)))
     assert float(other["settle_time"].sel(clearance=4e-4, model=0).item()) == 0.0
+
+
+def test_settings_only_the_summary_reads_change_no_table_and_reach_the_summary(
+        run_ds, compliant_ds, tmp_path):
+    """analysis.SUMMARY_ONLY_SETTINGS (which a study's run fingerprint leaves out): other
+    values change no variable of an impact table, only its stored summary numbers; and a
+    summary made with the new values from tables stored with the old ones equals the summary
+    computed from the run files, so reusing the runs loses nothing."""
+    import xarray as xr
+
+    from analysis.reads import SUMMARY_ONLY_SETTINGS
+    from analysis.summary import summarize
+
+    old = dict(SETTINGS, zoom_top=0, settle=0.0, force_levels=[100.0, 1000.0],
+               life_conformity=None, life_load_rating=None)
+    new = dict(old, force_levels=[50.0, 500.0, 5000.0], life_conformity=[0.51, 0.54],
+               life_load_rating=20000.0)
+    assert {key for key in new if new[key] != old[key]} == set(SUMMARY_ONLY_SETTINGS)
+    keep = simcore.validate_config({})["study"]["keep"]
+    twin_keep = [name for name in keep if name not in plan.TWIN_DROPS]
+    runs, stored, plain_files = [], [], []
+    for label, ds, kept in (("a", run_ds, keep), ("c", compliant_ds, twin_keep)):
+        tables = {name: impact_table(ds, s, POINT) for name, s in (("old", old), ("new", new))}
+        plain = {name: t.copy() for name, t in tables.items()}
+        for t in plain.values():
+            t.attrs = {k: v for k, v in t.attrs.items() if not k.startswith("summary_")}
+        xr.testing.assert_identical(plain["old"], plain["new"])
+        assert tables["old"].attrs["summary_settings"] != tables["new"].attrs["summary_settings"]
+        runs.append(tmp_path / f"run{label}.nc")
+        stored.append(tmp_path / f"stored{label}.nc")
+        simcore.write_netcdf(ds, runs[-1], keep=kept)
+        simcore.write_netcdf(tables["old"], stored[-1])
+        plain_files.append(tmp_path / f"plain{label}.nc")
+        simcore.write_netcdf(plain["new"], plain_files[-1])
+    kw = {"scheduler": "synchronous", "settings": new}
+    reused = summarize({"nonsmooth": runs[:1], "compliant": runs[1:]},
+                       {"nonsmooth": stored[:1], "compliant": stored[1:]}, **kw)
+    from_files = summarize({"nonsmooth": runs[:1], "compliant": runs[1:]},
+                           {"nonsmooth": plain_files[:1], "compliant": plain_files[1:]}, **kw)
+    for ds in (reused, from_files):
+        ds.attrs.pop("history")
+    xr.testing.assert_identical(reused, from_files)
+    assert reused.sizes["level"] == 3 and float(reused["load_rating"].max()) == 20000.0

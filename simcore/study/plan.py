@@ -49,6 +49,9 @@ FOLDERS = {"nonsmooth": ("runs", "impacts"),
 #: approach speed; so its file (the same samples, plus ``F_N``) stays smaller than the
 #: nonsmooth run's. It keeps the positions: its rating life reads the balls' places.
 TWIN_DROPS = ("velocity", "angular_velocity", "vn_free")
+#: Analysis settings that make a twin's configuration (:func:`twin_config`) and that no run
+#: reads itself.
+TWIN_SETTINGS = ("twin_rho_inf", "twin_tol_clearance")
 #: A base axis that other keys determine (``{base axis: (key, what its value depends on)}``):
 #: where the key is swept, or set while what its value depends on is swept, the base axis is
 #: left out of the study's axes and each run's value comes from the key
@@ -655,14 +658,23 @@ def _is_bare_string(statement) -> bool:
             and isinstance(statement.value.value, str))
 
 
-def fingerprint(run: Run, keep, axes) -> str:
+def fingerprint(run: Run, keep, axes, unread=()) -> str:
     """A hash of everything that makes a run's files: its configuration, the point with its
     model, the study's axes, ``study.keep``, the package version and the code that makes
     them (:func:`code_digest`). A run whose files carry the same fingerprint (attribute
-    ``study_fingerprint``) is not made again."""
+    ``study_fingerprint``) is not made again.
+
+    Left out are the analysis settings neither file depends on: :data:`TWIN_SETTINGS` (a
+    twin's configuration holds what they set) and ``unread``, names of the analysis section
+    given by the caller (the workflow gives the settings that only the summary's numbers read,
+    :data:`analysis.reads.SUMMARY_ONLY_SETTINGS`), so that changing one of them does not make
+    the runs again."""
     from .. import __version__
 
-    text = json.dumps({"config": run.config, "point": run.coordinates(),
+    config = dict(run.config)
+    config["analysis"] = {key: value for key, value in run.config["analysis"].items()
+                          if key not in TWIN_SETTINGS and key not in unread}
+    text = json.dumps({"config": config, "point": run.coordinates(),
                        "axes": list(axes), "keep": list(keep), "version": __version__,
                        "code": code_digest()}, sort_keys=True, default=str)
     return hashlib.sha1(text.encode()).hexdigest()
