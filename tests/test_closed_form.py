@@ -133,3 +133,25 @@ def test_vn_free_is_the_velocity_before_the_jump():
     assert np.all(traj.vn_free[hits, 0] < 0.0) and np.all(traj.vn_post[hits, 0] > 0.0)
     # t = 0: no jump yet, the initial normal velocity
     assert traj.vn_free[0, 0] == traj.vn_pre[0, 0]
+
+
+@pytest.mark.parametrize("solver", [
+    ["model.contact_model=nonsmooth", "solver.t_end=0.005"],
+    ["model.contact_model=compliant", "model.youngs_modulus=2.1e11", "solver.dt=1e-6",
+     "solver.t_end=0.0005"],
+    ["model.contact_model=compliant", "model.youngs_modulus=2.1e11", "solver.adaptive=true",
+     "solver.dt=1e-5", "solver.t_end=0.003"]], ids=["nonsmooth", "compliant", "adaptive"])
+def test_the_mechanism_at_rest_without_gravity_stays_at_rest(solver):
+    """No gravity, no drive speed: no force acts, so nothing moves. Every step converges (the
+    smooth stage's forces are rounding, judged against its force scale's floor, not against
+    themselves), and the positions stay where they started."""
+    import simcore
+
+    cfg = simcore.load_config(overrides=solver + ["model.gravity=0", "model.omega0=0",
+                                                  "model.drive=free"])
+    ds = simcore.run(cfg)  # on_nonconvergence = error: a failed step would stop it
+    assert int(ds["converged"].min()) == 1
+    assert ds.attrs.get("n_retried_steps", 0) == 0
+    position = ds["position"].values
+    assert np.abs(position - position[0]).max() < 1e-12  # [m]
+    assert float(np.abs(ds["Lambda_N"]).max()) == 0.0

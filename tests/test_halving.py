@@ -225,6 +225,25 @@ def test_without_retries_the_same_compliant_step_is_flagged(compliant_runs):
         assert np.array_equal(a, b), name
 
 
+def test_a_failed_step_s_message_names_the_retries_each_model_takes():
+    """The velocity jump's higher iteration cap in a retry is the nonsmooth model's: a
+    compliant step (no jump) that fails at its smallest substep does not claim one."""
+    def message(*overrides):
+        cfg = simcore.load_config(overrides=["solver.max_iter=1", "solver.max_halvings=1",
+                                             *overrides])
+        with pytest.raises(simcore.SolverError) as err:
+            simcore.run(cfg)
+        return str(err.value)
+
+    nonsmooth = message("solver.t_end=0.005")
+    compliant = message("model.contact_model=compliant", "model.youngs_modulus=2.1e11",
+                        "solver.dt=1e-6", "solver.t_end=0.002")
+    for text in (nonsmooth, compliant):
+        assert "taken again as up to 2 substeps (solver.max_halvings = 1)" in text, text
+    assert "velocity jump allowed 4 iterations" in nonsmooth
+    assert "velocity jump" not in compliant
+
+
 def _compliant_outputs(out):
     return nb.CompliantOutputs(out.q, out.v, out.F_N, out.F_T, out.lambda_N, out.lambda_T,
                                out.gap_N, out.vn_pre, out.vn_post, out.energy, out.iterations,

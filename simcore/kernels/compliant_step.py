@@ -20,6 +20,7 @@ from .bodies import clear_pair_blocks, row_dot
 from .bundles import STAGE_POSITION, STAGE_SMOOTH
 from .contact import CONTACT_PLANE, contact_gap_cached, contact_rows_cached
 from .generalized_alpha import (
+    FORCE_SCALE_FLOOR,
     WITH_CONTACT_BLOCKS,
     alpha_coefficients,
     alpha_predict,
@@ -442,7 +443,7 @@ def _stage_residual(ma, lam, work):
     is at least that of the largest contact force."""
     sw = work.smooth
     bw = work.branches
-    scale = 1e-300
+    scale = FORCE_SCALE_FLOOR
     for k in range(work.contacts.shape[1]):
         scale = max(scale, work.contacts[FN_ROW, k])
     return _residual(ma.mdiag, work.step.vdot1, work.step.f_t, sw.G, lam, sw.dgdt,

@@ -25,6 +25,13 @@ from .springs import FORCES_ONLY, WITH_TANGENTS, smooth_forces_into
 WITH_CONTACT_BLOCKS = np.bool_(True)
 SPRING_BLOCKS_ONLY = np.bool_(False)
 
+#: Smallest force scale of a smooth stage's residual [N] (its tolerance is ``tol`` times the
+#: scale): a mechanism at rest without gravity has forces of rounding size only (1e-24 N),
+#: which the relative tolerance would judge against themselves, never converging. 1e-6 N is
+#: 1e-4 of the weight of the smallest ball of the catalogue's bearings (6.35 mm, 10 mN); a
+#: mechanism with any load has a scale far above it, so its steps are unchanged.
+FORCE_SCALE_FLOOR = 1e-6
+
 #: Work arrays of :func:`smooth_step` (made by :func:`smooth_work`, once per run):
 #: the joint rows g, G, their velocity terms gm, dgdt, the Newton matrix J and right-hand side
 #: rhs, the factor of J and the Schur-complement arrays JG, S, piv, the spring forces' work
@@ -207,7 +214,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, st, ma, stw, sw):
         smooth_forces_into(q_t, v_t, ma, f_t, K_t, C_t, Ks_t, WITH_TANGENTS, sw.fw, sw.iw)
         bilateral_cached(q_t, v_t, t1, ma, sw.g, sw.G, sw.gm, sw.dgdt, sw.trig)
         res_f, res_c, scale = smooth_residual(ma.mdiag, vdot1, f_t, sw.G, lam, sw.dgdt, v_t,
-                                              sw.rhs, 1e-300)
+                                              sw.rhs, FORCE_SCALE_FLOOR)
         if res_f <= tol * scale and res_c <= tol:
             converged = True
             break

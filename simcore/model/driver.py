@@ -640,9 +640,10 @@ class _Loop:
                   if it >= self.settings.max_iter]
         halvings = self.settings.max_halvings
         retried = (f"; taken again as up to {2 ** halvings} substeps (solver.max_halvings = "
-                   f"{halvings}), their velocity jump allowed "
-                   f"{nb.RETRY_VELOCITY_ITERATIONS * self.settings.max_iter} iterations"
-                   if halvings else "")
+                   f"{halvings})" if halvings else "")
+        if halvings and not self.settings.compliant:  # (a compliant step has no jump)
+            retried += (f", their velocity jump allowed "
+                        f"{nb.RETRY_VELOCITY_ITERATIONS * self.settings.max_iter} iterations")
         return (f"solver did not converge at step {bad + 1} (t = {self._time(bad + 1):.6g} s); "
                 f"stage(s) at the iteration cap: {', '.join(stages) or 'fallback'} "
                 f"(solver.max_iter = {self.settings.max_iter}, solver.tol = {self.settings.tol})"
