@@ -119,9 +119,13 @@ def summary_lines(ds) -> list[str]:
                 == "compliant" else "retried steps")
         lines.append(f"{unit} (taken again as substeps): {ds.attrs['n_retried_steps']}")
     if "energy_max_gain_J" in ds.attrs:
+        window = ""
+        if "energy_max_window_gain_J" in ds.attrs:
+            window = (f", of steps together {ds.attrs['energy_max_window_gain_J']:.3g} J "
+                      f"({ds.attrs['energy_max_window_gain_relative']:.2g})")
         lines.append(f"energy audit: largest gain of a step {ds.attrs['energy_max_gain_J']:.3g} J "
-                     f"({ds.attrs['energy_max_gain_relative']:.2g} of the energy scale; "
-                     f"solver.energy_tol = {ds.attrs['energy_tol']:g}), balance "
+                     f"({ds.attrs['energy_max_gain_relative']:.2g} of the energy scale){window}; "
+                     f"solver.energy_tol = {ds.attrs['energy_tol']:g}; balance "
                      f"E_end - E_0 - drive work = {ds.attrs['energy_balance_J']:.4g} J")
     lines.append(f"largest Lambda_N: {lam.values[k]:.4g} N s at t = {float(ds.time[k[0]]):.4g} s, "
                  f"contact {int(ds.contact[k[1]])} (ball {int(ds.ball[k[1]])}, "

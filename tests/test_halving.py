@@ -153,8 +153,10 @@ def test_a_retried_step_is_the_sum_of_two_plain_half_steps():
 def test_a_step_that_creates_energy_is_retried_by_the_audits_criterion():
     """A conservative run (e_N 1, mu 0, no cage damping, rho_inf 1) with an energy tolerance
     of 1e-5: steps gain more than that at h and are retried; the kernel's test is the audit's,
-    so every step flagged is one the kernel took to its smallest substep, and every step it
-    accepted earlier passes the audit's formula, recomputed here from the stored energy."""
+    so every step flagged for its own gain is one the kernel took to its smallest substep, and
+    every step it accepted earlier passes the audit's formula, recomputed here from the stored
+    energy. (The audit also flags windows of steps that gain together, which the kernel does
+    not retry: the rows it flags beyond the steps' own gains.)"""
     overrides = ["solver.t_end=0.01", "solver.rho_inf=1", "model.e_N=1", "model.mu=0",
                  "model.cage_damping=0", "solver.on_nonconvergence=warn",
                  "solver.energy_tol=1e-5", "solver.max_halvings=2"]
@@ -165,10 +167,11 @@ def test_a_step_that_creates_energy_is_retried_by_the_audits_criterion():
     conv, halvings = ds["converged"].values, ds["halvings"].values
     assert not (ds["iterations"].values >= cfg["solver"]["max_iter"]).any()  # energy only
     assert ((halvings > 0) & (conv == 1)).any()  # retried for energy, then accepted
-    assert np.all(halvings[conv == 0] == 2)  # flagged only at the smallest substep
     energy = ds["energy"].values
     err = np.diff(energy)  # free drive: no drive work
     scale = independent_energy_scale(ds, cfg)
+    own_gain = err > 1e-5 * scale + ENERGY_FLOOR_J
+    assert np.all(conv[1:][own_gain] == 0) and np.all(halvings[1:][own_gain] == 2)
     accepted_early = halvings[1:] < 2
     assert np.all(err[accepted_early] <= 1e-5 * scale[accepted_early] + ENERGY_FLOOR_J)
     assert np.any(err[halvings[1:] == 2] > 1e-5 * scale[halvings[1:] == 2])

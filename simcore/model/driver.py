@@ -99,7 +99,7 @@ class SolverSettings:
         Floor of the onset approach speed in the compliant damping term [m/s].
     energy_tol : float
         Energy audit (:mod:`simcore.model.audit`): a step creating more than this fraction of
-        the run's energy scale counts as not converged [-].
+        the run's energy scale, alone or with the steps before it, counts as not converged [-].
     max_halvings : int
         Fixed steps: a step whose sub-problems do not converge, or (nonsmooth) that creates
         energy by the audit's criterion, is taken again from its start as 2, 4, ...
@@ -680,8 +680,7 @@ def _finish(loop: _Loop, steps_done: int, wall_time_s: float) -> Trajectory:
         if steps_done < settings.n_steps:  # stopped early: keep the rows written
             n_keep = steps_done // settings.output_every + 1
             out.keep_rows(n_keep)
-            loop.audit.error = loop.audit.error[:n_keep]
-            loop.audit.tolerance = loop.audit.tolerance[:n_keep]
+            loop.audit.trim(n_keep)
     out.wall_time_s = wall_time_s
     out.first_unconverged_step = loop.first_bad
     out.extras["energy_audit"] = loop.audit
