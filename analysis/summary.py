@@ -191,6 +191,11 @@ _VARIABLES = {
         (), "model", "1",
         "time steps of the run: of solver.dt (a nonsmooth or fixed-step compliant run), or the "
         "accepted adaptive steps (the study's compliant twins)"),
+    "rings_on_lands_fraction": (
+        (), "model", "1",
+        "fraction of the output samples in which the rings ran on their lands (the balls had "
+        "bunched; with a cage that should hold them, a step too large for the speed); missing "
+        "for a run without guard contacts"),
     "failed": ((), "model", "1", "1 where the run failed (its other values are missing)"),
     "L10": (
         (), "compliant", "1e6",
@@ -605,6 +610,9 @@ def _run_numbers(run_ds: xr.Dataset, window: SteadyWindow) -> dict:
         "converged_fraction": np.float64(np.mean(converged) if converged.size else np.nan),
         "wall_time_s": np.float64(run_ds.attrs.get("wall_time_s", np.nan)),
         "time_steps": np.float64(time_steps(run_ds)),
+        "rings_on_lands_fraction": np.float64(
+            run_ds.attrs["guard_rings_closed_samples"] / run_ds.sizes["time"]
+            if "guard_rings_closed_samples" in run_ds.attrs else np.nan),
         "failed": np.float64(0.0),
     }
 

@@ -196,4 +196,26 @@ def run(config: dict, progress: bool = False):
             importer.join()
     from .io import trajectory_dataset
 
-    return trajectory_dataset(traj, model, layout, cfg, compile_time_s=compile_time_s)
+    ds = trajectory_dataset(traj, model, layout, cfg, compile_time_s=compile_time_s)
+    warn_if_rings_ran_on_lands(ds)
+    return ds
+
+
+def warn_if_rings_ran_on_lands(ds) -> None:
+    """A RuntimeWarning where the rings' guard contact carried load: the balls bunched until
+    they no longer held the rings apart (docs/model.md, "Guard contacts"). The run is whole
+    and its steps may all have converged, but its loads are those of a bearing whose balls
+    bunched; with a cage that holds them, that comes from a step too large for the speed
+    (docs/reliability.md, section 4), which only a run at a smaller step tells apart."""
+    n = int(ds.attrs.get("guard_rings_closed_samples", 0))
+    if not n:
+        return
+    import warnings
+
+    loaded = (ds["guard_Lambda_N"].sel(guard="rings").values > 0.0).nonzero()[0]
+    warnings.warn(
+        f"the rings ran on their lands on {n} of {ds.sizes['time']} output samples (from "
+        f"t = {float(ds['time'][loaded[0]]):.4g} s): the balls bunched and no longer held them "
+        f"apart. With a cage that should hold them, this is a step too large for the speed: "
+        f"compare with a smaller solver.dt (now {ds.attrs['solver.dt']:g} s; python -m "
+        "analysis dt-check RUN_FILE)", RuntimeWarning, stacklevel=2)

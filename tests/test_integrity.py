@@ -68,6 +68,7 @@ def test_balls_through_each_other_is_prevented_by_the_guard_contacts():
     assert int(ds["converged"].min()) == 1 and ds.attrs["integrity_violations"] == "none"
     ball_ball = ds["guard_Lambda_N"].sel(guard=ds.guard.values[:-1])
     assert (ball_ball > 0).any(axis=1).sum() == ds.attrs["guard_ball_ball_closed_samples"] > 100
+    assert ds.attrs["guard_rings_closed_samples"] == 0
 
 
 def test_balls_through_each_other_without_guards_is_stopped_or_flagged():
@@ -97,6 +98,27 @@ def test_ring_through_the_opening_is_prevented_by_the_guard_contacts():
     # what is flagged is a step of the solver (at this coarse step a wedged ball's impact
     # creates energy once the rings run on their lands), not the bearing's integrity
     assert all("integrity" not in m for m in messages)
+    # ... and the run says that its balls bunched, counting the samples as the file does;
+    # the summary gives their fraction
+    n = ds.attrs["guard_rings_closed_samples"]
+    lands = [m for m in messages if m.startswith("the rings ran on their lands")]
+    assert len(lands) == 1 and f"on {n} of {ds.sizes['time']} output samples" in lands[0]
+    assert "solver.dt (now 0.00016 s" in lands[0]
+    from analysis.summary import point_numbers
+
+    fraction = point_numbers(ds, None, {"settle": 0.0})["rings_on_lands_fraction"]
+    assert fraction == pytest.approx(n / ds.sizes["time"])
+
+
+def test_the_ring_through_the_opening_at_a_quarter_of_the_step_keeps_its_balls_apart():
+    """The same configuration at dt = 4e-5 s: the balls do not bunch (docs/reliability.md),
+    the rings never touch their lands, and nothing is said of them."""
+    ds, _, messages = _run([*RING_THROUGH, "solver.dt=4e-5"], "warn")
+    assert ds.attrs["guard_rings_closed_samples"] == 0
+    assert not [m for m in messages if "lands" in m]
+    from analysis.summary import point_numbers
+
+    assert point_numbers(ds, None, {"settle": 0.0})["rings_on_lands_fraction"] == 0.0
 
 
 def test_ring_through_the_opening_without_guards_is_stopped_or_flagged():
