@@ -67,11 +67,6 @@ SUMMARY_READS = {"nonsmooth": ("crank_angle", "iterations", "converged", "Lambda
 #: Run variables the rating lives of a compliant run read (the load per ball and race, and
 #: where each ball is on its race).
 LIFE_READS = ("Lambda_N", "crank_angle", "journal_x", "journal_y", "position", "angle")
-#: Analysis settings that only a run's summary numbers read (no run, no impact table's own
-#: variable): a study's runs are not made again for them
-#: (:func:`simcore.study.plan.fingerprint`), and the summary computes a run's numbers again
-#: from its run file where its table's were made with other values.
-SUMMARY_ONLY_SETTINGS = ("force_levels", "life_conformity", "life_load_rating")
 #: Run variables the reference run's figures read (the nonsmooth run).
 FIGURE_READS = ("Lambda_N", "position", "angle", "crank_angle", "slider_x", "journal_x",
                 "journal_y", "iterations", "converged")

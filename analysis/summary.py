@@ -84,9 +84,10 @@ import xarray as xr
 from simcore.io.read import time_steps
 from simcore.io.variables import STAGES
 from simcore.model.driver import CONTACT_MODELS
+from simcore.study.plan import SUMMARY_ONLY_SETTINGS
 
 from .impacts import largest_first, loaded_stretches
-from .reads import LIFE_READS, SUMMARY_ONLY_SETTINGS, SUMMARY_READS, run_setting
+from .reads import LIFE_READS, SUMMARY_READS, run_setting
 from .run_life import conformities
 
 __all__ = ["summarize", "summary_table", "steady_window", "SteadyWindow", "category_codes",
@@ -195,7 +196,7 @@ _VARIABLES = {
         (), "model", "1",
         "fraction of the output samples in which the rings ran on their lands (the balls had "
         "bunched; with a cage that should hold them, a step too large for the speed); missing "
-        "for a run without guard contacts"),
+        "for a run without guard contacts or a file that does not count them"),
     "failed": ((), "model", "1", "1 where the run failed (its other values are missing)"),
     "L10": (
         (), "compliant", "1e6",
@@ -1294,6 +1295,9 @@ def _table_rows(summary: xr.Dataset, models: list[int]) -> list:
         rows.append((f"wall time per run, {MODELS[m]}", "s", of("wall_time_s", m), 1.0))
     for m in models if "time_steps" in summary else ():
         rows.append((f"time steps per run, {MODELS[m]}", "1", of("time_steps", m), 1.0))
+    for m in models if "rings_on_lands_fraction" in summary else ():
+        rows.append((f"samples with the rings on their lands (bunched balls), {MODELS[m]}", "1",
+                     of("rings_on_lands_fraction", m), 1.0))
     return rows
 
 

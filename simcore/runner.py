@@ -218,4 +218,4 @@ def warn_if_rings_ran_on_lands(ds) -> None:
         f"t = {float(ds['time'][loaded[0]]):.4g} s): the balls bunched and no longer held them "
         f"apart. With a cage that should hold them, this is a step too large for the speed: "
         f"compare with a smaller solver.dt (now {ds.attrs['solver.dt']:g} s; python -m "
-        "analysis dt-check RUN_FILE)", RuntimeWarning, stacklevel=2)
+        "analysis dt-check RUN_FILE)", RuntimeWarning, stacklevel=3)

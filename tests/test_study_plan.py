@@ -333,24 +333,22 @@ def test_a_run_is_finished_only_when_both_files_carry_its_fingerprint(tmp_path):
 
 
 def test_settings_no_run_file_reads_leave_the_fingerprint_as_it_is():
-    """A twin's settings (its configuration holds what they set) and, as the workflow gives
-    them, the settings only the summary reads do not make a run again; a setting of the
-    impact table (analysis.method_tol) does."""
-    from analysis.reads import SUMMARY_ONLY_SETTINGS
-
+    """A twin's settings (its configuration holds what they set) and the settings only the
+    summary reads do not make a run again; a setting of the impact table
+    (analysis.method_tol) does."""
     cfg = _study()
     keep, axes = cfg["study"]["keep"], plan.study_axes(cfg)
     for run in plan.plan_runs(cfg)[:2]:
-        base = plan.fingerprint(run, keep, axes, SUMMARY_ONLY_SETTINGS)
+        base = plan.fingerprint(run, keep, axes)
         for key, value in (("twin_rho_inf", 0.9), ("twin_tol_clearance", 1e-3),
                            ("force_levels", [1.0]), ("life_load_rating", 1e4),
                            ("life_conformity", [0.51, 0.54])):
             other = copy.deepcopy(run)
             other.config["analysis"][key] = value
-            assert plan.fingerprint(other, keep, axes, SUMMARY_ONLY_SETTINGS) == base, key
+            assert plan.fingerprint(other, keep, axes) == base, key
         other = copy.deepcopy(run)
         other.config["analysis"]["method_tol"] = 0.3
-        assert plan.fingerprint(other, keep, axes, SUMMARY_ONLY_SETTINGS) != base
+        assert plan.fingerprint(other, keep, axes) != base
     twins = plan.plan_runs(_study("analysis.twin_rho_inf=0.9"))
     assert {r.model for r in twins} == {"nonsmooth", "compliant"}
     for before, after in zip(plan.plan_runs(cfg), twins, strict=True):

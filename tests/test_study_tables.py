@@ -142,14 +142,14 @@ def test_summary_from_the_numbers_stored_in_the_tables_equals_the_one_from_the_f
 
 def test_settings_only_the_summary_reads_change_no_table_and_reach_the_summary(
         run_ds, compliant_ds, tmp_path):
-    """analysis.SUMMARY_ONLY_SETTINGS (which a study's run fingerprint leaves out): other
+    """simcore.study.plan.SUMMARY_ONLY_SETTINGS (which a study's run fingerprint leaves out): other
     values change no variable of an impact table, only its stored summary numbers; and a
     summary made with the new values from tables stored with the old ones equals the summary
     computed from the run files, so reusing the runs loses nothing."""
     import xarray as xr
 
-    from analysis.reads import SUMMARY_ONLY_SETTINGS
     from analysis.summary import summarize
+    from simcore.study.plan import SUMMARY_ONLY_SETTINGS
 
     old = dict(SETTINGS, zoom_top=0, settle=0.0, force_levels=[100.0, 1000.0],
                life_conformity=None, life_load_rating=None)

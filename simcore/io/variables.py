@@ -140,7 +140,8 @@ VARIABLES: dict[str, RunVariable] = {
         "velocity: 0)"),
     "converged": RunVariable(
         TIME, "1", "1 where every sub-problem of the step converged, the step created no "
-        "energy (energy audit) and broke no integrity check of the bearing", "int8",
+        "energy, alone or with the steps before it (energy audit), and broke no integrity "
+        "check of the bearing", "int8",
         "0 marks a step the impact table flags as untrusted.",
         extra=(("flag_values", np.array([0, 1], dtype=np.int8)), ("flag_meanings", "no yes"))),
     "halvings": RunVariable(

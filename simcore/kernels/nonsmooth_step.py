@@ -48,7 +48,8 @@ RETRY_VELOCITY_ITERATIONS = 4
 
 #: Settings of the retries of :func:`integrate_chunk`: ``max_halvings`` (a failed step is
 #: taken again as 2, 4, ... 2^max_halvings substeps; 0: never), and the energy audit's
-#: criterion that makes a step fail (:class:`simcore.model.audit.EnergyAudit`): a step fails
+#: per-step criterion that makes a step fail (:class:`simcore.model.audit.EnergyAudit`; its
+#: window of steps that gain together flags without a retry): a step fails
 #: when (E[k+1] - E[k]) - drive_torque[k+1] drive_rate h > energy_tol S_k + energy_floor, S_k
 #: the largest :func:`~.springs.energy_scale_term` of rows j <= k, with ``energy_tol`` [-],
 #: ``energy_floor`` [J], ``drive_rate`` the prescribed crank speed [rad/s] (0 without one).
@@ -244,10 +245,10 @@ def _update_energy_scale(k, energy, q, ma, scale):
 
 @stage
 def _creates_energy(k, h, rs, out, scale):
-    """Whether step k (output row k+1) created energy by the audit's criterion
+    """Whether step k (output row k+1) created energy by the audit's per-step criterion
     (:data:`RetrySettings`; ``scale[0]``: the energy scale up to step k), computed as
-    :meth:`simcore.model.audit.EnergyAudit.check` does it, operation for operation, so that
-    both give the same verdict."""
+    :meth:`simcore.model.audit.EnergyAudit.check` computes a step's own gain, operation for
+    operation, so that both judge it alike (the audit's window of steps is not retried)."""
     err = (out.energy[k + 1] - out.energy[k]) - out.drive_torque[k + 1] * rs.drive_rate * h
     tol = rs.energy_tol * scale[0] + rs.energy_floor
     return not (err <= tol)
@@ -261,7 +262,7 @@ def integrate_chunk(k0, k1, st, ma, state, out, work, rs):
     outputs of each step at index k+1.
 
     A step whose sub-problems do not all converge, or which creates energy by the audit's
-    criterion, is taken again from its start as 2 substeps of h/2, then 4 of h/4, ... up to
+    per-step criterion, is taken again from its start as 2 substeps of h/2, then 4 of h/4, ... up to
     2^rs.max_halvings (a level stops at its first failing substep, except the last level,
     which is taken to the end whatever happens: its step is flagged). Each substep is a whole
     step of the scheme (its pre-impact velocities those at the substep's start).

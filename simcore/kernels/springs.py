@@ -221,6 +221,6 @@ def energy_scale_term(energy, q, ma):
 def energy_scale_terms_into(energy, q, ma, row0, row1, terms):
     """:func:`energy_scale_term` of rows ``row0 .. row1-1`` of ``energy`` [J] and ``q`` into
     ``terms[0 .. row1-row0-1]`` (the energy audit's, from Python: the same operations as the
-    time loop's, so the same verdicts)."""
+    time loop's, so the same scale)."""
     for i in range(row0, row1):
         terms[i - row0] = energy_scale_term(energy[i], q[i], ma)

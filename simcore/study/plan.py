@@ -52,6 +52,11 @@ TWIN_DROPS = ("velocity", "angular_velocity", "vn_free")
 #: Analysis settings that make a twin's configuration (:func:`twin_config`) and that no run
 #: reads itself.
 TWIN_SETTINGS = ("twin_rho_inf", "twin_tol_clearance")
+#: Analysis settings that only a run's summary numbers read (no run, no impact table's own
+#: variable): a study's runs are not made again for them (:func:`fingerprint`), and the
+#: summary computes a run's numbers again from its run file where its table's were made with
+#: other values (:mod:`analysis.summary`, which reads them from here).
+SUMMARY_ONLY_SETTINGS = ("force_levels", "life_conformity", "life_load_rating")
 #: A base axis that other keys determine (``{base axis: (key, what its value depends on)}``):
 #: where the key is swept, or set while what its value depends on is swept, the base axis is
 #: left out of the study's axes and each run's value comes from the key
@@ -658,7 +663,7 @@ def _is_bare_string(statement) -> bool:
             and isinstance(statement.value.value, str))
 
 
-def fingerprint(run: Run, keep, axes, unread=()) -> str:
+def fingerprint(run: Run, keep, axes, unread=SUMMARY_ONLY_SETTINGS) -> str:
     """A hash of everything that makes a run's files: its configuration, the point with its
     model, the study's axes, ``study.keep``, the package version and the code that makes
     them (:func:`code_digest`). A run whose files carry the same fingerprint (attribute
@@ -666,9 +671,8 @@ def fingerprint(run: Run, keep, axes, unread=()) -> str:
 
     Left out are the analysis settings neither file depends on: :data:`TWIN_SETTINGS` (a
     twin's configuration holds what they set) and ``unread``, names of the analysis section
-    given by the caller (the workflow gives the settings that only the summary's numbers read,
-    :data:`analysis.reads.SUMMARY_ONLY_SETTINGS`), so that changing one of them does not make
-    the runs again."""
+    (default :data:`SUMMARY_ONLY_SETTINGS`), so that changing one of them does not make the
+    runs again."""
     from .. import __version__
 
     config = dict(run.config)

@@ -14,7 +14,7 @@ from pathlib import Path
 from snakemake.utils import validate
 
 import simcore
-from analysis.reads import SUMMARY_ONLY_SETTINGS, check_keep
+from analysis.reads import check_keep
 from simcore.config.parameters import registry
 from simcore.study import plan
 
@@ -214,7 +214,7 @@ def batch_runs(wildcards):
         keep = run.keep(config["study"]["keep"])
         out.append({"name": run.name, "model": run.model, "coords": run.coordinates(),
                     "config": run.config, "run": run_path, "table": table_path, "keep": keep,
-                    "fingerprint": plan.fingerprint(run, keep, AXES, SUMMARY_ONLY_SETTINGS)})
+                    "fingerprint": plan.fingerprint(run, keep, AXES)})
     return out
 
 
