@@ -306,6 +306,20 @@ def test_a_swept_key_the_twins_set_themselves_is_named():
     assert not [m for m in plan.check_runs(follow) if m.startswith("sweep.")]
 
 
+def test_a_swept_key_no_run_reads_is_named():
+    """A setting only the summary reads makes identical runs along its axis, as does a twin
+    setting for the nonsmooth runs: the plan says so, naming the models; a swept setting the
+    runs read (analysis.settle) is not named."""
+    sweep = {"analysis.life_load_rating": [2e4, 3e4], "analysis.twin_rho_inf": [0.5, 0.6],
+             "analysis.settle": [0.5, 1.0]}
+    messages = [m for m in plan.check_runs(plan.plan_runs(_study(sweep=sweep)))
+                if m.startswith("sweep.")]
+    assert sorted(m.split(":")[0] + " " + m.split()[2] for m in messages) == [
+        "sweep.analysis.life_load_rating compliant", "sweep.analysis.life_load_rating nonsmooth",
+        "sweep.analysis.twin_rho_inf nonsmooth"], messages
+    assert all("one run, made once per value" in m for m in messages)
+
+
 # --- skipping what is done ------------------------------------------------------------------
 
 def test_a_run_is_finished_only_when_both_files_carry_its_fingerprint(tmp_path):

@@ -467,10 +467,19 @@ def check_runs(runs: list[Run]) -> list[str]:
 
 def _unswept(run: Run) -> list[str]:
     """A swept key a run does not take (a compliant twin sets its own ``solver.rho_inf``,
-    ``solver.adaptive``, ...): along that axis its points are one run, labelled apart."""
+    ``solver.adaptive``, ...) or does not read (:data:`SUMMARY_ONLY_SETTINGS`, and
+    :data:`TWIN_SETTINGS` for a nonsmooth run): along that axis its points are one run,
+    labelled apart and made once per value."""
     texts = []
     for key, value in run.point.items():
         section, name = key.split(".", 1)
+        if section == "analysis" and (name in SUMMARY_ONLY_SETTINGS or (
+                name in TWIN_SETTINGS and run.model == "nonsmooth")):
+            reader = ("only the summary reads it" if name in SUMMARY_ONLY_SETTINGS
+                      else "it sets the compliant twins' solver")
+            texts.append(f"sweep.{key}: the {run.model} runs do not read it ({reader}); along "
+                         f"this axis they are one run, made once per value")
+            continue
         actual = run.config[section].get(name)
         same = (math.isclose(float(value), float(actual), rel_tol=1e-9)
                 if isinstance(value, (int, float)) and isinstance(actual, (int, float))
