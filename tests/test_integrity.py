@@ -135,6 +135,24 @@ def test_ring_through_the_opening_without_guards_is_stopped_or_flagged():
         assert check in ds.attrs["integrity_violations"]
 
 
+#: the paper's mechanism driven at 500 rad/s backwards: at dt = 1e-4 s the balls bunch, pass
+#: the ball-ball guard contacts and two centres come within 3 mm (0.0256 s)
+FAST_DRIVE = ["model.omega0=-500", "model.drive=constant", "solver.t_end=0.03"]
+
+
+def test_a_bearing_broken_by_a_long_step_names_the_step_and_a_fifth_of_it_keeps_it_whole():
+    with pytest.raises(SolverError, match=r"integrity check 'ball spacing' failed .*compare a "
+                                          r"smaller solver\.dt \(now 0\.0001 s\)"):
+        _run([*FAST_DRIVE, "solver.dt=1e-4"])
+    ds, cfg, messages = _run([*FAST_DRIVE, "solver.dt=2e-5"])  # stops at any flagged step
+    offset, closest, _ = _geometry_of(ds)
+    tol = cfg["solver"]["tol"] * cfg["solver"]["dt"]
+    assert closest.min() >= 2 * cfg["model"]["ball_radius"] - tol
+    assert offset.max() <= BearingGeometry.from_model(cfg["model"]).land_gap
+    assert int(ds["converged"].min()) == 1 and ds.attrs["guard_rings_closed_samples"] == 0
+    assert not messages
+
+
 class _Rows:
     """The arrays of a trajectory the checks read."""
 

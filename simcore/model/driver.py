@@ -609,7 +609,7 @@ class _Loop:
             bad = bad * every - 1
         if gain >= 0 and self.first_bad < 0 and (bad < 0 or gain * every < bad):
             self.first_bad = gain * every
-            self._fail(self.audit.message(gain))
+            self._fail(self.audit.message(gain) + self._step_hint())
         if bad >= 0 and self.first_bad < 0:
             self.first_bad = int(bad)
             self._fail(self._unconverged_message(bad))
@@ -629,7 +629,17 @@ class _Loop:
             elif not first_of_check:
                 continue
             self._fail(f"integrity check '{v.check}' failed at step {step} "
-                       f"(t = {self._time(step):.6g} s): {v.detail}")
+                       f"(t = {self._time(step):.6g} s): {v.detail}" + self._step_hint())
+
+    def _step_hint(self) -> str:
+        """What to try after an integrity check or the energy audit failed in a run of fixed
+        steps: a step too long for the motion breaks both (balls that bunch and pass the guard
+        contacts, several contacts closing in one step, docs/reliability.md, section 4). An
+        adaptive run's steps are the error control's, and its dt_min failure says so."""
+        if self.adaptive is not None:
+            return ""
+        return (f"; a step too long for the motion is one cause: compare a smaller solver.dt "
+                f"(now {self.settings.dt:g} s)")
 
     def _unconverged_message(self, bad: int) -> str:
         if self.adaptive is not None:
