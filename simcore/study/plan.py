@@ -672,21 +672,20 @@ def _is_bare_string(statement) -> bool:
             and isinstance(statement.value.value, str))
 
 
-def fingerprint(run: Run, keep, axes, unread=SUMMARY_ONLY_SETTINGS) -> str:
+def fingerprint(run: Run, keep, axes) -> str:
     """A hash of everything that makes a run's files: its configuration, the point with its
     model, the study's axes, ``study.keep``, the package version and the code that makes
     them (:func:`code_digest`). A run whose files carry the same fingerprint (attribute
     ``study_fingerprint``) is not made again.
 
     Left out are the analysis settings neither file depends on: :data:`TWIN_SETTINGS` (a
-    twin's configuration holds what they set) and ``unread``, names of the analysis section
-    (default :data:`SUMMARY_ONLY_SETTINGS`), so that changing one of them does not make the
-    runs again."""
+    twin's configuration holds what they set) and :data:`SUMMARY_ONLY_SETTINGS` (only the
+    summary reads them), so that changing one of them does not make the runs again."""
     from .. import __version__
 
     config = dict(run.config)
     config["analysis"] = {key: value for key, value in run.config["analysis"].items()
-                          if key not in TWIN_SETTINGS and key not in unread}
+                          if key not in TWIN_SETTINGS and key not in SUMMARY_ONLY_SETTINGS}
     text = json.dumps({"config": config, "point": run.coordinates(),
                        "axes": list(axes), "keep": list(keep), "version": __version__,
                        "code": code_digest()}, sort_keys=True, default=str)
