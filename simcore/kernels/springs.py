@@ -173,19 +173,27 @@ def spring_damping_into(q, v, ma, C, fw, iw):
                 C[idx[a], idx[c]] += damp * w[a] * w[c]
 
 
+@inline_kernel
+def _less_gravity(e, q, ma):
+    """``e`` [J] less the gravitational potential energy of the bodies at q, body by body (one
+    loop for :func:`total_energy` and :func:`gravity_energy`, so that both round alike)."""
+    mass = ma.mass
+    gvec = ma.gvec
+    for b in range(mass.shape[0]):
+        e -= mass[b] * (gvec[0] * q[3 * b] + gvec[1] * q[3 * b + 1])
+    return e
+
+
 @entry_step_kernel
 def total_energy(q, v, ma):
     """Kinetic + gravitational + spring energy [J]."""
     mdiag = ma.mdiag
-    mass = ma.mass
-    gvec = ma.gvec
     sp_body = ma.sp_body
     sp_geom = ma.sp_geom
     e = 0.0
     for i in range(q.shape[0]):
         e += 0.5 * mdiag[i] * v[i] * v[i]
-    for b in range(mass.shape[0]):
-        e -= mass[b] * (gvec[0] * q[3 * b] + gvec[1] * q[3 * b + 1])
+    e = _less_gravity(e, q, ma)
     for k in range(sp_body.shape[0]):
         length = spring_state(q, v, k, sp_body, sp_geom)[0]
         e += 0.5 * sp_geom[k, 4] * (length - sp_geom[k, 6]) ** 2
@@ -196,12 +204,7 @@ def total_energy(q, v, ma):
 def gravity_energy(q, ma):
     """Gravitational potential energy of the bodies at q [J], datum at the origin (the part of
     :func:`total_energy` whose datum is arbitrary)."""
-    mass = ma.mass
-    gvec = ma.gvec
-    e = 0.0
-    for b in range(mass.shape[0]):
-        e -= mass[b] * (gvec[0] * q[3 * b] + gvec[1] * q[3 * b + 1])
-    return e
+    return _less_gravity(0.0, q, ma)
 
 
 @step_kernel
