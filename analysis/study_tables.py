@@ -19,9 +19,10 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
 import xarray as xr
 
-__all__ = ["impact_table"]
+__all__ = ["impact_table", "refresh_summary_settings"]
 
 
 def _failed_table(run_ds: xr.Dataset, coords: dict, source: str) -> xr.Dataset:
@@ -117,3 +118,59 @@ def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = 
         numbers = point_numbers(run_ds, table, settings)
         table.attrs.update(stored_attributes(numbers, settings))
     return table
+
+
+def _same_attribute(a, b) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    if isinstance(a, str) or isinstance(b, str):
+        return str(a) == str(b)
+    a, b = np.asarray(a, dtype=float).ravel(), np.asarray(b, dtype=float).ravel()
+    return a.shape == b.shape and bool(np.all(a == b))
+
+
+def refresh_summary_settings(run_path, table_path, config: dict) -> bool:
+    """Bring a kept run's files up to the settings that only the summary reads.
+
+    A study keeps a run whose fingerprint matches (:func:`simcore.study.plan.fingerprint`),
+    which leaves out :data:`simcore.study.plan.SUMMARY_ONLY_SETTINGS`. Where one of those
+    changed, the run file's ``analysis.<key>`` attributes and the table's stored summary
+    numbers (``summary_*``, :func:`analysis.summary.stored_attributes`) are of the old values:
+    this sets both to ``config``'s, the numbers computed again from the run file, each file
+    edited atomically (:func:`simcore.io.update_attributes`), the table first.
+
+    Parameters
+    ----------
+    run_path, table_path : path
+        The run file and its impact table (or contact episodes), both finished.
+    config : dict
+        The run's validated configuration (its ``analysis`` section).
+
+    Returns
+    -------
+    bool
+        True when a file was edited (False: both already of these settings).
+    """
+    from simcore.io import update_attributes
+    from simcore.io.dataset import flat_settings
+    from simcore.study.plan import SUMMARY_ONLY_SETTINGS
+
+    from .summary import STORED, _from_stored, point_numbers, stored_attributes
+
+    settings = config["analysis"]
+    names = [f"analysis.{key}" for key in SUMMARY_ONLY_SETTINGS]
+    wanted = flat_settings({"analysis": {key: settings.get(key)
+                                         for key in SUMMARY_ONLY_SETTINGS}})
+    stores = "settle" in settings and "force_levels" in settings  # as impact_table does
+    with xr.open_dataset(run_path) as run, xr.open_dataset(table_path) as table:
+        run_stale = not all(_same_attribute(run.attrs.get(name), wanted.get(name))
+                            for name in names)
+        table_stale = stores and _from_stored(table.attrs, settings) is None
+        if table_stale:
+            numbers = stored_attributes(point_numbers(run, table, settings), settings)
+            old = [name for name in table.attrs if name.startswith(STORED)]
+    if table_stale:
+        update_attributes(table_path, numbers, drop=old)
+    if run_stale:
+        update_attributes(run_path, wanted, drop=names)
+    return run_stale or table_stale

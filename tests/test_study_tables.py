@@ -181,3 +181,64 @@ def test_settings_only_the_summary_reads_change_no_table_and_reach_the_summary(
         ds.attrs.pop("history")
     xr.testing.assert_identical(reused, from_files)
     assert reused.sizes["level"] == 3 and float(reused["load_rating"].max()) == 20000.0
+
+
+def test_a_kept_run_gets_new_summary_only_settings_in_its_files_and_nothing_else(
+        run_ds, compliant_ds, tmp_path):
+    """analysis.study_tables.refresh_summary_settings, what a study does to a run it keeps
+    after a setting only the summary reads changed: the run file's analysis.<key> attributes
+    become the new values, the table's stored numbers those of the new settings (so the
+    summary reads no run file, and equals the one computed from the files), every variable and
+    every other attribute as they were; a second call finds nothing to do."""
+    import xarray as xr
+
+    from analysis.study_tables import refresh_summary_settings
+    from analysis.summary import _from_stored, summarize
+
+    old = dict(SETTINGS, zoom_top=0, settle=0.0, force_levels=[100.0, 1000.0],
+               life_conformity=None, life_load_rating=None)
+    new = dict(old, force_levels=[50.0, 500.0, 5000.0], life_conformity=[0.51, 0.54],
+               life_load_rating=20000.0)
+    keep = simcore.validate_config({})["study"]["keep"]
+    twin_keep = [name for name in keep if name not in plan.TWIN_DROPS]
+    runs, tables, plain = [], [], []
+    for label, ds, kept in (("a", run_ds, keep), ("c", compliant_ds, twin_keep)):
+        table = impact_table(ds, old, POINT)
+        runs.append(tmp_path / f"run{label}.nc")
+        tables.append(tmp_path / f"table{label}.nc")
+        simcore.write_netcdf(ds, runs[-1], keep=kept)
+        simcore.write_netcdf(table, tables[-1])
+        table.attrs = {k: v for k, v in table.attrs.items() if not k.startswith("summary_")}
+        plain.append(tmp_path / f"plain{label}.nc")
+        simcore.write_netcdf(table, plain[-1])
+    before = {path: xr.load_dataset(path) for path in runs + tables}
+    changed = {"analysis.force_levels", "analysis.life_conformity",
+               "analysis.life_load_rating"}
+    for run, table in zip(runs, tables, strict=True):
+        assert refresh_summary_settings(run, table, {"analysis": new})
+        assert not refresh_summary_settings(run, table, {"analysis": new})
+        after = xr.load_dataset(run)
+        np.testing.assert_array_equal(after.attrs["analysis.force_levels"], [50, 500, 5000])
+        np.testing.assert_array_equal(after.attrs["analysis.life_conformity"], [0.51, 0.54])
+        assert after.attrs["analysis.life_load_rating"] == 20000.0
+        assert {k: str(v) for k, v in after.attrs.items() if k not in changed} == \
+            {k: str(v) for k, v in before[run].attrs.items() if k not in changed}
+        after.attrs, before[run].attrs = {}, {}
+        xr.testing.assert_identical(after, before[run])
+        stored = xr.load_dataset(table)
+        assert _from_stored(stored.attrs, new) is not None
+        assert _from_stored(before[table].attrs, new) is None
+        for ds in (stored, before[table]):
+            ds.attrs = {k: v for k, v in ds.attrs.items() if not k.startswith("summary_")}
+        xr.testing.assert_identical(stored, before[table])
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        p.name for p in runs + tables + plain)  # no temporary file left
+    kw = {"scheduler": "synchronous", "settings": new}
+    reused = summarize({"nonsmooth": runs[:1], "compliant": runs[1:]},
+                       {"nonsmooth": tables[:1], "compliant": tables[1:]}, **kw)
+    from_files = summarize({"nonsmooth": runs[:1], "compliant": runs[1:]},
+                           {"nonsmooth": plain[:1], "compliant": plain[1:]}, **kw)
+    for ds in (reused, from_files):
+        ds.attrs.pop("history")
+    xr.testing.assert_identical(reused, from_files)
+    assert reused.sizes["level"] == 3 and float(reused["load_rating"].max()) == 20000.0

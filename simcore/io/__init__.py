@@ -7,7 +7,8 @@ Turns the kernels' plain arrays into the run dataset and writes netCDF atomicall
 - :mod:`.dataset`: the run dataset assembled in named stages (:func:`trajectory_dataset`), the
   global attributes, the file of a failed run;
 - :mod:`.netcdf`: atomic writing (temporary file in the target folder, then ``os.replace``, so
-  that no reader ever sees a half-written file), the encoding, ``study.keep``;
+  that no reader ever sees a half-written file; :func:`update_attributes` edits a copy), the
+  encoding, ``study.keep``;
 - :mod:`.read`: reading a run back (``q`` and ``v`` of the kernels, one sample's state), and a
   file's category coordinates by their names (:func:`with_category_names`).
 
@@ -38,7 +39,13 @@ from .dataset import (
     setting_attribute,
     trajectory_dataset,
 )
-from .netcdf import keep_variables, netcdf_encoding, replace_durably, write_netcdf
+from .netcdf import (
+    keep_variables,
+    netcdf_encoding,
+    replace_durably,
+    update_attributes,
+    write_netcdf,
+)
 from .read import (
     GENERALIZED_PARTS,
     generalized,
@@ -62,7 +69,8 @@ from .variables import (
 #: The paper's four study parameters (coordinate names), axes of every study.
 BASE_PARAMETERS = tuple(PARAMETERS)
 
-__all__ = ["write_netcdf", "replace_durably", "trajectory_dataset", "dataset_of_arrays",
+__all__ = ["write_netcdf", "replace_durably", "update_attributes", "trajectory_dataset",
+           "dataset_of_arrays",
            "failed_run_dataset",
            "generalized", "open_run", "state_at", "time_steps", "with_category_names",
            "parameter_coords",

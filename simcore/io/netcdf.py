@@ -136,6 +136,50 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4, keep=None
     return path
 
 
+def update_attributes(path: str | Path, values: dict, drop=()) -> Path:
+    """Set and remove global attributes of the netCDF file ``path`` atomically: a copy of the
+    file in its folder is edited (netCDF4, the data untouched) and renamed into place, so that
+    the file on disk is always either the old one or the new one.
+
+    Parameters
+    ----------
+    path : str or Path
+        An existing netCDF4 file.
+    values : dict
+        Attributes to set (``name: value``, a value netCDF can hold: a number, a string, a 1-D
+        array).
+    drop : iterable of str
+        Attributes to remove where present (before ``values`` are set).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    import shutil
+
+    import netCDF4
+
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        shutil.copyfile(path, tmp)
+        os.chmod(tmp, os.stat(path).st_mode & 0o777)
+        with netCDF4.Dataset(tmp, "a") as nc:
+            for name in drop:
+                if name in nc.ncattrs():
+                    nc.delncattr(name)
+            for name, value in values.items():
+                nc.setncattr(name, value)
+        replace_durably(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
 def netcdf_encoding(ds: xr.Dataset, complevel: int = 4) -> dict:
     """The ``encoding`` argument with which :func:`write_netcdf` writes ``ds`` (see there)."""
     encoding = {}

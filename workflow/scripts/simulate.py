@@ -13,7 +13,9 @@ load are paid once per batch.
 A run whose two files are in place, open and carry its fingerprint
 (:func:`simcore.study.plan.fingerprint`) is not made again (a killed, repaired or regrouped
 study redoes only what is missing or changed), unless ``BEARINGSIM_STUDY_REDO`` is set (the
-workflow sets it under ``--forceall`` or ``--forcerun simulate``).
+workflow sets it under ``--forceall`` or ``--forcerun simulate``). A kept run whose settings
+only the summary reads changed gets them in its files, with its table's summary numbers made
+again from the run file (:func:`analysis.study_tables.refresh_summary_settings`).
 
 A run whose solver does not converge (``simcore.SolverError``, or a singular matrix,
 ``numpy.linalg.LinAlgError``, raised from a kernel) does not stop the study: the error, naming
@@ -69,7 +71,7 @@ with job_log(sm.log.simulate) as terminal:
     from numpy.linalg import LinAlgError
 
     import simcore
-    from analysis.study_tables import impact_table
+    from analysis.study_tables import impact_table, refresh_summary_settings
     from simcore.io import failed_run_dataset, study_coords
     from simcore.study.repair import finished
 
@@ -84,7 +86,11 @@ with job_log(sm.log.simulate) as terminal:
         point = {k: v for k, v in run["coords"].items() if k != "model.contact_model"}
         where = f"{label(point)} ({run['model']})"
         if not redo and finished(run["run"], run["table"], run["fingerprint"]):
-            print(f"{where}: up to date, kept -> {run['run']}", flush=True)
+            # (a setting only the summary reads may have changed: not in the fingerprint)
+            updated = refresh_summary_settings(run["run"], run["table"], run["config"])
+            print(f"{where}: up to date, kept"
+                  f"{' (summary settings updated)' if updated else ''} -> {run['run']}",
+                  flush=True)
             n_skipped += 1
             continue
         cfg = simcore.validate_config(run["config"])
