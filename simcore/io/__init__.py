@@ -43,6 +43,7 @@ from .netcdf import (
     keep_variables,
     netcdf_encoding,
     replace_durably,
+    replacing,
     update_attributes,
     write_netcdf,
 )
@@ -69,8 +70,8 @@ from .variables import (
 #: The paper's four study parameters (coordinate names), axes of every study.
 BASE_PARAMETERS = tuple(PARAMETERS)
 
-__all__ = ["write_netcdf", "replace_durably", "update_attributes", "trajectory_dataset",
-           "dataset_of_arrays",
+__all__ = ["write_netcdf", "replace_durably", "replacing", "update_attributes",
+           "trajectory_dataset", "dataset_of_arrays",
            "failed_run_dataset",
            "generalized", "open_run", "state_at", "time_steps", "with_category_names",
            "parameter_coords",

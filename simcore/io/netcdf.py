@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -87,6 +88,38 @@ def replace_durably(tmp: str | Path, path: str | Path) -> None:
         os.close(folder)
 
 
+@contextmanager
+def replacing(path: str | Path, mode: int | None = None):
+    """A temporary file in ``path``'s folder to write, renamed onto ``path``
+    (:func:`replace_durably`) when the ``with`` block ends, removed if it raises: a reader
+    sees the old file or the new one, never a part.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to replace (or create).
+    mode : int, optional
+        Permission bits of the new file; default: those of a file opened the ordinary way
+        (0666 less the umask; ``mkstemp`` makes it its owner's only).
+
+    Yields
+    ------
+    str
+        The temporary file's path (it exists, empty).
+    """
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        yield tmp
+        os.chmod(tmp, 0o666 & ~_umask() if mode is None else mode)
+        replace_durably(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
 def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4, keep=None) -> Path:
     """Write ``ds`` to ``path`` atomically, with zlib compression of the data variables.
 
@@ -117,22 +150,12 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, complevel: int = 4, keep=None
     ds = keep_variables(ds, keep)
     path.parent.mkdir(parents=True, exist_ok=True)
     encoding = netcdf_encoding(ds, complevel)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
+    with replacing(path) as tmp:
         try:
             to_netcdf4(ds, tmp, encoding)
         except (OSError, RuntimeError) as exc:
             _raise_if_disk_full(exc, path, ds.nbytes)
             raise
-        # mkstemp creates the file for its owner only; give it the permissions of a file
-        # opened the ordinary way (0666 less the umask)
-        os.chmod(tmp, 0o666 & ~_umask())
-        replace_durably(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
     return path
 
 
@@ -161,22 +184,14 @@ def update_attributes(path: str | Path, values: dict, drop=()) -> Path:
     import netCDF4
 
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
+    with replacing(path, mode=os.stat(path).st_mode & 0o777) as tmp:
         shutil.copyfile(path, tmp)
-        os.chmod(tmp, os.stat(path).st_mode & 0o777)
         with netCDF4.Dataset(tmp, "a") as nc:
             for name in drop:
                 if name in nc.ncattrs():
                     nc.delncattr(name)
             for name, value in values.items():
                 nc.setncattr(name, value)
-        replace_durably(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
     return path
 
 

@@ -35,7 +35,6 @@ script_start = time.time()
 
 import json  # noqa: E402
 import os  # noqa: E402
-import tempfile  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 from _job import (  # noqa: E402
@@ -52,15 +51,13 @@ sm = snakemake  # noqa: F821  (injected by Snakemake)
 
 def write_marker(path, runs):
     """The batch's marker: its runs' files and fingerprints, written atomically."""
-    from simcore.io import replace_durably
+    from simcore.io import replacing
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     done = [{key: run[key] for key in ("run", "table", "model", "fingerprint")} for run in runs]
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    with os.fdopen(fd, "w") as fh:
+    with replacing(path) as tmp, open(tmp, "w") as fh:
         json.dump({"runs": done}, fh, indent=1)
-    replace_durably(tmp, path)
 
 
 open(sm.log.impacts, "w").close()  # a new impacts log; each table appends its lines
