@@ -155,7 +155,7 @@ def refresh_summary_settings(run_path, table_path, config: dict) -> bool:
     from simcore.io.dataset import flat_settings
     from simcore.study.plan import SUMMARY_ONLY_SETTINGS
 
-    from .summary import STORED, _from_stored, point_numbers, stored_attributes
+    from .summary import STORED, point_numbers, stored_attributes, stored_numbers
 
     settings = config["analysis"]
     names = [f"analysis.{key}" for key in SUMMARY_ONLY_SETTINGS]
@@ -165,7 +165,7 @@ def refresh_summary_settings(run_path, table_path, config: dict) -> bool:
     with xr.open_dataset(run_path) as run, xr.open_dataset(table_path) as table:
         run_stale = not all(_same_attribute(run.attrs.get(name), wanted.get(name))
                             for name in names)
-        table_stale = stores and _from_stored(table.attrs, settings) is None
+        table_stale = stores and stored_numbers(table.attrs, settings) is None
         if table_stale:
             numbers = stored_attributes(point_numbers(run, table, settings), settings)
             old = [name for name in table.attrs if name.startswith(STORED)]

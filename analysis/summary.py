@@ -91,8 +91,8 @@ from .reads import LIFE_READS, SUMMARY_READS, run_setting
 from .run_life import conformities
 
 __all__ = ["summarize", "summary_table", "steady_window", "SteadyWindow", "category_codes",
-           "impact_numbers", "compliant_numbers", "point_numbers", "run_model", "MODELS",
-           "STAGES", "RACES", "KINDS", "N_TOP", "STORED"]
+           "impact_numbers", "compliant_numbers", "point_numbers", "stored_numbers",
+           "run_model", "MODELS", "STAGES", "RACES", "KINDS", "N_TOP", "STORED"]
 
 #: Contact models of a grid point (code = position): 0 the paper's nonsmooth method, 1 the
 #: compliant (Hertz) reference.
@@ -814,7 +814,7 @@ def stored_attributes(numbers: dict, settings: dict) -> dict:
     return out
 
 
-def _from_stored(attrs: dict, settings: dict) -> dict | None:
+def stored_numbers(attrs: dict, settings: dict) -> dict | None:
     """The numbers stored in a table's attributes for these settings, else None; None too where
     they lack one of the model's variables (a table written before the variable existed)."""
     if attrs.get(f"{STORED}settings") != _settings_key(settings):
@@ -885,7 +885,7 @@ def _entry(run_path, impact_path, settings: dict, axes=None, own=()) -> tuple[di
         table = None
         if impact_path is not None:
             with xr.open_dataset(impact_path) as ds:
-                numbers = _from_stored(ds.attrs, settings)
+                numbers = stored_numbers(ds.attrs, settings)
                 if numbers is not None:
                     return _checked(_parameters(ds, axes), axes, impact_path), numbers
                 table = ds.load()

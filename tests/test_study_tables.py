@@ -193,7 +193,7 @@ def test_a_kept_run_gets_new_summary_only_settings_in_its_files_and_nothing_else
     import xarray as xr
 
     from analysis.study_tables import refresh_summary_settings
-    from analysis.summary import _from_stored, summarize
+    from analysis.summary import stored_numbers, summarize
 
     old = dict(SETTINGS, zoom_top=0, settle=0.0, force_levels=[100.0, 1000.0],
                life_conformity=None, life_load_rating=None)
@@ -226,8 +226,8 @@ def test_a_kept_run_gets_new_summary_only_settings_in_its_files_and_nothing_else
         after.attrs, before[run].attrs = {}, {}
         xr.testing.assert_identical(after, before[run])
         stored = xr.load_dataset(table)
-        assert _from_stored(stored.attrs, new) is not None
-        assert _from_stored(before[table].attrs, new) is None
+        assert stored_numbers(stored.attrs, new) is not None
+        assert stored_numbers(before[table].attrs, new) is None
         for ds in (stored, before[table]):
             ds.attrs = {k: v for k, v in ds.attrs.items() if not k.startswith("summary_")}
         xr.testing.assert_identical(stored, before[table])

@@ -669,9 +669,9 @@ def test_numbers_stored_by_other_analysis_code_are_computed_again(monkeypatch):
         if scope in ("model", "nonsmooth"):
             numbers.setdefault(name, 1.0)
     attrs = module.stored_attributes(numbers, {"settle": 1.0})
-    assert module._from_stored(attrs, {"settle": 1.0}) is not None
+    assert module.stored_numbers(attrs, {"settle": 1.0}) is not None
     monkeypatch.setattr(module, "_code_fingerprint", lambda: "edited")
-    assert module._from_stored(attrs, {"settle": 1.0}) is None
+    assert module.stored_numbers(attrs, {"settle": 1.0}) is None
 
 
 def test_the_clearance_of_a_swept_class_is_a_coordinate_along_the_class_axis():
