@@ -140,6 +140,39 @@ def test_summary_from_the_numbers_stored_in_the_tables_equals_the_one_from_the_f
     assert float(other["settle_time"].sel(clearance=4e-4, model=0).item()) == 0.0
 
 
+#: analysis settings before and after a change of every setting only the summary reads
+SUMMARY_OLD = dict(SETTINGS, zoom_top=0, settle=0.0, force_levels=[100.0, 1000.0],
+                   life_conformity=None, life_load_rating=None)
+SUMMARY_NEW = dict(SUMMARY_OLD, force_levels=[50.0, 500.0, 5000.0], life_conformity=[0.51, 0.54],
+                   life_load_rating=20000.0)
+
+
+def _study_keeps():
+    """The variables a study keeps of a nonsmooth run and of a compliant twin."""
+    keep = simcore.validate_config({})["study"]["keep"]
+    return keep, [name for name in keep if name not in plan.TWIN_DROPS]
+
+
+def _assert_summary_from_tables_is_the_one_from_files(runs, tables, plain, settings):
+    """The summary of a nonsmooth run and a twin (``runs``) with ``settings`` from ``tables``
+    equals the one from ``plain`` (the same tables without stored numbers: computed from the
+    run files); the new settings reach it."""
+    import xarray as xr
+
+    from analysis.summary import summarize
+
+    kw = {"scheduler": "synchronous", "settings": settings}
+    reused = summarize({"nonsmooth": runs[:1], "compliant": runs[1:]},
+                       {"nonsmooth": tables[:1], "compliant": tables[1:]}, **kw)
+    from_files = summarize({"nonsmooth": runs[:1], "compliant": runs[1:]},
+                           {"nonsmooth": plain[:1], "compliant": plain[1:]}, **kw)
+    for ds in (reused, from_files):
+        ds.attrs.pop("history")
+    xr.testing.assert_identical(reused, from_files)
+    assert reused.sizes["level"] == len(settings["force_levels"])
+    assert float(reused["load_rating"].max()) == settings["life_load_rating"]
+
+
 def test_settings_only_the_summary_reads_change_no_table_and_reach_the_summary(
         run_ds, compliant_ds, tmp_path):
     """simcore.study.plan.SUMMARY_ONLY_SETTINGS (which a study's run fingerprint leaves out): other
@@ -148,16 +181,11 @@ def test_settings_only_the_summary_reads_change_no_table_and_reach_the_summary(
     computed from the run files, so reusing the runs loses nothing."""
     import xarray as xr
 
-    from analysis.summary import summarize
     from simcore.study.plan import SUMMARY_ONLY_SETTINGS
 
-    old = dict(SETTINGS, zoom_top=0, settle=0.0, force_levels=[100.0, 1000.0],
-               life_conformity=None, life_load_rating=None)
-    new = dict(old, force_levels=[50.0, 500.0, 5000.0], life_conformity=[0.51, 0.54],
-               life_load_rating=20000.0)
+    old, new = SUMMARY_OLD, SUMMARY_NEW
     assert {key for key in new if new[key] != old[key]} == set(SUMMARY_ONLY_SETTINGS)
-    keep = simcore.validate_config({})["study"]["keep"]
-    twin_keep = [name for name in keep if name not in plan.TWIN_DROPS]
+    keep, twin_keep = _study_keeps()
     runs, stored, plain_files = [], [], []
     for label, ds, kept in (("a", run_ds, keep), ("c", compliant_ds, twin_keep)):
         tables = {name: impact_table(ds, s, POINT) for name, s in (("old", old), ("new", new))}
@@ -172,15 +200,7 @@ def test_settings_only_the_summary_reads_change_no_table_and_reach_the_summary(
         simcore.write_netcdf(tables["old"], stored[-1])
         plain_files.append(tmp_path / f"plain{label}.nc")
         simcore.write_netcdf(plain["new"], plain_files[-1])
-    kw = {"scheduler": "synchronous", "settings": new}
-    reused = summarize({"nonsmooth": runs[:1], "compliant": runs[1:]},
-                       {"nonsmooth": stored[:1], "compliant": stored[1:]}, **kw)
-    from_files = summarize({"nonsmooth": runs[:1], "compliant": runs[1:]},
-                           {"nonsmooth": plain_files[:1], "compliant": plain_files[1:]}, **kw)
-    for ds in (reused, from_files):
-        ds.attrs.pop("history")
-    xr.testing.assert_identical(reused, from_files)
-    assert reused.sizes["level"] == 3 and float(reused["load_rating"].max()) == 20000.0
+    _assert_summary_from_tables_is_the_one_from_files(runs, stored, plain_files, new)
 
 
 def test_a_kept_run_gets_new_summary_only_settings_in_its_files_and_nothing_else(
@@ -193,14 +213,10 @@ def test_a_kept_run_gets_new_summary_only_settings_in_its_files_and_nothing_else
     import xarray as xr
 
     from analysis.study_tables import refresh_summary_settings
-    from analysis.summary import stored_numbers, summarize
+    from analysis.summary import stored_numbers
 
-    old = dict(SETTINGS, zoom_top=0, settle=0.0, force_levels=[100.0, 1000.0],
-               life_conformity=None, life_load_rating=None)
-    new = dict(old, force_levels=[50.0, 500.0, 5000.0], life_conformity=[0.51, 0.54],
-               life_load_rating=20000.0)
-    keep = simcore.validate_config({})["study"]["keep"]
-    twin_keep = [name for name in keep if name not in plan.TWIN_DROPS]
+    old, new = SUMMARY_OLD, SUMMARY_NEW
+    keep, twin_keep = _study_keeps()
     runs, tables, plain = [], [], []
     for label, ds, kept in (("a", run_ds, keep), ("c", compliant_ds, twin_keep)):
         table = impact_table(ds, old, POINT)
@@ -233,12 +249,4 @@ def test_a_kept_run_gets_new_summary_only_settings_in_its_files_and_nothing_else
         xr.testing.assert_identical(stored, before[table])
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
         p.name for p in runs + tables + plain)  # no temporary file left
-    kw = {"scheduler": "synchronous", "settings": new}
-    reused = summarize({"nonsmooth": runs[:1], "compliant": runs[1:]},
-                       {"nonsmooth": tables[:1], "compliant": tables[1:]}, **kw)
-    from_files = summarize({"nonsmooth": runs[:1], "compliant": runs[1:]},
-                           {"nonsmooth": plain[:1], "compliant": plain[1:]}, **kw)
-    for ds in (reused, from_files):
-        ds.attrs.pop("history")
-    xr.testing.assert_identical(reused, from_files)
-    assert reused.sizes["level"] == 3 and float(reused["load_rating"].max()) == 20000.0
+    _assert_summary_from_tables_is_the_one_from_files(runs, tables, plain, new)
