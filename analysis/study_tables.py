@@ -62,6 +62,12 @@ def _nonsmooth_table(run_ds: xr.Dataset, settings: dict, timings: dict) -> xr.Da
     return impacts
 
 
+def _stores_numbers(settings: dict) -> bool:
+    """Whether a table made with these analysis settings carries its run's summary numbers
+    (settings with the steady window and the force levels, as a study's are)."""
+    return "settle" in settings and "force_levels" in settings
+
+
 def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = "",
                  timings: dict | None = None) -> xr.Dataset:
     """Table of one run of a study (impacts of a nonsmooth run, episodes of a compliant one).
@@ -114,7 +120,7 @@ def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = 
         table = _nonsmooth_table(run_ds, settings, timings)
     table = table.assign_coords(coords)
     table.attrs.setdefault("failed", 0)
-    if "settle" in settings and "force_levels" in settings:  # the summary reads no run file
+    if _stores_numbers(settings):  # the summary reads no run file
         numbers = point_numbers(run_ds, table, settings)
         table.attrs.update(stored_attributes(numbers, settings))
     return table
@@ -161,11 +167,11 @@ def refresh_summary_settings(run_path, table_path, config: dict) -> bool:
     names = [f"analysis.{key}" for key in SUMMARY_ONLY_SETTINGS]
     wanted = flat_settings({"analysis": {key: settings.get(key)
                                          for key in SUMMARY_ONLY_SETTINGS}})
-    stores = "settle" in settings and "force_levels" in settings  # as impact_table does
     with xr.open_dataset(run_path) as run, xr.open_dataset(table_path) as table:
         run_stale = not all(_same_attribute(run.attrs.get(name), wanted.get(name))
                             for name in names)
-        table_stale = stores and stored_numbers(table.attrs, settings) is None
+        table_stale = (_stores_numbers(settings)
+                       and stored_numbers(table.attrs, settings) is None)
         if table_stale:
             numbers = stored_attributes(point_numbers(run, table, settings), settings)
             old = [name for name in table.attrs if name.startswith(STORED)]
