@@ -53,7 +53,8 @@ TWIN_DROPS = ("velocity", "angular_velocity", "vn_free")
 #: reads itself.
 TWIN_SETTINGS = ("twin_rho_inf", "twin_tol_clearance")
 #: Analysis settings that only a run's summary numbers read (no run, no impact table's own
-#: variable): a study's runs are not made again for them (:func:`fingerprint`), and the
+#: variable): a study's runs are not made again for them (:func:`fingerprint`); a kept run's
+#: files get the new values (:func:`analysis.study_tables.refresh_summary_settings`), and the
 #: summary computes a run's numbers again from its run file where its table's were made with
 #: other values (:mod:`analysis.summary`, which reads them from here).
 SUMMARY_ONLY_SETTINGS = ("force_levels", "life_conformity", "life_load_rating")
