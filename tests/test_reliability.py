@@ -3,9 +3,11 @@ full, a study that repairs itself, and the random-configuration fuzz (slow)."""
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -25,7 +27,7 @@ import simcore
 from simcore import kernels as nb
 from simcore.config import ConfigError, load_config
 from simcore.config.limits import OMEGA_DT_MAX, memory_estimate, spring_scales, values_per_step
-from simcore.io import generalized
+from simcore.io import generalized, update_attributes
 from simcore.model import SolverSettings
 from simcore.model.audit import ENERGY_FLOOR_J, EnergyAudit
 from simcore.model.mechanism import crank_slider
@@ -417,29 +419,67 @@ def test_the_kernels_energy_scale_is_the_larger_of_E_and_E_without_gravity():
 
 # --- disk full --------------------------------------------------------------------------------
 
-def test_disk_full_says_so(tmp_path, monkeypatch):
-    """A real full file system (a 64 kB tmpfs, as root) or, without mount rights, the netCDF
-    library's "HDF error" with no free space left."""
-    ds = xr.Dataset({"a": ("x", np.random.default_rng(0).random(200_000))})
+@contextlib.contextmanager
+def _full_disk(tmp_path, fake_failure):
+    """A folder on a real 64 kB file system (a tmpfs, as root) or, without mount rights, an
+    ordinary folder where ``fake_failure()`` (the second value yielded, called when the disk
+    is to be full) installs the netCDF library's "HDF error" and
+    the file system reports no free space."""
     mnt = tmp_path / "small"
     mnt.mkdir()
     mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)],
                              capture_output=True).returncode == 0 if os.geteuid() == 0 else False
     try:
-        if not mounted:
-            def hdf_error(*args, **kwargs):
-                raise RuntimeError("NetCDF: HDF error")
-
-            monkeypatch.setattr(xr.Dataset, "to_netcdf", hdf_error)
-            monkeypatch.setattr(shutil, "disk_usage", lambda p: shutil._ntuple_diskusage(1, 1, 0))
-        with pytest.raises(OSError, match="No space left on device") as err:
-            simcore.write_netcdf(ds, mnt / "big.nc")
-        assert err.value.errno == errno.ENOSPC
-        assert not list(mnt.iterdir())  # no temporary file left
+        yield mnt, (lambda: None) if mounted else fake_failure
     finally:
         if mounted:
             # lazy: the HDF5 library may keep the handle of the failed file until exit
             subprocess.run(["umount", "-l", str(mnt)], check=True)
+
+
+def _hdf_error(*args, **kwargs):
+    raise RuntimeError("NetCDF: HDF error")
+
+
+def _no_free_space(monkeypatch):
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: shutil._ntuple_diskusage(1, 1, 0))
+
+
+def test_disk_full_says_so(tmp_path, monkeypatch):
+    ds = xr.Dataset({"a": ("x", np.random.default_rng(0).random(200_000))})
+
+    def fake():
+        monkeypatch.setattr("simcore.io.netcdf.to_netcdf4", _hdf_error)
+        _no_free_space(monkeypatch)
+
+    with _full_disk(tmp_path, fake) as (mnt, make_full):
+        make_full()
+        with pytest.raises(OSError, match="No space left on device") as err:
+            simcore.write_netcdf(ds, mnt / "big.nc")
+        assert err.value.errno == errno.ENOSPC
+        assert not list(mnt.iterdir())  # no temporary file left
+
+
+def test_attributes_on_a_full_disk_say_so_and_keep_the_file(tmp_path, monkeypatch):
+    """A file of 40 kB on a 64 kB disk: its copy does not fit."""
+    import netCDF4
+
+    ds = xr.Dataset({"a": ("x", np.random.default_rng(0).random(5_000))}, attrs={"k": 1})
+
+    def fake():
+        monkeypatch.setattr(netCDF4, "Dataset", _hdf_error)
+        _no_free_space(monkeypatch)
+
+    with _full_disk(tmp_path, fake) as (mnt, make_full):
+        path = simcore.write_netcdf(ds, mnt / "run.nc", complevel=0)
+        before = path.read_bytes()
+        make_full()
+        message = f"No space left on device while writing {re.escape(str(path))}"
+        with pytest.raises(OSError, match=message) as err:
+            update_attributes(path, {"k": 2})
+        assert err.value.errno == errno.ENOSPC
+        assert list(mnt.iterdir()) == [path]  # no temporary file left
+        assert path.read_bytes() == before
 
 
 # --- a study that repairs itself --------------------------------------------------------------

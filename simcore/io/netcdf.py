@@ -178,6 +178,12 @@ def update_attributes(path: str | Path, values: dict, drop=()) -> Path:
     -------
     Path
         ``path``.
+
+    Raises
+    ------
+    OSError
+        ``ENOSPC``, saying so and naming ``path``, where the disk is full (``path`` is then
+        unchanged, as on any failure).
     """
     import shutil
 
@@ -185,13 +191,17 @@ def update_attributes(path: str | Path, values: dict, drop=()) -> Path:
 
     path = Path(path)
     with replacing(path, mode=os.stat(path).st_mode & 0o777) as tmp:
-        shutil.copyfile(path, tmp)
-        with netCDF4.Dataset(tmp, "a") as nc:
-            for name in drop:
-                if name in nc.ncattrs():
-                    nc.delncattr(name)
-            for name, value in values.items():
-                nc.setncattr(name, value)
+        try:
+            shutil.copyfile(path, tmp)
+            with netCDF4.Dataset(tmp, "a") as nc:
+                for name in drop:
+                    if name in nc.ncattrs():
+                        nc.delncattr(name)
+                for name, value in values.items():
+                    nc.setncattr(name, value)
+        except (OSError, RuntimeError) as exc:
+            _raise_if_disk_full(exc, path, os.stat(path).st_size)
+            raise
     return path
 
 
