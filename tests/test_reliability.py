@@ -421,10 +421,9 @@ def test_the_kernels_energy_scale_is_the_larger_of_E_and_E_without_gravity():
 
 @contextlib.contextmanager
 def _full_disk(tmp_path, fake_failure):
-    """A folder on a real 64 kB file system (a tmpfs, as root) or, without mount rights, an
-    ordinary folder where ``fake_failure()`` (the second value yielded, called when the disk
-    is to be full) installs the netCDF library's "HDF error" and
-    the file system reports no free space."""
+    """(folder, make_full): a folder on a real 64 kB file system (a tmpfs, as root), or
+    without mount rights an ordinary folder where ``make_full()`` (``fake_failure``) installs
+    the netCDF library's "HDF error" and a file system with no free space."""
     mnt = tmp_path / "small"
     mnt.mkdir()
     mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)],
