@@ -11,7 +11,6 @@
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 
 import numpy as np
@@ -225,6 +224,8 @@ def _study_figures(args) -> int:
 
     import xarray as xr
 
+    from simcore.study.plan import FIGURE_OPTIONS
+
     from .figures import figure_layout, plot_study, stored_reference
     from .summary import summary_table
 
@@ -245,14 +246,10 @@ def _study_figures(args) -> int:
               file=sys.stderr)
         return 2
     reference = stored_reference(summary)
-    try:  # the layout first: a bad one leaves no folder behind
-        figure_layout(summary, args.axes, fixed, reference)
-    except ValueError as exc:  # named by the study's keys, which these options set
-        message = re.sub(r"study\.figure_fixed\.(\S+?):", r"--fixed \1:", str(exc))
-        raise ValueError(message.replace("study.figure_fixed", "--fixed")
-                         .replace("study.figure_axes", "--axes")) from None
+    # the layout first: a bad one leaves no folder behind
+    figure_layout(summary, args.axes, fixed, reference, FIGURE_OPTIONS)
     figures = plot_study(summary, outdir, figure_axes=args.axes, figure_fixed=fixed,
-                         reference=reference)
+                         reference=reference, names=FIGURE_OPTIONS)
     for p in figures:
         print(p)
     table = summary_table(summary)

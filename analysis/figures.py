@@ -23,6 +23,11 @@ import xarray as xr  # noqa: E402
 
 from simcore.config import schema_default  # noqa: E402
 from simcore.model.driver import CONTACT_MODELS  # noqa: E402
+from simcore.study.plan import (  # noqa: E402
+    FIGURE_KEYS,
+    FigureSettingNames,
+    check_figure_settings,
+)
 
 from .filtering import impact_masks, split_impulses, zero_threshold  # noqa: E402
 from .impacts import STUDY_PARAMETERS  # noqa: E402
@@ -626,6 +631,8 @@ class FigureLayout:
         Other swept axes, each held at a value {axis: value}.
     held : dict
         Axes of a single value {axis: value}.
+    names : FigureSettingNames
+        How the settings that choose the layout are named, on a page too large to draw.
     """
 
     x: str | None
@@ -634,6 +641,7 @@ class FigureLayout:
     row: str | None = None
     fixed: dict = field(default_factory=dict)
     held: dict = field(default_factory=dict)
+    names: FigureSettingNames = FIGURE_KEYS
 
     @property
     def axes(self) -> list[str]:
@@ -648,9 +656,9 @@ def grid_axes(summary_ds: xr.Dataset) -> list[str]:
         else [d for d in summary_ds.dims if d not in _ORDER]
 
 
-def _axis_value(summary_ds, axis, value) -> float:
+def _axis_value(summary_ds, axis, value, settings=FIGURE_KEYS) -> float:
     """The grid value of ``axis`` that ``value`` names: a number, or a category's name (its
-    ``flag_meanings``) or code."""
+    ``flag_meanings``) or code; a value the grid lacks is refused naming ``settings.held``."""
     values = np.asarray(summary_ds[axis].values, dtype=float)
     names = [_category(summary_ds, axis, v) for v in values]
     if isinstance(value, str) and value in names:
@@ -663,8 +671,8 @@ def _axis_value(summary_ds, axis, value) -> float:
     if not hit.size:
         allowed = ", ".join(name if name is not None else f"{v:g}"
                             for v, name in zip(values, names, strict=True))
-        raise ValueError(f"study.figure_fixed.{axis}: {value!r} is not allowed; allowed: one of "
-                         f"the grid's values {allowed}")
+        raise ValueError(f"{settings.held(axis)}: {value!r} is not allowed; allowed: one of the "
+                         f"grid's values {allowed}")
     return float(values[hit[0]])
 
 
@@ -709,7 +717,7 @@ def _held_value(summary_ds: xr.Dataset, axis: str, reference=None) -> float:
 
 
 def figure_layout(summary_ds: xr.Dataset, figure_axes=None, figure_fixed=None,
-                  reference=None) -> FigureLayout:
+                  reference=None, names: FigureSettingNames = FIGURE_KEYS) -> FigureLayout:
     """The layout of the study figures (``study.figure_axes``, ``study.figure_fixed``).
 
     Parameters
@@ -725,6 +733,9 @@ def figure_layout(summary_ds: xr.Dataset, figure_axes=None, figure_fixed=None,
     reference : dict, optional
         {axis: value}: a swept axis neither drawn nor in ``figure_fixed`` is held at its grid
         value nearest this one (the study's reference point); without it, at its middle value.
+    names : FigureSettingNames
+        How errors and pages name the two settings: the study's keys (default), or a
+        command's options (:data:`simcore.study.plan.FIGURE_OPTIONS`).
 
     Returns
     -------
@@ -736,16 +747,15 @@ def figure_layout(summary_ds: xr.Dataset, figure_axes=None, figure_fixed=None,
         One line naming the setting: an axis that is not a grid axis, named twice, or held at a
         value the grid does not have.
     """
-    from simcore.study.plan import check_figure_settings
-
     grid = grid_axes(summary_ds)
     swept = [a for a in grid if summary_ds.sizes[a] > 1]
     held = {a: float(summary_ds[a].values[0]) for a in grid if a not in swept}
     fixed_in = dict(figure_fixed or {})
-    axes = check_figure_settings({a: summary_ds.sizes[a] for a in grid}, figure_axes, fixed_in)
+    axes = check_figure_settings({a: summary_ds.sizes[a] for a in grid}, figure_axes, fixed_in,
+                                 names)
     for a in held:
         if a in fixed_in:  # an axis of one value: held there anyway, but only at a grid value
-            _axis_value(summary_ds, a, fixed_in[a])
+            _axis_value(summary_ds, a, fixed_in[a], names)
     if not figure_axes:
         axes = [a for a in swept if a not in fixed_in][:4]
     fixed = {}
@@ -753,12 +763,12 @@ def figure_layout(summary_ds: xr.Dataset, figure_axes=None, figure_fixed=None,
         if a in axes:
             continue
         if a in fixed_in:
-            fixed[a] = _axis_value(summary_ds, a, fixed_in[a])
+            fixed[a] = _axis_value(summary_ds, a, fixed_in[a], names)
         else:
             fixed[a] = _held_value(summary_ds, a, reference)
     axes += [None] * (4 - len(axes))
     return FigureLayout(x=axes[0], y=axes[1], col=axes[2], row=axes[3], fixed=fixed,
-                        held=held)
+                        held=held, names=names)
 
 
 def _axis_label(ds, dim):
@@ -1032,7 +1042,7 @@ def _facet_figure(q: StudyQuantity, layout: FigureLayout, ds, path, failed, titl
         return _too_large(path, title, (
             f"not drawn: {nrow} x {ncol} panels of {da.sizes[x]} x "
             f"{da.sizes[y] if y else 1} cells exceed {MAX_PANELS} panels or {MAX_CELLS} cells "
-            "a side; choose study.figure_axes or fix axes with study.figure_fixed"))
+            f"a side; choose {layout.names.axes} or fix axes with {layout.names.fixed}"))
     norm = _norm(da.values, q.kind)
     cmap = _cmap(q.kind)
     fig, axes, cax = _panel_grid(nrow, ncol, 3.1, 2.4, 0.15, 0.35, sharex=True, sharey=True,
@@ -1069,15 +1079,14 @@ def _reduce(da, dims, how):
     return getattr(da, how)(dims, skipna=True)
 
 
-def _pairs_figure(q: StudyQuantity, swept, ds, path, failed, title):
+def _pairs_figure(q: StudyQuantity, swept, ds, path, failed, title, names=FIGURE_KEYS):
     """One heat map per pair of swept dims, the others reduced (max, mean or median)."""
     pairs = [(a, b) for i, a in enumerate(swept) for b in swept[i + 1:]]
     widest = max(q.data.sizes[a] for a in swept)
     if len(pairs) > MAX_PANELS or widest > MAX_CELLS:
         return _too_large(path, title, (
             f"not drawn: {len(pairs)} pairs of axes of up to {widest} values exceed "
-            f"{MAX_PANELS} panels or {MAX_CELLS} cells a side; fix axes with "
-            "study.figure_fixed"))
+            f"{MAX_PANELS} panels or {MAX_CELLS} cells a side; fix axes with {names.fixed}"))
     ncol = min(3, len(pairs))
     nrow = int(math.ceil(len(pairs) / ncol))
     masked = q.data.where(~failed) if failed is not None else q.data
@@ -1150,7 +1159,8 @@ def _quantity_model(q: StudyQuantity):
 
 
 def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
-               figure_axes=None, figure_fixed=None, reference=None, model=None) -> list[Path]:
+               figure_axes=None, figure_fixed=None, reference=None, model=None,
+               names: FigureSettingNames = FIGURE_KEYS) -> list[Path]:
     """Every grid point of the study: heat maps of peak forces of both models, their ratio,
     p_max and counts.
 
@@ -1164,9 +1174,9 @@ def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
     part : (int, int)
         ``(i, n)``: draw only the quantities i, i + n, i + 2n, ... (so that n processes can
         share the work); the default draws all.
-    figure_axes, figure_fixed, reference :
+    figure_axes, figure_fixed, reference, names :
         The layout (:func:`figure_layout`; ``study.figure_axes``, ``study.figure_fixed``, the
-        study's reference point).
+        study's reference point, how messages name the two settings).
     model : {None, "nonsmooth", "compliant"}
         Draw only that model's quantities; None (default): both models, their ratio and the
         static deflection ratio.
@@ -1190,7 +1200,7 @@ def plot_study(summary_ds: xr.Dataset, outdir, part: tuple[int, int] = (0, 1),
     index, parts = (int(x) for x in part)
     if not (parts >= 1 and 0 <= index < parts):
         raise ValueError(f"part: {part!r} is not allowed; allowed: (i, n) with 0 <= i < n")
-    layout = figure_layout(summary_ds, figure_axes, figure_fixed, reference)
+    layout = figure_layout(summary_ds, figure_axes, figure_fixed, reference, names)
     quantities = _study_quantities(summary_ds)
     if model is not None:
         if model not in CONTACT_MODELS:
@@ -1255,7 +1265,8 @@ def _quantity_figures(summary_ds, q: StudyQuantity, layout: FigureLayout, swept,
             StudyQuantity(q.stem, full.transpose(*swept), q.label, q.how, q.kind), swept,
             summary_ds, outdir / f"pairs_{q.stem}.png",
             failed_full.transpose(*swept) if failed_full is not None else None,
-            f"{q.label}: each pair of swept parameters, {q.how} over the others{note}"))
+            f"{q.label}: each pair of swept parameters, {q.how} over the others{note}",
+            layout.names))
     return paths
 
 

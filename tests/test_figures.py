@@ -152,14 +152,27 @@ def test_a_fifth_axis_is_held_and_any_axis_can_be_drawn(tmp_path):
     assert sorted(p.name.split("_", 1)[0] for p in paths) == ["pairs", "study"]
 
 
-def test_a_grid_too_large_to_draw_says_so(tmp_path):
+def test_a_grid_too_large_to_draw_says_so(tmp_path, monkeypatch):
     ds = _summary((3, 3, 2, 2), extra_axes={"rank_axis": list(np.arange(40.0))})
     from analysis import figures
+    from simcore.study.plan import FIGURE_OPTIONS
 
     paths = plot_study(ds, tmp_path, part=(1, 100), figure_axes=["rank_axis", "clearance"])
     assert figures.MAX_CELLS < 40
     for path in paths:  # the message page (8 in at 100 dpi), not a 40-cell map
         assert plt.imread(path).shape[1] == 800
+    # the pages name the settings as the caller sets them: a study's keys, a command's options
+    said = []
+    monkeypatch.setattr(figures, "_too_large", lambda path, title, message: said.append(message))
+    for names, (axes, fixed), other in (
+            (None, ("study.figure_axes", "study.figure_fixed"), "--"),
+            (FIGURE_OPTIONS, ("--axes", "--fixed"), "study.")):
+        said.clear()
+        plot_study(ds, tmp_path, part=(1, 100), figure_axes=["rank_axis", "clearance"],
+                   **({"names": names} if names else {}))
+        assert len(said) == 2  # the heat maps and the pairs figure of one quantity
+        assert axes in said[0] and all(fixed in m for m in said)
+        assert not any(other in m for m in said), said
 
 
 def test_plot_reference(run, tmp_path):

@@ -494,10 +494,29 @@ def _unswept(run: Run) -> list[str]:
     return texts
 
 
-def check_figure_settings(sizes: Mapping[str, int], figure_axes=None, figure_fixed=None
-                          ) -> list[str]:
+@dataclass(frozen=True)
+class FigureSettingNames:
+    """How messages name the settings of the study figures' layout: the study's keys (the
+    default) or a command's options (:data:`FIGURE_OPTIONS`)."""
+
+    axes: str = "study.figure_axes"
+    fixed: str = "study.figure_fixed"
+    fixed_axis: str = "study.figure_fixed.{axis}"  # one held axis
+
+    def held(self, axis: str) -> str:
+        return self.fixed_axis.format(axis=axis)
+
+
+FIGURE_KEYS = FigureSettingNames()
+#: the options of ``python -m analysis study-figures``
+FIGURE_OPTIONS = FigureSettingNames("--axes", "--fixed", "--fixed {axis}")
+
+
+def check_figure_settings(sizes: Mapping[str, int], figure_axes=None, figure_fixed=None,
+                          names: FigureSettingNames = FIGURE_KEYS) -> list[str]:
     """The drawn axes of the study figures (``study.figure_axes``, ``study.figure_fixed``) on
-    a grid of axes ``{name: number of values}``, checked before any job.
+    a grid of axes ``{name: number of values}``, checked before any job; messages name the
+    settings by ``names``.
 
     Returns
     -------
@@ -513,20 +532,20 @@ def check_figure_settings(sizes: Mapping[str, int], figure_axes=None, figure_fix
     """
     fixed = dict(figure_fixed or {})
     named = list(figure_axes or [])
-    for setting, names in (("study.figure_axes", named),
-                           *((f"study.figure_fixed.{name}", [name]) for name in fixed)):
-        for name in names:
+    for setting, axes in ((names.axes, named),
+                          *((names.held(name), [name]) for name in fixed)):
+        for name in axes:
             if name not in sizes:
                 raise ConfigError(f"{setting}: {name!r} is not allowed; allowed: the swept "
                                   f"axes {', '.join(sizes)}")
     if not named:
         return []
     if len(set(named)) != len(named) or not 1 <= len(named) <= 4 or set(named) & set(fixed):
-        raise ConfigError(f"study.figure_axes: {named!r} is not allowed; allowed: 1 to 4 "
-                          "different swept axes, none of them in study.figure_fixed")
+        raise ConfigError(f"{names.axes}: {named!r} is not allowed; allowed: 1 to 4 "
+                          f"different swept axes, none of them in {names.fixed}")
     swept = [name for name in named if sizes[name] > 1]
     if not swept:
-        raise ConfigError(f"study.figure_axes: {named!r} is not allowed; allowed: at least one "
+        raise ConfigError(f"{names.axes}: {named!r} is not allowed; allowed: at least one "
                           "axis with more than one value (swept: "
                           + ", ".join(n for n, k in sizes.items() if k > 1) + ")")
     return swept
