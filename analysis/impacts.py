@@ -55,6 +55,7 @@ FLAG = {
     "not_converged_dt": 8,     # moved by more than the tolerance at dt/2 (dt-check)
     "solver_unconverged": 16,  # the solver step of the impact did not converge
     "method_disagrees": 32,    # a compliant zoom's force differs by more than method_tol
+    "peak_at_onset": 64,       # on a loaded contact the largest force is the start's F_s (1 + c)
 }
 
 _BALL_FACTOR = 2.0  # a pinch impulse exceeds twice what the ball alone can carry
@@ -395,6 +396,11 @@ def _flores(impulse, v_pre, F_static, K, e_N: float, h: float, v_min: float,
                           F_static=np.maximum(F_static[rows], 0.0), h=h)
         for name in out:
             out[name][rows] = res[name]
+        # On a loaded contact the Flores damping acts on the whole static indentation: the
+        # force starts at F_s (1 + 8 (1 - e_N) / (5 e_N)) whatever the impulse, and where the
+        # impact adds less than that jump the peak is the start, a number the impact does not set
+        onset = (res["t_peak"] == 0.0) & (F_static[rows] > 0.0)
+        flags[rows[onset]] |= FLAG["peak_at_onset"]
     steps = out["contact_time"] / h
     # an impact that never ends (on a heavily preloaded contact, see analysis.forces) is long too
     long_ = np.isfinite(out["F_max"]) & ~(steps <= contact_long_ratio)
@@ -446,7 +452,10 @@ def _impact_dataset(data: dict, contact_long_ratio: float, vname: str) -> xr.Dat
                              flag_meanings=" ".join(FLAG),
                              comment=f"contact_long: contact_time > {contact_long_ratio:g} dt; "
                                      "method_disagrees: a compliant zoom's F_max_zoom differs "
-                                     "from F_max by more than analysis.method_tol")
+                                     "from F_max by more than analysis.method_tol; "
+                                     "peak_at_onset: on a loaded contact the largest force is "
+                                     "the start's F_static (1 + 8 (1 - e_N) / (5 e_N)), set by "
+                                     "the static force, not by the impulse")
     ds["trusted"].attrs.update(flag_values=np.array([0, 1], dtype=np.int8),
                                flag_meanings="untrusted trusted")
     ds["approach"].attrs.pop("units", None)

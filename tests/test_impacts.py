@@ -149,6 +149,39 @@ def test_flag_contact_long_threshold(lone):
     assert above.attrs["n_flagged"] >= 1
 
 
+@pytest.mark.parametrize("e_N", [0.7, 0.9, 1.0])
+def test_flag_peak_at_onset_on_a_loaded_contact(lone, e_N):
+    """A contact carrying a steady 0.1 N s a step takes a small and a large impact. The Flores
+    force starts at F_s (1 + c), c = 8 (1 - e_N)/(5 e_N) (the damping on the whole static
+    indentation): the small impact's peak is that start, whatever its impulse, and is flagged;
+    the large one rises above it and is not; without damping (e_N = 1) nothing is flagged."""
+    ds = lone.copy(deep=True)
+    ds = ds.assign_coords(e_N=e_N)
+    ds.attrs["model.e_N"] = e_N
+    lam, vn = ds["Lambda_N"].values, ds["vn_free"].values
+    lam[:, 8] = 0.0
+    lam[100:400, 8] = 0.1
+    vn[:, 8] = 0.0
+    for k, bump, speed in ((200, 1e-3, 0.05), (300, 2.0, 1.0)):
+        lam[k, 8] += bump
+        vn[k, 8] = -speed
+    imp = extract_impacts(ds)
+    h = ds.attrs["solver.dt"]
+    rows = imp.isel(impact=np.flatnonzero(np.isin(np.rint(imp["time"].values / h), [200, 300])))
+    assert rows.sizes["impact"] == 2
+    small, large = rows.isel(impact=0), rows.isel(impact=1)
+    start = 0.1 / h * (1.0 + 8.0 * (1.0 - e_N) / (5.0 * e_N))
+    assert float(small.F_static) == pytest.approx(0.1 / h, rel=1e-9)
+    bit = FLAG["peak_at_onset"]
+    if e_N < 1.0:
+        assert float(small.F_max) == pytest.approx(start, rel=1e-12)
+        assert int(small.flags) & bit and int(small.trusted) == 0
+    else:
+        assert float(small.F_max) > start and not int(small.flags) & bit
+    assert float(large.F_max) > 1.05 * start and not int(large.flags) & bit
+    assert "peak_at_onset" in imp["flags"].attrs["flag_meanings"].split()
+
+
 def test_flag_e_N_zero(run):
     zero = run.assign_coords(e_N=0.0)
     zero.attrs["model.e_N"] = 0.0
