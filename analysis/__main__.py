@@ -200,8 +200,8 @@ _NUMBERS = {
 
 def check_args(args) -> str | None:
     """Why the arguments of ``python -m analysis`` cannot be used (one line), or None: every
-    number, output file (the same rules as ``python -m simcore run --out``) and output folder,
-    before any work."""
+    number, output file (the same rules as ``python -m simcore run --out``, not the input RUN)
+    and output folder, before any work."""
     from simcore.cli import check_out, check_outdir
 
     for name, (ok, allowed) in _NUMBERS.items():
@@ -210,7 +210,7 @@ def check_args(args) -> str | None:
             option = "-n" if name == "n" else "--" + name.replace("_", "-")
             return f"{option}: {value!r} is not allowed; allowed: {allowed}"
     if getattr(args, "out", None) is not None:
-        problem = check_out(args.out)
+        problem = check_out(args.out, inputs={"RUN": getattr(args, "run", None)})
         if problem:
             return problem
     if getattr(args, "outdir", None) is not None:

@@ -199,7 +199,7 @@ def _zoom_main(args) -> int:
     from .config import ConfigError
     from .model import SolverError
 
-    problem = check_out(args.out)
+    problem = check_out(args.out, inputs={"RUN": args.run})
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2
@@ -313,11 +313,24 @@ def _name_problem(path, option: str, extra: int) -> str | None:
     return None
 
 
-def check_out(out: str, option: str = "--out", suffix: str = ".nc") -> str | None:
+def _same_file(a: str, b: str) -> bool:
+    """Whether the paths ``a`` and ``b`` both exist and are one file (a link, another
+    spelling of its path)."""
+    import os
+
+    try:
+        return os.path.exists(a) and os.path.exists(b) and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_out(out: str, option: str = "--out", suffix: str = ".nc",
+              inputs: dict[str, str | None] | None = None) -> str | None:
     """Why ``out`` cannot be written as a result file (one line), or None: checked before any
     work, the same rules for every command (``python -m simcore run|zoom``, ``python -m
-    analysis``): a name ending in ``suffix``, not a directory, short enough for the file
-    system with the temporary name of the atomic writer, in an existing writable folder.
+    analysis``): a name ending in ``suffix``, not a directory, not one of the command's input
+    files, short enough for the file system with the temporary name of the atomic writer, in
+    an existing writable folder.
 
     Parameters
     ----------
@@ -327,6 +340,8 @@ def check_out(out: str, option: str = "--out", suffix: str = ".nc") -> str | Non
         The option's name in the message.
     suffix : str
         Required file name ending.
+    inputs : dict, optional
+        The command's input files, {name in the message (``RUN``, ``--config``): path or None}.
     """
     from pathlib import Path
 
@@ -341,6 +356,10 @@ def check_out(out: str, option: str = "--out", suffix: str = ".nc") -> str | Non
             return f"{option}: {out} is not allowed; allowed: a file name ending in {suffix}"
         if path.exists() and not path.is_file():
             return f"{option}: {out} exists and is not a regular file"
+        for name, given in (inputs or {}).items():
+            # the writer replaces the file, and the input with it (any spelling of its path)
+            if given is not None and _same_file(out, given):
+                return f"{option}: {out} is the input {name}; allowed: another file"
         folder = path.resolve().parent
         if not folder.is_dir():
             return f"{option}: folder {folder} does not exist"
@@ -456,7 +475,7 @@ def _main(argv=None) -> int:
                   f"[1, {numba.config.NUMBA_NUM_THREADS}]", file=sys.stderr)
             return 2
         numba.set_num_threads(args.threads)
-    problem = check_out(args.out)
+    problem = check_out(args.out, inputs={"--config": args.config})
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2

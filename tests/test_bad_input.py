@@ -164,3 +164,23 @@ def test_analysis_output_folders_and_numbers_are_checked_first(tmp_path, run_fil
                                 ("--zero-floor", "-1", ">= 0")):
         _assert_refused(analysis_main, ["impacts", str(run_file), option, value, "--out",
                                         str(tmp_path / "i.nc")], [option, word], tmp_path)
+
+
+def test_an_output_that_is_an_input_file_is_refused(tmp_path, run_file):
+    """An --out that is the command's own input (under any spelling of its path) would replace
+    it: refused, naming the input, and the input is left as it was."""
+    run = tmp_path / "run.nc"
+    run.write_bytes(run_file.read_bytes())
+    (tmp_path / "link.nc").symlink_to(run)
+    for out in (run, tmp_path / "." / "run.nc", tmp_path / "link.nc"):
+        for main, argv in ((simcore_main, ["zoom", str(run), "--time", "1e-3"]),
+                           (analysis_main, ["impacts", str(run)]),
+                           (analysis_main, ["filter", str(run)]),
+                           (analysis_main, ["dt-check", str(run), "--t-check", "1e-3"])):
+            _assert_refused(main, [*argv, "--out", str(out)],
+                            ["--out", "is the input RUN", "allowed: another file"], tmp_path)
+    assert run.read_bytes() == run_file.read_bytes()
+    config = tmp_path / "config.nc"  # a configuration whatever its name
+    config.write_text("solver: {t_end: 0.001}\n")
+    _assert_refused(simcore_main, ["run", "--config", str(config), "--out", str(config)],
+                    ["--out", "is the input --config"], tmp_path)
