@@ -82,13 +82,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("summary")
     p.add_argument("--outdir", default=None,
                    help="output folder (default: figures/ next to SUMMARY.nc)")
-    p.add_argument("--axes", nargs="+", default=None, metavar="AXIS",
+    # "extend": an option given twice adds to the first (the default "store" keeps the last)
+    p.add_argument("--axes", nargs="+", action="extend", default=None, metavar="AXIS",
                    help="x, y (and panel columns, rows) of the heat maps (default: the first "
                         "swept axes)")
-    p.add_argument("--fixed", nargs="+", default=(), metavar="AXIS=VALUE",
-                   help="hold other swept axes at a grid value (default: the study's reference "
-                        "point, as the study's figures; the middle value for a summary that "
-                        "does not name one)")
+    p.add_argument("--fixed", nargs="+", action="extend", default=[], metavar="AXIS=VALUE",
+                   help="hold other swept axes at a grid value, each axis once (default: the "
+                        "study's reference point, as the study's figures; the middle value for "
+                        "a summary that does not name one)")
     return ap
 
 
@@ -236,6 +237,10 @@ def _study_figures(args) -> int:
         if not axis or not value:
             print(f"error: --fixed: {item!r} is not allowed; allowed: AXIS=VALUE (a number, "
                   "or the name of a category such as bearing=6205)", file=sys.stderr)
+            return 2
+        if axis in fixed:
+            print(f"error: --fixed: {axis} given twice ({axis}={fixed[axis]}, {item}) is not "
+                  "allowed; allowed: one value per axis", file=sys.stderr)
             return 2
         fixed[axis] = value  # a number or a category's name (analysis.figures.figure_layout)
     with xr.open_dataset(args.summary) as ds:

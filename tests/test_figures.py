@@ -6,6 +6,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 import xarray as xr
+from command_line import call
 
 from analysis import extract_impacts
 from analysis.figures import figure_layout, plot_reference, plot_run, plot_study, run_label
@@ -425,3 +426,34 @@ def test_a_category_axis_is_labelled_by_its_names(tmp_path):
     paths = plot_study(ds[["peak_force", "failed"]], tmp_path, part=(0, 4),
                        figure_axes=["damping_law", "clearance"])
     assert paths and all(p.stat().st_size > 10_000 for p in paths)
+
+
+def test_study_figures_options_given_twice_add_up(tmp_path, monkeypatch):
+    """--axes and --fixed given twice take both lists (not the last one alone); an axis held
+    twice is refused, naming it, before the figures folder is made."""
+    import analysis.figures
+    from analysis.__main__ import main
+    from simcore.io import write_netcdf
+
+    path = write_netcdf(_summary((2, 2, 2, 2))[["peak_force", "failed"]], tmp_path / "s.nc")
+    layouts = []
+    real = analysis.figures.plot_study
+
+    def spy(summary, outdir, *args, **kwargs):
+        layouts.append(figure_layout(summary, kwargs.get("figure_axes"),
+                                     kwargs.get("figure_fixed"), kwargs.get("reference")))
+        return real(summary, outdir, *args, **kwargs)
+
+    monkeypatch.setattr(analysis.figures, "plot_study", spy)
+    assert main(["study-figures", str(path), "--axes", "clearance", "--axes", "mu",
+                 "--fixed", "omega0=25", "--fixed", "e_N=0.9"]) == 0
+    assert (layouts[-1].x, layouts[-1].y) == ("clearance", "mu")
+    assert layouts[-1].fixed == {"omega0": 25.0, "e_N": 0.9}
+    other = tmp_path / "other"
+    other.mkdir()
+    path = write_netcdf(_summary((2, 2, 2, 2))[["peak_force", "failed"]], other / "s.nc")
+    code, lines = call(main, ["study-figures", str(path), "--fixed", "mu=0.01", "mu=0.0"])
+    assert code == 2 and len(lines) == 1, lines
+    assert lines[0].startswith("error: --fixed: mu given twice"), lines
+    assert "one value per axis" in lines[0], lines
+    assert not (other / "figures").exists()
