@@ -73,8 +73,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("figures", help="figures of one run")
     p.add_argument("run")
     p.add_argument("--outdir", required=True)
-    p.add_argument("--impacts", default=None, help="impact table (computed if not given)")
-    p.add_argument("--prefix", default=None)
+    p.add_argument("--impacts", default=None,
+                   help="impact table of RUN (python -m analysis impacts; computed if not given)")
+    p.add_argument("--prefix", default=None,
+                   help="file name prefix of the figures (default: from the run's parameters)")
     p.add_argument("--r-eff", choices=("concave", "paper"), default="concave")
     _common(p)
     p = sub.add_parser("study-figures",
@@ -199,10 +201,96 @@ _NUMBERS = {
 }
 
 
+#: what every impact table holds (:func:`analysis.extract_impacts`; a study's table and the
+#: flagged table of ``dt-check`` add columns): its columns on dimension ``impact``, and the
+#: filter's threshold the table was made with
+TABLE_COLUMNS = ("contact", "ball", "race", "time", "kind", "impulse", "F_max")
+TABLE_ATTRIBUTES = ("zero_threshold",)
+#: the longest figure name ``figures`` writes after its prefix
+FIGURE_SUFFIX = "_slider.png"
+_MAKE_TABLE = "allowed: the impact table of RUN (python -m analysis impacts RUN --out IMPACTS.nc)"
+
+
+def check_impacts(path: str, run: str) -> str | None:
+    """Why ``path`` cannot be given as the impact table of the run file ``run`` (``figures
+    --impacts``; one line), or None: it must be an impact table (:data:`TABLE_COLUMNS`,
+    :data:`TABLE_ATTRIBUTES`) whose records of its run (the run's title, the parameters
+    clearance, mu, omega0, e_N, the step) match the run, with its impacts inside the run's
+    time span. A table does not record which run file it was made from: a table of another
+    run with the same settings and a longer span passes if its impacts lie within this run's.
+    A run that cannot be read is not compared (the command reports it)."""
+    import os
+
+    import xarray as xr
+
+    from .impacts import STUDY_PARAMETERS
+    from .reads import run_setting
+
+    if not os.path.isfile(path):
+        return f"--impacts: {path} does not exist or is not a file; {_MAKE_TABLE}"
+    try:
+        with xr.open_dataset(path) as table:
+            table = table.load()
+    except (OSError, ValueError) as exc:
+        return f"--impacts: cannot read {path}: {str(exc).splitlines()[0]}; {_MAKE_TABLE}"
+    if "impact" not in table.dims:
+        return f"--impacts: {path} is not an impact table (no dimension impact); {_MAKE_TABLE}"
+    lacks = [name for name in TABLE_COLUMNS
+             if name not in table or table[name].dims != ("impact",)]
+    lacks += [f"attribute {name}" for name in TABLE_ATTRIBUTES if name not in table.attrs]
+    if lacks:
+        return (f"--impacts: {path} is not an impact table (it lacks {', '.join(lacks)}); "
+                f"{_MAKE_TABLE}")
+    try:
+        with xr.open_dataset(run) as run_ds:
+            t = np.asarray(run_ds["time"].values, dtype=float)
+            records = {"title": (table.attrs.get("run_title"), run_ds.attrs.get("title"))}
+            for name in STUDY_PARAMETERS:
+                ours = run_setting(run_ds, name, None)
+                if name in table.coords and ours is not None:
+                    records[name] = (float(table[name]), float(ours))
+            # the interval of the run's impulses (analysis.impacts: the output interval, else
+            # the solver's step)
+            step = run_ds.attrs.get("output_interval_s", run_ds.attrs.get("solver.dt"))
+            if "h" in table.attrs and step is not None:
+                records["step"] = (float(table.attrs["h"]), float(step))
+    except (OSError, ValueError, KeyError):
+        return None
+    for name, (theirs, ours) in records.items():
+        if theirs is None or ours is None:
+            continue
+        same = (theirs == ours if isinstance(theirs, str)
+                else np.isclose(theirs, ours, rtol=1e-9, atol=0.0))
+        if not same:
+            return (f"--impacts: {path} is the table of another run (its {name} {theirs!r}, "
+                    f"RUN's {ours!r}); {_MAKE_TABLE}")
+    times = np.asarray(table["time"].values, dtype=float)
+    if t.size and times.size and (times.min() < t[0] or times.max() > t[-1]):
+        return (f"--impacts: {path} is the table of another run (impacts at {times.min():.6g} "
+                f"to {times.max():.6g} s, RUN spans {t[0]:.6g} to {t[-1]:.6g} s); {_MAKE_TABLE}")
+    return None
+
+
+def check_prefix(prefix: str, outdir: str) -> str | None:
+    """Why ``prefix`` cannot begin the names of the figures of ``figures`` in ``outdir`` (one
+    line), or None: a name, no path (its folder is ``--outdir``), short enough for the file
+    system."""
+    import os
+    from pathlib import Path
+
+    from simcore.cli import _name_problem
+
+    separators = sorted({sep for sep in (os.sep, os.altsep, "/") if sep})
+    if any(sep in prefix for sep in separators):
+        return (f"--prefix: {prefix!r} is not allowed; allowed: a file name prefix without "
+                f"{' or '.join(map(repr, separators))} (the figures go into --outdir)")
+    return _name_problem(Path(outdir) / f"{prefix}{FIGURE_SUFFIX}", "--prefix", 0)
+
+
 def check_args(args) -> str | None:
     """Why the arguments of ``python -m analysis`` cannot be used (one line), or None: every
-    number, output file (the same rules as ``python -m simcore run --out``, not the input RUN)
-    and output folder, before any work."""
+    number, output file (the same rules as ``python -m simcore run --out``, not the input RUN),
+    output folder, figure name prefix and given impact table, before any work."""
     from simcore.cli import check_out, check_outdir
 
     for name, (ok, allowed) in _NUMBERS.items():
@@ -215,7 +303,15 @@ def check_args(args) -> str | None:
         if problem:
             return problem
     if getattr(args, "outdir", None) is not None:
-        return check_outdir(args.outdir)
+        problem = check_outdir(args.outdir)
+        if problem:
+            return problem
+    if getattr(args, "prefix", None):
+        problem = check_prefix(args.prefix, args.outdir)
+        if problem:
+            return problem
+    if getattr(args, "impacts", None) is not None:
+        return check_impacts(args.impacts, args.run)
     return None
 
 

@@ -184,3 +184,28 @@ def test_an_output_that_is_an_input_file_is_refused(tmp_path, run_file):
     config.write_text("solver: {t_end: 0.001}\n")
     _assert_refused(simcore_main, ["run", "--config", str(config), "--out", str(config)],
                     ["--out", "is the input --config"], tmp_path)
+
+
+def test_figures_takes_only_the_impact_table_of_its_run_and_a_plain_prefix(tmp_path, run_file):
+    """``figures --impacts``: a file that is missing, not an impact table, or the table of
+    another run (other parameters, impacts outside the run's span) is refused naming
+    --impacts; a --prefix with a folder in it names --prefix; no figures folder is made."""
+    from analysis import extract_impacts
+    from analysis.__main__ import check_impacts
+
+    with xr.open_dataset(run_file) as ds:
+        table = extract_impacts(ds.load())
+    own = simcore.write_netcdf(table, tmp_path / "own.nc")
+    other_mu = simcore.write_netcdf(table.assign_coords(mu=0.05), tmp_path / "mu.nc")
+    later = simcore.write_netcdf(table.assign(time=table["time"] + 1.0), tmp_path / "later.nc")
+    assert check_impacts(str(own), str(run_file)) is None
+    figures = ["figures", str(run_file), "--outdir", str(tmp_path / "figs")]
+    for impacts, words in ((tmp_path / "none.nc", ["does not exist"]),
+                           (run_file, ["not an impact table"]),
+                           (other_mu, ["another run", "mu"]),
+                           (later, ["another run", "RUN spans"])):
+        _assert_refused(analysis_main, [*figures, "--impacts", str(impacts)],
+                        ["--impacts", *words, "python -m analysis impacts"], tmp_path)
+    _assert_refused(analysis_main, [*figures, "--prefix", "a/b"],
+                    ["--prefix", "'a/b' is not allowed", "without '/'"], tmp_path)
+    assert not (tmp_path / "figs").exists()
