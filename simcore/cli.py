@@ -195,6 +195,11 @@ def bearing_line(ds) -> str:
     return line + f"; integrity checks: {a.get('integrity_violations', 'none')}"
 
 
+#: the options of ``zoom`` by the parameter of :func:`simcore.study.zoom.zoom_config` each
+#: sets (its output interval is its step, ``--dt``)
+ZOOM_OPTIONS = {"window": "--window", "dt": "--dt", "output_dt": "--dt"}
+
+
 def _zoom_main(args) -> int:
     from .config import ConfigError
     from .model import SolverError
@@ -225,18 +230,18 @@ def _zoom_main(args) -> int:
     try:  # every check before any work (its warnings are given once, by the zoom itself)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            zoom_config(run_ds, window=args.window, dt=args.dt, overrides=args.overrides)
+            zoom_config(run_ds, window=args.window, dt=args.dt, overrides=args.overrides,
+                        names=ZOOM_OPTIONS)
         start_index(run_ds, args.time)
     except ConfigError as exc:
+        # a message names the key; where an option of the command set it, the option (no
+        # --set can set solver.t_end or solver.dt: zoom_config refuses it)
+        prefixes = {"run": f"RUN: {args.run}", "time": "--time", "overrides": "--set",
+                    "solver.t_end": ZOOM_OPTIONS["window"], "solver.dt": ZOOM_OPTIONS["dt"]}
         msg = str(exc)
-        if msg.startswith("run:"):
-            msg = f"RUN: {args.run}:" + msg[len("run:"):]
-        elif msg.startswith("time:"):
-            msg = "--time:" + msg[len("time:"):]
-        elif msg.startswith("solver.t_end:"):
-            msg = "--window:" + msg[len("solver.t_end:"):]
-        elif msg.startswith("solver.dt:"):
-            msg = "--dt:" + msg[len("solver.dt:"):]
+        key = msg.split(":", 1)[0]
+        if key in prefixes:
+            msg = prefixes[key] + msg[len(key):]
         print(f"error: {msg}", file=sys.stderr)
         return 2
     start = time.perf_counter()

@@ -69,6 +69,36 @@ def test_a_zoom_is_checked_like_a_run_before_any_work(run_ds, first_impact, tmp_
                                               "solver.adaptive=false"])
 
 
+def test_a_zoom_refuses_a_set_of_what_its_options_set(run_ds, first_impact, tmp_path):
+    """--set of a zoom: a key path through a setting is refused naming it; a setting that
+    --window or --dt sets is refused naming --set and the option to use (simcore.zoom: the
+    parameter); a bad --window or --dt is still named as such."""
+    from command_line import call
+
+    run_file = tmp_path / "run.nc"
+    simcore.write_netcdf(run_ds, run_file)
+    zoom = ["zoom", str(run_file), "--time", str(first_impact[0]), "--out",
+            str(tmp_path / "z.nc")]
+    for extra, start, words in (
+            (["--set", "model.mu.x=1"], "error: model.mu.x: not allowed", ["model.mu=VALUE"]),
+            (["--set", "solver.t_end=2000"], "error: --set: solver.t_end=2000 is not allowed",
+             ["allowed: --window"]),
+            (["--set", "solver.dt=1e-4", "--set", "solver.adaptive=false"],
+             "error: --set: solver.dt=1e-4 is not allowed", ["allowed: --dt"]),
+            (["--set", "solver.output_dt=1e-5"], "error: --set: solver.output_dt=1e-5",
+             ["allowed: --dt"]),
+            (["--window", "2000"], "error: --window: 2000", ["(0, 1000]"]),
+            (["--dt", "1e-4", "--set", "solver.adaptive=false"], "error: --dt: 0.0001",
+             ["solver.on_unresolved_dt"])):
+        code, lines = call(main, [*zoom, *extra])
+        assert code == 2 and len(lines) == 1 and lines[0].startswith(start), (extra, lines)
+        assert all(word in lines[0] for word in words), (extra, lines)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.nc"]
+    with pytest.raises(ConfigError, match=r"^overrides: solver\.t_end=1 is not allowed in a "
+                                          r"zoom; allowed: window"):
+        simcore.zoom(run_ds, first_impact[0], overrides=["solver.t_end=1"])
+
+
 def test_cli_zoom(run_ds, first_impact, tmp_path, capsys):
     run_file = tmp_path / "run.nc"
     simcore.write_netcdf(run_ds, run_file)

@@ -539,15 +539,30 @@ def load_config(path: str | Path | None = None, overrides: Iterable[str] = ()) -
             raise ConfigError(f"--config: cannot read {path}: {exc.strerror}") from None
         if not isinstance(cfg, dict):
             raise ConfigError(f"--config: {path} must hold a mapping of sections")
+    return validate_config(apply_overrides(cfg, overrides))
+
+
+def apply_overrides(cfg: dict, overrides: Iterable[str]) -> dict:
+    """Set each ``section.key=value`` of ``overrides`` (:func:`parse_override`) in ``cfg``, in
+    place; returns ``cfg``.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the key: a value that cannot be parsed, or a key path through a
+        setting that is not a section (``model.mu.x``).
+    """
     for item in overrides:
         keys, value = parse_override(item)
         node = cfg
-        for k in keys[:-1]:
+        for i, k in enumerate(keys[:-1]):
             node = node.setdefault(k, {})
             if not isinstance(node, dict):
-                raise ConfigError(f"{'.'.join(keys)}: {k} is not a section")
+                raise ConfigError(f"{'.'.join(keys)}: not allowed ({k} is a setting, not a "
+                                  "section); allowed: section.key=value, e.g. "
+                                  f"{'.'.join(keys[:i + 1])}=VALUE")
         node[keys[-1]] = value
-    return validate_config(cfg)
+    return cfg
 
 
 def _merge(base: dict, over: Mapping[str, Any]) -> dict:

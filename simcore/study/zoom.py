@@ -5,13 +5,22 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..config import ConfigError, output_every, parse_override, validate_config
+from ..config import (
+    ConfigError,
+    apply_overrides,
+    output_every,
+    parse_override,
+    validate_config,
+)
 from ..config.limits import check_run_of_config
 from ..model import ReleaseStop, SolverSettings
 from ..model.mechanism import crank_slider
 
 DEFAULT_WINDOW = 2e-3   # [s]
 DEFAULT_DT = 1e-6       # [s]
+#: the settings that parameters of :func:`zoom_config` set, {setting: parameter}: refused as
+#: overrides, which would undo the parameter unseen
+ZOOM_SETTINGS = {"solver.t_end": "window", "solver.dt": "dt", "solver.output_dt": "output_dt"}
 
 
 def check_run_dataset(run_ds) -> None:
@@ -52,21 +61,35 @@ def config_of_run(run_ds) -> dict:
 
 
 def zoom_config(run_ds, window=DEFAULT_WINDOW, dt=DEFAULT_DT, overrides=(),
-                output_dt=None, adaptive=True) -> dict:
+                output_dt=None, adaptive=True, names=None) -> dict:
     """Validated configuration of a zoom on ``run_ds``: the run's model with
     ``contact_model = compliant``, step ``dt`` [s] (with ``adaptive``, the largest) for
-    ``window`` [s], then ``overrides`` (``section.key=value`` strings)."""
+    ``window`` [s], then ``overrides`` (``section.key=value`` strings; not the settings of
+    :data:`ZOOM_SETTINGS`, which ``window``, ``dt`` and ``output_dt`` set).
+
+    ``names`` ({parameter: name}, e.g. ``{"window": "--window"}``) names the parameters in
+    the message that refuses an override of their setting, as the caller calls them.
+
+    Raises
+    ------
+    simcore.ConfigError
+        One line: an override ``overrides: ITEM ...`` of a setting of :data:`ZOOM_SETTINGS`
+        or naming the key of a bad override or value (``solver.t_end``, ``solver.dt``: the
+        values of ``window``, ``dt``).
+    """
     check_run_dataset(run_ds)
+    for item in overrides:
+        setting = ".".join(parse_override(item)[0])
+        if setting in ZOOM_SETTINGS:
+            param = ZOOM_SETTINGS[setting]
+            option = (names or {}).get(param, param)
+            raise ConfigError(f"overrides: {item.strip()} is not allowed in a zoom; allowed: "
+                              f"{option}, which sets {setting}")
     cfg = config_of_run(run_ds)
     cfg["model"]["contact_model"] = "compliant"
     cfg["solver"].update({"dt": float(dt), "t_end": float(window), "output_dt": output_dt,
                           "adaptive": bool(adaptive)})
-    for item in overrides:
-        keys, value = parse_override(item)
-        node = cfg
-        for k in keys[:-1]:
-            node = node.setdefault(k, {})
-        node[keys[-1]] = value
+    apply_overrides(cfg, overrides)
     if cfg["model"].get("contact_model") != "compliant":
         raise ConfigError(f"model.contact_model: {cfg['model']['contact_model']!r} is not "
                           "allowed in a zoom; allowed: compliant (a zoom re-simulates with "
