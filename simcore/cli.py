@@ -396,11 +396,18 @@ def check_outdir(outdir: str, option: str = "--outdir") -> str | None:
     return _writable_folder(existing, option)
 
 
+#: the ``study`` settings one run reads (the variables its file keeps)
+RUN_STUDY_SETTINGS = ("keep",)
+
+
 def check_sweep(cfg, overrides) -> None:
     """The sweep of a configuration in ``python -m simcore run``, which makes one run at the
     ``model``, ``solver`` and ``analysis`` settings: one given with ``--set`` is refused (a
     sweep was meant); one in a ``--config`` file (a study's file, run once) is warned of,
-    naming the values the run takes instead.
+    naming the values the run takes instead. The ``study`` settings that differ from the
+    schema's defaults (but :data:`RUN_STUDY_SETTINGS`), from a file or ``--set``, are warned
+    of once, naming them; with ``study.revolutions``, the warning gives the run's
+    ``solver.t_end`` and the one the revolutions would give a study's run.
 
     Raises
     ------
@@ -409,7 +416,7 @@ def check_sweep(cfg, overrides) -> None:
     """
     import warnings
 
-    from .config import ConfigError
+    from .config import ConfigError, load_schema
     from .config.parameters import parameter
 
     given = [item.split("=", 1)[0] for item in overrides if item.startswith("sweep")]
@@ -422,6 +429,33 @@ def check_sweep(cfg, overrides) -> None:
         values = ", ".join(f"{p.key} = {cfg[p.section][p.setting]}" for p in swept)
         warnings.warn(f"sweep: not read by one run (a study's: snakemake -j2 --configfile "
                       f"FILE); this run takes {values}", UserWarning, stacklevel=2)
+    schema = load_schema()["properties"]["study"]["properties"]  # read once, not per key
+    study = {key: value for key, value in (cfg.get("study") or {}).items()
+             if key not in RUN_STUDY_SETTINGS and value != schema[key].get("default")}
+    if study:
+        values = ", ".join(f"study.{key} = {value}" for key, value in study.items())
+        warnings.warn(f"study: not read by one run (a study's: snakemake -j2 --configfile "
+                      f"FILE): {values}{_run_length_hint(cfg, study)}", UserWarning,
+                      stacklevel=2)
+
+
+def _run_length_hint(cfg, study) -> str:
+    """What ends the warning of ``study`` settings where ``study.revolutions`` is among them:
+    the run's own length, ``solver.t_end``, and the one a study's run of these settings
+    would take from the revolutions (:func:`simcore.study.plan.run_length`)."""
+    from .config import ConfigError
+    from .study.plan import run_length
+
+    if study.get("revolutions") is None:
+        return ""
+    hint = (f"; study.revolutions does not set this run's length, solver.t_end does (now "
+            f"{cfg['solver']['t_end']:g} s")
+    try:
+        t_end = run_length(cfg)
+    except ConfigError:  # omega0 = 0, or too long: the revolutions give no length
+        return hint + ")"
+    return hint + (f"; {cfg['analysis']['settle']:g} + {study['revolutions']:g} revolutions as "
+                   f"in a study: --set solver.t_end={t_end:g})")
 
 
 class _WarnOnce:

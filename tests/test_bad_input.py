@@ -72,10 +72,11 @@ def test_a_sweep_in_one_run_is_refused_or_named(tmp_path, run_file):
     code, lines = call(simcore_main, ["run", "--config", "config/smoke.yaml", "--set",
                                       "solver.t_end=0.001", "--quiet", "--out", out])
     cfg = simcore.load_config("config/smoke.yaml")
-    assert code == 0 and len(lines) == 1, lines
+    assert code == 0 and len(lines) == 2, lines  # the sweep's, and the study section's
     assert lines[0].startswith("warning: sweep: not read by one run"), lines
     assert lines[0].endswith(", ".join(f"model.{key} = {cfg['model'][key]}"
                                        for key in ("clearance", "mu", "omega0", "e_N"))), lines
+    assert lines[1].startswith("warning: study: not read by one run"), lines
 
 
 def test_zoom_of_a_run_file_without_its_state_names_the_variables(tmp_path):

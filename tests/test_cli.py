@@ -67,3 +67,28 @@ def test_a_warning_is_one_line_once(tmp_path):
     assert lines == [f"warning: model.n_balls = 5 is given and overrides the "
                      f"{catalogue()['6205']['Z']} of bearing '6205' (catalogue); leave it out to "
                      "take the catalogue's"], lines
+
+
+def test_a_run_warns_once_of_the_study_settings_it_does_not_read(tmp_path):
+    """One run reads no ``study`` setting but ``study.keep``: those that differ from the
+    defaults are named in one warning; with ``study.revolutions``, it says that solver.t_end
+    sets the run's length and gives the one the revolutions would give."""
+    from simcore import load_config
+    from simcore.study.plan import run_length
+
+    items = ["study.revolutions=5", "study.models=[compliant]", "solver.t_end=0.001",
+             "study.keep=[Lambda_N, iterations, converged, crank_angle]"]
+    argv = ["run", *(arg for item in items for arg in ("--set", item)), "--quiet",
+            "--out", str(tmp_path / "r.nc")]
+    code, lines = call(main, argv)
+    assert code == 0 and len(lines) == 1, lines
+    assert lines[0].startswith("warning: study: not read by one run"), lines
+    assert "study.revolutions = 5" in lines[0] and "study.models = ['compliant']" in lines[0]
+    assert "study.keep" not in lines[0] and "study.results_dir" not in lines[0], lines
+    study_length = run_length(load_config(overrides=items))
+    assert "solver.t_end does (now 0.001 s" in lines[0], lines
+    assert lines[0].endswith(f"--set solver.t_end={study_length:g})"), lines
+    code, lines = call(main, ["run", "--set", "solver.t_end=0.001", "--set",
+                              "study.keep=[Lambda_N, iterations, converged, crank_angle]",
+                              "--quiet", "--out", str(tmp_path / "k.nc")])
+    assert (code, lines) == (0, [])  # study.keep is the run's
