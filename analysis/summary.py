@@ -921,6 +921,11 @@ def _checked(parameters: dict, axes, path) -> dict:
     return parameters
 
 
+#: The schedulers :func:`summarize` takes by name (else an address ``host:port``, which the
+#: schema's ``study.dask_scheduler`` checks before any job); None and "" are "threads".
+NAMED_SCHEDULERS = ("threads", "synchronous", "local")
+
+
 def _scheduler(scheduler, num_workers):
     """Context and compute() keywords for local threads, a new local cluster or an address."""
     if scheduler in (None, "", "threads"):

@@ -192,6 +192,32 @@ def test_study_config_is_read_with_the_cli_types(tmp_path):
         read_study_config([base, extra])
 
 
+@pytest.mark.parametrize("address", ["tcp://10.0.0.1:8786", "scheduler.example.org:8786",
+                                     "tls://node-1:8786", "[::1]:8786", "tcp://[fe80::1]:1"])
+def test_a_dask_scheduler_is_a_name_of_the_summary_or_an_address_with_a_port(address):
+    """study.dask_scheduler: null, a scheduler the summary takes by name, or host:port (the
+    summary's Client would fail on anything else after every run); an accepted address is one
+    distributed can read."""
+    from analysis.summary import NAMED_SCHEDULERS
+
+    for value in (None, *NAMED_SCHEDULERS, address):
+        given = "null" if value is None else f"'{value}'"
+        assert load_config(overrides=[f"study.dask_scheduler={given}"])
+    distributed = pytest.importorskip("distributed.comm.addressing")
+    _, location = distributed.parse_address(address)
+    assert distributed.parse_host_port(location)[1] > 0
+
+
+@pytest.mark.parametrize("value", ["not-an-address", "tcp://host", "host:", "inproc://a/1/2",
+                                   "tcp://host:8786 extra", "Threads"])
+def test_a_dask_scheduler_without_a_port_is_refused_before_any_job(value):
+    with pytest.raises(ConfigError) as err:
+        load_config(overrides=[f"study.dask_scheduler='{value}'"])
+    msg = str(err.value)
+    assert msg.startswith(f"study.dask_scheduler: {value!r} is not allowed; allowed: "), msg
+    assert "host:port" in msg and "synchronous" in msg, msg
+
+
 def test_solver_settings_defaults_are_the_schema_defaults():
     """``SolverSettings`` made in Python (no configuration) takes the same defaults as a
     configuration does, for every field named like a schema key of ``solver`` or ``model``;

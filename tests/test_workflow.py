@@ -129,6 +129,7 @@ def test_batches_are_sized_by_work_whatever_the_axes():
         ("sweep={'model.cage_stiffness': [1.0e+5, -1.0]}", "sweep.model.cage_stiffness.1"),
         ("sweep={'model.contact_model': ['compliant']}", "sweep.model.contact_model"),
         ("study={'batch_axes': ['omega0']}", "study.batch_axes: unknown key"),
+        ("study={'dask_scheduler': 'not-an-address'}", "study.dask_scheduler: 'not-an-address'"),
         ("study={'figure_axes': ['mu', 'gravity']}", "study.figure_axes: 'gravity'"),
         ("study={'figure_fixed': {'omega0': 51.0}}", "study.figure_fixed.omega0: 51.0"),
         ("study={'keep': ['Lambda_N', 'F_N', 'position', 'angle']}",
