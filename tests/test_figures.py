@@ -11,6 +11,14 @@ from command_line import call
 from analysis import extract_impacts
 from analysis.figures import figure_layout, plot_reference, plot_run, plot_study, run_label
 from analysis.synthetic import make_run_dataset
+from simcore.study.plan import FIGURE_FILES
+
+
+def _a_study_figure(path) -> bool:
+    """Whether a study's figures folder may hold ``path`` (one the study replaces)."""
+    from fnmatch import fnmatchcase
+
+    return any(fnmatchcase(path.name, pattern) for pattern in FIGURE_FILES)
 
 
 @pytest.fixture(scope="module")
@@ -103,6 +111,7 @@ def test_plot_study_shows_every_point_of_four_swept_parameters(tmp_path):
     assert stems <= set(QUANTITIES) and len(stems) == -(-len(QUANTITIES) // 8)
     assert sorted(p.name for p in paths) == sorted(f"{kind}_{q}.png" for q in stems
                                                    for kind in ("study", "pairs"))
+    assert all(map(_a_study_figure, paths)), paths
     assert all(p.stat().st_size > 20_000 for p in paths)
 
 
@@ -121,6 +130,7 @@ def test_plot_study_two_one_and_no_swept_parameters(tmp_path):
     assert len(paths) == 1 and paths[0].name.startswith("study_")
     paths = plot_study(_summary((1, 1, 1, 1)), tmp_path / "one")
     assert [p.name for p in paths] == ["study_single.png"]
+    assert all(map(_a_study_figure, paths))
 
 
 def test_figure_layout_follows_the_settings():
@@ -178,6 +188,8 @@ def test_a_grid_too_large_to_draw_says_so(tmp_path, monkeypatch):
 
 def test_plot_reference(run, tmp_path):
     paths = plot_reference(run, extract_impacts(run), tmp_path, settle=0.05)
+    # the reference figures job's, with plot_run's under the same prefix
+    assert all(map(_a_study_figure, paths + plot_run(run, None, tmp_path, prefix="reference")))
     assert [p.name for p in paths] == [f"reference_{n}.png" for n in (
         "force_angle", "ball_load", "exceedance", "force_speed", "iterations")]
     assert all(p.stat().st_size > 20_000 for p in paths)
@@ -193,6 +205,7 @@ def test_study_figures_command_on_a_summary_file(tmp_path):
     assert (tmp_path / "figures" / "study_peak_force_outer_nonsmooth.png").exists()
     assert (tmp_path / "figures" / "study_method_ratio_outer.png").exists()
     assert (tmp_path / "figures" / "summary_table.csv").exists()
+    assert all(map(_a_study_figure, (tmp_path / "figures").iterdir()))
 
 
 def test_plot_study_parts_share_the_figures(tmp_path):

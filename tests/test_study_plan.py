@@ -494,6 +494,34 @@ def test_a_fixed_clearance_class_replaces_a_swept_clearance_list():
         assert simcore.validate_config(run.config)["model"]["clearance"] == c3
 
 
+def test_a_results_folder_is_refused_where_the_study_would_harm_or_fail(tmp_path):
+    """study.results_dir: no wildcard braces, no file on its path, and a figures/ folder (which
+    the study replaces as a whole) with only what a study's figures job writes."""
+    for folder in ("results/{x}", "a}b"):
+        with pytest.raises(simcore.ConfigError, match=r"^study\.results_dir: .*\{ and \}"):
+            plan.check_results_dir(folder)
+    (tmp_path / "file").write_text("")
+    with pytest.raises(simcore.ConfigError, match=r"^study\.results_dir: .* is a file"):
+        plan.check_results_dir(str(tmp_path / "file" / "results"))
+    figures = tmp_path / "res" / "figures"
+    figures.mkdir(parents=True)
+    plan.check_results_dir(str(tmp_path / "res"))
+    (figures / "study_mu.png").write_text("")
+    (figures / "summary_table.csv").write_text("")
+    plan.check_results_dir(str(tmp_path / "res"))  # its own figures: replaced on a re-run
+    for foreign in ("a_notes.txt", "study_mu.pdf", "sub"):
+        path = figures / foreign
+        path.mkdir() if foreign == "sub" else path.write_text("")
+        with pytest.raises(simcore.ConfigError) as err:
+            plan.check_results_dir(str(tmp_path / "res"))
+        assert str(err.value).startswith(f"study.results_dir: '{tmp_path / 'res'}' is not "
+                                         "allowed") and f"{path} is not" in str(err.value)
+        path.rmdir() if foreign == "sub" else path.unlink()
+    (figures / "reference_x.png").symlink_to(tmp_path / "file")
+    with pytest.raises(simcore.ConfigError, match="reference_x.png is not"):
+        plan.check_results_dir(str(tmp_path / "res"))
+
+
 def test_a_study_without_nonsmooth_runs_is_refused_naming_the_key():
     """The twins and the reference run's figures are made from the nonsmooth runs: a study of
     compliant runs alone stops before any job; the order of the models does not matter."""

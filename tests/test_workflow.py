@@ -166,10 +166,12 @@ def test_a_study_outside_the_repository_without_its_base_settings_stops(tmp_path
     assert not (tmp_path / "results").exists() and not (tmp_path / "logs").exists()
 
 
-@pytest.mark.parametrize("folder", ["", "/", "//", "{file}", "{file}/results"])
+@pytest.mark.parametrize("folder", ["", "/", "//", "{file}", "{file}/results", "results/{{x}}",
+                                    "{{batch}}/results", "results}}"])
 def test_a_results_folder_that_cannot_hold_results_is_refused(folder, tmp_path):
-    """The root (where an empty results_dir would put the study) or a file is refused, naming
-    study.results_dir (a dry run: nothing would be written even if the check were missing)."""
+    """The root (where an empty results_dir would put the study), a file or a path with
+    Snakemake's wildcard braces is refused, naming study.results_dir (a dry run: nothing would
+    be written even if the check were missing)."""
     existing = tmp_path / "a_file"
     existing.write_text("not a folder")
     folder = folder.format(file=existing)
@@ -180,6 +182,31 @@ def test_a_results_folder_that_cannot_hold_results_is_refused(folder, tmp_path):
     lines = [x for x in message.splitlines() if "invalid configuration" in x]
     assert len(lines) == 1 and "study.results_dir" in lines[0], message
     assert "Traceback" not in message
+
+
+def test_a_figures_folder_holding_other_files_is_refused_and_kept(results):
+    """The figures job replaces <results_dir>/figures as a whole: a study's own figures are
+    replaced on a re-run, but a folder holding anything else (a user's file, the repository's
+    docs/figures) is refused before any job, naming the file, which stays."""
+    figures = results / "figures"
+    figures.mkdir(parents=True)
+    for name in ("study_peak_force_outer_nonsmooth.png", "pairs_p_max_inner_compliant.png",
+                 "life_clearance_speed.png", "reference_lambda.png", "summary_table.csv",
+                 ".snakemake_timestamp"):
+        (figures / name).write_text("a study's")
+    study = f"study={{'results_dir': '{results}'}}"
+    proc = snakemake("-n", "-j1", "--configfile", "config/smoke.yaml", "--config", study)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    (figures / "notes.txt").write_text("mine")
+    for folder, named in ((str(results), str(figures / "notes.txt")),
+                          ("docs", "docs/figures/")):
+        proc = snakemake("-n", "-j1", "--configfile", "config/smoke.yaml", "--config",
+                         f"study={{'results_dir': '{folder}'}}")
+        message = proc.stdout + proc.stderr
+        lines = [x for x in message.splitlines() if "invalid configuration" in x]
+        assert proc.returncode == 2 and len(lines) == 1, message
+        assert f"study.results_dir: {folder!r}" in lines[0] and named in lines[0], message
+    assert (figures / "notes.txt").read_text() == "mine"
 
 
 def test_a_sweep_of_ten_thousand_points_stops_before_any_job_until_max_runs_allows_it(results):

@@ -69,6 +69,14 @@ SUMMARY_ONLY_SETTINGS = ("force_levels", "life_conformity", "life_load_rating")
 DETERMINED = {"model.clearance": ("model.clearance_class", "model.bearing")}
 #: Jobs a study is split into at least (or one per run): two or four cores share a small study.
 MIN_JOBS = 4
+#: The files a study's figures job writes into ``<study.results_dir>/figures``, the folder it
+#: (and Snakemake, before the job) replaces as a whole: the heat maps, pairs and life figures of
+#: :func:`analysis.figures.plot_study`, the reference run's figures (``plot_run`` and
+#: ``plot_reference`` with the prefix ``reference``), the summary table
+#: (workflow/scripts/figures.py), and the timestamp Snakemake may keep in a folder output.
+#: A figures folder holding anything else is refused before any job (:func:`check_results_dir`).
+FIGURE_FILES = ("study_*.png", "pairs_*.png", "life_*.png", "reference_*.png",
+                "summary_table.csv", ".snakemake_timestamp")
 
 
 @dataclass(frozen=True)
@@ -163,6 +171,47 @@ def study_axes(cfg: Mapping[str, Any]) -> dict[str, list]:
             section, name = key.split(".", 1)
             axes[key] = [params[key].plain(cfg[section][name])]
     return axes
+
+
+def check_results_dir(folder: str) -> None:
+    """Refuse a ``study.results_dir`` the study cannot use without harm: with ``{`` or ``}``
+    (Snakemake reads them as wildcards of every output path), one in (or at) a file, or one
+    whose ``figures`` folder holds a file that is not a study's (:data:`FIGURE_FILES`): that
+    folder is replaced as a whole at the end of the study, so a re-run replaces its own
+    figures, and anything else there would be lost (``results_dir: docs``).
+
+    Raises
+    ------
+    ConfigError
+        One line naming ``study.results_dir`` and the first file in the way.
+    """
+    import fnmatch
+
+    allowed = "allowed: a folder, or a path where one can be made"
+    if "{" in folder or "}" in folder:
+        raise ConfigError(f"study.results_dir: {folder!r} is not allowed ({{ and }} mark "
+                          f"Snakemake's wildcards); {allowed}, without {{ or }}")
+    for path in (Path(folder), *Path(folder).parents):
+        if path.exists():
+            if not path.is_dir():
+                raise ConfigError(f"study.results_dir: {folder!r} is not allowed ({path} is a "
+                                  f"file); {allowed}")
+            break
+    figures = Path(folder, "figures")
+    if figures.is_symlink() or (figures.exists() and not figures.is_dir()):
+        foreign = [figures]
+    elif figures.is_dir():
+        foreign = [entry for entry in sorted(figures.iterdir())
+                   if entry.is_symlink() or not entry.is_file()
+                   or not any(fnmatch.fnmatchcase(entry.name, p) for p in FIGURE_FILES)]
+    else:
+        foreign = []
+    if foreign:
+        raise ConfigError(f"study.results_dir: {folder!r} is not allowed: the study replaces "
+                          f"{figures} as a whole, and {foreign[0]} is not a study's figure; "
+                          f"allowed: a folder whose figures/ holds only "
+                          f"{', '.join(FIGURE_FILES)} (move that file, or choose another "
+                          "folder)")
 
 
 def _setting(cfg: Mapping[str, Any], key: str) -> Any:

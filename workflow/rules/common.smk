@@ -129,17 +129,10 @@ SWEPT_ANALYSIS = [key.split(".", 1)[1] for key in AXES if key.startswith("analys
 RES = config["study"]["results_dir"].rstrip("/")
 
 
-def _check_results_dir(folder):
-    """Stop where the results folder, or the folder it would be made in, is a file."""
-    for path in (Path(folder), *Path(folder).parents):
-        if path.exists():
-            if not path.is_dir():
-                _stop(f"study.results_dir: {folder!r} is not allowed ({path} is a file); "
-                      "allowed: a folder, or a path where one can be made")
-            return
-
-
-_check_results_dir(RES)
+try:  # a results folder the study cannot use: braces, a file, others' files in figures/
+    plan.check_results_dir(RES)
+except simcore.ConfigError as exc:
+    _stop(exc)
 # Logs and benchmark tables are written while a job runs; they live outside the results folder,
 # so that every file under results/ is a finished product.
 LOGS = Path("logs", "_".join(Path(RES).relative_to(Path(RES).anchor).parts)).as_posix()
