@@ -304,6 +304,11 @@ def test_a_bearing_sweep_refuses_a_value_each_bearing_sets(key, given):
                                                    r"sweep\.model\.bearing"):
         simcore.validate_config({"model": {given: value}, "sweep": {key: ["6012", "6205"]}})
     assert simcore.validate_config({"model": {given: value}})["model"][given] == value
+    # swept (by either spelling), the runs would be labelled with values they do not run at
+    for written in (given, f"model.{given}"):
+        with pytest.raises(simcore.ConfigError, match=rf"^sweep\.{written}: not allowed while "
+                                                       r"sweep\.model\.bearing"):
+            simcore.validate_config({"sweep": {key: ["6012", "6205"], written: [value]}})
 
 
 def test_bearing_names_given_as_numbers_are_names():

@@ -314,17 +314,21 @@ def validate_config(config: Mapping[str, Any]) -> dict:
 
 def _check_bearing_sweep(cfg: Mapping[str, Any], explicit: set) -> None:
     """Refuse a model key that a catalogue entry sets (radii, ball count, masses, groove
-    conformities) given beside a sweep of ``model.bearing``: each grid point takes them from
-    its own bearing's entry (:func:`simcore.study.plan.run_config`), so one value for all
-    would build every bearing alike."""
+    conformities) given or swept beside a sweep of ``model.bearing``: each grid point takes
+    them from its own bearing's entry (:func:`simcore.study.plan.run_config`), so one value
+    for all would build every bearing alike, and a swept one would label runs with values
+    they did not run at."""
     from ..model.bearing import SET_BY_ENTRY
     from .parameters import canonical
 
-    if not any(canonical(str(k)) == "model.bearing" for k in cfg.get("sweep", {})):
+    sweep = cfg.get("sweep", {})
+    if not any(canonical(str(k)) == "model.bearing" for k in sweep):
         return
+    swept = {canonical(str(k)): f"sweep.{k}" for k in sweep}
     for key in SET_BY_ENTRY:
-        if key in explicit:
-            raise ConfigError(f"model.{key}: not allowed while sweep.model.bearing gives each "
+        name = f"model.{key}" if key in explicit else swept.get(f"model.{key}")
+        if name is not None:
+            raise ConfigError(f"{name}: not allowed while sweep.model.bearing gives each "
                               "grid point its bearing's value; allowed: leave it out, or one "
                               "study per bearing with model.bearing set")
 
