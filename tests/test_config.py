@@ -218,6 +218,25 @@ def test_a_dask_scheduler_without_a_port_is_refused_before_any_job(value):
     assert "host:port" in msg and "synchronous" in msg, msg
 
 
+def test_a_later_study_config_replaces_a_sweep_axis_whatever_its_spelling(tmp_path):
+    """A sweep axis of a later file or of the command line replaces the earlier files' list
+    of that axis, short or long name; within one source both names stay refused."""
+    from simcore.config import read_study_config, validate_config
+    from simcore.study import plan
+
+    base, extra = tmp_path / "base.yaml", tmp_path / "extra.yaml"
+    base.write_text("sweep:\n  mu: [0.0, 0.1]\n  e_N: [0.5]\n")
+    extra.write_text("sweep:\n  model.mu: [0.2, 0.3]\n")
+    cfg = read_study_config([base, extra])
+    assert cfg["sweep"] == {"e_N": [0.5], "model.mu": [0.2, 0.3]}
+    assert plan.study_axes(validate_config(cfg))["model.mu"] == [0.2, 0.3]
+    cfg = read_study_config([base, extra], {"sweep": {"mu": ["0.0", "0.01"]}})
+    assert cfg["sweep"] == {"e_N": [0.5], "mu": [0.0, 0.01]}
+    extra.write_text("sweep:\n  model.mu: [0.2]\n  mu: [0.3]\n")
+    with pytest.raises(ConfigError, match=r"^sweep\.(model\.)?mu: the same key as "):
+        plan.study_axes(validate_config(read_study_config([base, extra])))
+
+
 def test_solver_settings_defaults_are_the_schema_defaults():
     """``SolverSettings`` made in Python (no configuration) takes the same defaults as a
     configuration does, for every field named like a schema key of ``solver`` or ``model``;

@@ -90,6 +90,14 @@ def test_a_boolean_can_be_set_and_swept_from_the_command_line():
     assert "study: 8 grid points x 2 models" in proc.stdout + proc.stderr
 
 
+def test_a_sweep_axis_from_the_command_line_replaces_the_files_by_either_name():
+    """config/smoke.yaml sweeps mu: sweep.model.mu on the command line replaces that list."""
+    proc = snakemake("-n", "--forceall", "--configfile", "config/smoke.yaml", "--config",
+                     "sweep={'model.mu': [0.0, 0.01, 0.02]}")
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    assert "study: 6 grid points x 2 models" in proc.stdout + proc.stderr
+
+
 def test_a_bearing_axis_is_held_by_its_name_from_the_command_line():
     """--config passes 6205 as a number: held in study.figure_fixed it is the bearing's name,
     as in a sweep's list; a name the axis lacks is still refused."""

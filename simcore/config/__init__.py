@@ -586,7 +586,9 @@ def read_study_config(files: Iterable[str | Path], command_line: Mapping[str, An
     ``--config`` with all values as strings, so a quoted ``"0.2"`` cannot be told from a
     number once Snakemake has read it. This re-reads the files with :func:`read_yaml` (a quoted
     value stays a string and is refused by the schema, as on the command line) and merges them
-    in order, then the ``--config`` values, whose number-looking strings are read as numbers.
+    in order, then the ``--config`` values, whose number-looking strings are read as numbers;
+    a later source's sweep axis replaces an earlier one's, whatever the spelling of each
+    (``mu`` or ``model.mu``).
 
     Parameters
     ----------
@@ -615,8 +617,24 @@ def read_study_config(files: Iterable[str | Path], command_line: Mapping[str, An
             raise ConfigError(str(exc).replace("--config:", "--configfile:", 1)) from None
         if not isinstance(node, dict):
             raise ConfigError(f"--configfile: {path} must hold a mapping of sections")
-        _merge(merged, node)
-    return _merge(merged, _strings_to_numbers(dict(command_line)))
+        _merge_source(merged, node)
+    return _merge_source(merged, _strings_to_numbers(dict(command_line)))
+
+
+def _merge_source(merged: dict, node: Mapping[str, Any]) -> dict:
+    """:func:`_merge` of one source (a file, the command line) over the earlier ones, where a
+    sweep axis it gives replaces the earlier sources' list of that axis whatever the spelling
+    of each (``sweep.model.mu`` over a file's ``sweep.mu``), as a later value replaces an
+    earlier one; both spellings within one source stay, and are refused
+    (:func:`simcore.config.parameters.sweep_axes`)."""
+    from .parameters import canonical
+
+    sweep, earlier = node.get("sweep"), merged.get("sweep")
+    if isinstance(sweep, Mapping) and isinstance(earlier, dict):
+        axes = {canonical(str(key)) for key in sweep} - {None}
+        for key in [k for k in earlier if k not in sweep and canonical(str(k)) in axes]:
+            del earlier[key]
+    return _merge(merged, node)
 
 
 _INT_TEXT = re.compile(r"^[-+]?\d+$")
