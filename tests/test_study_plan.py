@@ -114,6 +114,15 @@ def test_a_sweep_the_study_cannot_run_is_refused_before_any_run(sweep, words):
     assert words in str(err.value)
 
 
+def test_an_integer_axis_takes_whole_numbers_only():
+    n_balls = registry()["model.n_balls"]
+    assert n_balls.plain(8.0) == 8 and n_balls.plain(np.int64(9)) == 9
+    for value in (8.5, np.float64(8.25)):
+        with pytest.raises(ValueError, match=r"^sweep\.model\.n_balls: 8\.\d+ is not allowed; "
+                                             "allowed: a whole number"):
+            n_balls.plain(value)
+
+
 def test_axes_are_the_four_parameters_then_the_swept_keys_in_registry_order():
     cfg = _study(sweep={"solver.dt": [1e-4, 5e-5], "cage_stiffness": [1e4, 1e5],
                         "drive": ["free", "constant"]})

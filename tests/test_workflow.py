@@ -109,6 +109,16 @@ def test_a_bearing_axis_is_held_by_its_name_from_the_command_line():
     assert proc.returncode == 2 and "study.figure_fixed.bearing" in proc.stdout + proc.stderr
 
 
+def test_an_integer_axis_is_held_at_a_whole_number_only():
+    """study.figure_fixed holds n_balls at one of its values: 8.5 is refused, not cut to 8."""
+    proc = snakemake("-n", "--forceall", "--configfile", "config/smoke.yaml", "--config",
+                     "sweep={'model.n_balls': [8, 9]}", "study={'figure_fixed': {'n_balls': 8.5}}")
+    message = proc.stdout + proc.stderr
+    lines = [x for x in message.splitlines() if "invalid configuration" in x]
+    assert proc.returncode == 2 and len(lines) == 1, message
+    assert "study.figure_fixed.n_balls: 8.5 is not allowed; allowed: one of" in lines[0], message
+
+
 def test_batches_are_sized_by_work_whatever_the_axes():
     """The same 8 runs along other axes: one job per run when each run exceeds
     study.batch_seconds, one job for all (at least four) when they fit in it."""

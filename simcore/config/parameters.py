@@ -70,7 +70,9 @@ class Parameter:
         return self.key.split(".", 1)[1]
 
     def plain(self, value):
-        """``value`` as the configuration holds it (float, int, str or bool)."""
+        """``value`` as the configuration holds it (float, int, str or bool); a category's
+        value not among its categories, or a non-whole number of an integer key, raises
+        ValueError."""
         if self.kind == "category":
             for category in self.categories:
                 if category == value and type(category) is type(value):
@@ -78,7 +80,11 @@ class Parameter:
             raise ValueError(f"sweep.{self.key}: {value!r} is not allowed; allowed: one of "
                              + ", ".join(repr(c) for c in self.categories))
         if self.kind == "integer":
-            return int(value)
+            number = int(value)
+            if not isinstance(value, str) and float(value) != number:  # not cut to 8 from 8.5
+                raise ValueError(f"sweep.{self.key}: {float(value)!r} is not allowed; allowed: a "
+                                 "whole number")
+            return number
         return tidy(value)
 
     def code(self, value) -> int:
