@@ -2,6 +2,7 @@
 
 import subprocess
 import sys
+import warnings
 
 import pytest
 
@@ -328,6 +329,19 @@ def test_a_bearing_sweep_refuses_a_value_each_bearing_sets(key, given):
         with pytest.raises(simcore.ConfigError, match=rf"^sweep\.{written}: not allowed while "
                                                        r"sweep\.model\.bearing"):
             simcore.validate_config({"sweep": {key: ["6012", "6205"], written: [value]}})
+
+
+def test_a_clearance_class_beside_a_given_clearance_warns_naming_both():
+    """python -m simcore run --set model.clearance=1e-4 --set model.clearance_class=C3 runs
+    at the class's clearance: it says so, as for a ball count given against the catalogue."""
+    with pytest.warns(UserWarning, match=r"^model\.clearance = 0\.0001 is given and replaced "
+                                         r"by model\.clearance_class = 'C3' \(1\.65e-05 m"):
+        cfg = load_config(overrides=["model.clearance=1e-4", "model.clearance_class=C3"])
+    assert cfg["model"]["clearance"] == 1.65e-5
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_config(overrides=["model.clearance_class=C3"])
+        load_config(overrides=["model.clearance=1e-4"])
 
 
 def test_bearing_names_given_as_numbers_are_names():

@@ -531,6 +531,33 @@ def test_a_results_folder_is_refused_where_the_study_would_harm_or_fail(tmp_path
         plan.check_results_dir(str(tmp_path / "res"))
 
 
+@pytest.mark.parametrize("files, command_line, warned", [
+    (["config/smoke.yaml"], {"model": {"clearance_class": "C3"}},
+     ["sweep.clearance = [0.0001, 0.0004] is given and replaced by model.clearance_class = "
+      "'C3' (1.65e-05 m for bearing '6012-paper')"]),
+    (["config/smoke.yaml"], {"model": {"clearance": "1e-4"},
+                             "sweep": {"clearance_class": ["CN", "C3"]}},
+     ["model.clearance = 0.0001 is given and replaced by sweep.clearance_class (each run "
+      "takes its class's clearance", "sweep.clearance = [0.0001, 0.0004] is given"]),
+    # the base settings' clearance and list, merged under the study's own file: not given
+    (["config/smoke_bearings.yaml"], {}, []),
+    ([], {"model": {"clearance_class": "C3"}}, []),
+])
+def test_a_clearance_the_user_gives_beside_a_clearance_class_is_named(files, command_line,
+                                                                      warned):
+    """A clearance class sets each run's clearance: a model.clearance or a clearance list the
+    study's files or command line give beside it (not the base config/config.yaml's) is
+    named in a warning line with the class's key, before any job."""
+    from simcore.config import read_study_config, replaced_clearance
+
+    given = read_study_config(["config/config.yaml", *files], command_line)
+    full = simcore.validate_config(given)
+    lines = replaced_clearance(given, full, base=read_study_config(["config/config.yaml"]))
+    assert len(lines) == len(warned), lines
+    for line, start in zip(lines, warned, strict=True):
+        assert line.startswith(start) and line.endswith("; leave one of them out"), line
+
+
 def test_a_study_without_nonsmooth_runs_is_refused_naming_the_key():
     """The twins and the reference run's figures are made from the nonsmooth runs: a study of
     compliant runs alone stops before any job; the order of the models does not matter."""

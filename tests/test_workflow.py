@@ -119,6 +119,18 @@ def test_an_integer_axis_is_held_at_a_whole_number_only():
     assert "study.figure_fixed.n_balls: 8.5 is not allowed; allowed: one of" in lines[0], message
 
 
+def test_a_clearance_list_a_clearance_class_replaces_is_named():
+    """config/smoke.yaml sweeps the clearance: a class set beside it takes the axis' place,
+    which a WARNING line says, naming both keys."""
+    proc = snakemake("-n", "--forceall", "--configfile", "config/smoke.yaml", "--config",
+                     "model={'clearance_class': 'C3'}")
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0, out
+    assert "study: 2 grid points" in out
+    assert ("WARNING: sweep.clearance = [0.0001, 0.0004] is given and replaced by "
+            "model.clearance_class = 'C3'") in out, out
+
+
 def test_batches_are_sized_by_work_whatever_the_axes():
     """The same 8 runs along other axes: one job per run when each run exceeds
     study.batch_seconds, one job for all (at least four) when they fit in it."""

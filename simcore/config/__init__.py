@@ -10,6 +10,7 @@ import copy
 import json
 import math
 import re
+import warnings
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
@@ -434,6 +435,58 @@ def _swept(cfg: Mapping[str, Any], key: str) -> list:
     return list(sweep.get(key, [])) + list(sweep.get(f"model.{key}", []))
 
 
+def replaced_clearance(given: Mapping[str, Any], full: Mapping[str, Any],
+                       base: Mapping[str, Any] | None = None) -> list[str]:
+    """Warnings for a clearance that ``model.clearance_class`` replaces: a ``model.clearance``
+    or a swept clearance the configuration gives beside a class set or swept (each run takes
+    its class's clearance: :func:`simcore.model.bearing.resolve_model`,
+    :data:`simcore.study.plan.DETERMINED`), as for a ball count given against the catalogue.
+
+    Parameters
+    ----------
+    given : mapping
+        The configuration as its sources give it (before :func:`validate_config`).
+    full : mapping
+        The same validated (its clearance, for a class set, is the class's).
+    base : mapping, optional
+        Settings that count as not given where ``given`` holds the same value: a study's base
+        configuration (``config/config.yaml``, whose clearance and clearance list a smaller
+        study takes unless it gives its own). None: every value given counts.
+
+    Returns
+    -------
+    list of str
+        One line per replaced setting, naming it and the class's key.
+    """
+    from .parameters import canonical
+
+    def setting(cfg):
+        return (cfg.get("model") or {}).get("clearance")
+
+    def swept(cfg, key):
+        return {w: v for w, v in (cfg.get("sweep") or {}).items() if canonical(str(w)) == key}
+
+    model = full["model"]
+    classes = swept(given, "model.clearance_class")
+    per_bearing = "each run takes its class's clearance for its bearing's bore"
+    if classes:
+        by = f"sweep.{next(iter(classes))} ({per_bearing})"
+    elif model.get("clearance_class") is None:
+        return []
+    elif swept(given, "model.bearing"):
+        by = f"model.clearance_class = {model['clearance_class']!r} ({per_bearing})"
+    else:
+        by = (f"model.clearance_class = {model['clearance_class']!r} ({model['clearance']:g} m "
+              f"for bearing {model['bearing']!r})")
+    items = [("model.clearance", setting(given), setting(base or {}))]
+    before = list(swept(base or {}, "model.clearance").values())
+    items += [(f"sweep.{w}", v, before[0] if before else None)
+              for w, v in swept(given, "model.clearance").items()]
+    return [f"{key} = {value} is given and replaced by {by}; leave one of them out"
+            for key, value, default in items
+            if value is not None and (base is None or value != default)]
+
+
 def check_consistency(cfg: Mapping[str, Any]) -> None:
     """The checks of :func:`validate_config` that need several keys at once, for a complete
     configuration whose keys are each valid (e.g. one grid point of a study).
@@ -543,7 +596,12 @@ def load_config(path: str | Path | None = None, overrides: Iterable[str] = ()) -
             raise ConfigError(f"--config: cannot read {path}: {exc.strerror}") from None
         if not isinstance(cfg, dict):
             raise ConfigError(f"--config: {path} must hold a mapping of sections")
-    return validate_config(apply_overrides(cfg, overrides))
+    cfg = apply_overrides(cfg, overrides)
+    full = validate_config(cfg)
+    # (one run reads no sweep: simcore.cli.check_sweep says so)
+    for text in replaced_clearance({k: v for k, v in cfg.items() if k != "sweep"}, full):
+        warnings.warn(text, UserWarning, stacklevel=2)
+    return full
 
 
 def apply_overrides(cfg: dict, overrides: Iterable[str]) -> dict:

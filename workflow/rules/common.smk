@@ -96,7 +96,8 @@ def _check_base_config():
 
 
 _check_base_config()
-_full = _checked_config(_study_config())
+_GIVEN = _study_config()
+_full = _checked_config(_GIVEN)
 config.clear()
 config.update(_full)
 
@@ -117,6 +118,9 @@ try:
     SIZE = plan.check_size(config, AXES, _cores())
     RUNS = plan.plan_runs(config, AXES)
     _WARNINGS = plan.check_runs(RUNS)  # consistency and limits of every run, before any job
+    # a clearance the user gave (not the base settings') that a clearance class replaces
+    _WARNINGS += simcore.config.replaced_clearance(
+        _GIVEN, config, base=simcore.config.read_study_config([Path(BASE_CONFIG).absolute()]))
     check_keep(config["study"]["keep"], config["study"]["models"])  # what later jobs read
 except simcore.ConfigError as exc:
     _stop(exc)
