@@ -174,7 +174,7 @@ def closed_form_elastic(m_eff, v_pre, K):
     -------
     F_max, delta_max, contact_time : float
         Peak force [N] K δ_max^{3/2}, largest indentation [m] (5 m v²/(4K))^{2/5} and contact time
-        [s] 2 ∫_0^1 dx/√(1 - x^{5/2}) · δ_max/v ≈ 3.2145 δ_max/v.
+        [s] 2 ∫_0^1 dx/√(1 - x^{5/2}) · δ_max/v ≈ 2.9433 δ_max/v.
     """
     m_eff = positive("m_eff", m_eff)
     v_pre = positive("v_pre", v_pre)
