@@ -6,7 +6,9 @@ values lie within 1 +- analysis.method_tol, their range and median over the grid
 axis, and by the static deflection ratio (a ball's Hertz deflection under the largest steady
 load over the clearance); then ``peak_force_flagged``, and from the nonsmooth impact tables the
 zooms of the impacts that give ``peak_force``: how many give a verdict and how many of those
-agree with F_max within the tolerance.
+agree with F_max within the tolerance; how many of them are flagged ``peak_at_onset`` (a loaded
+contact's Flores force at its start, F_s (1 + c), docs/forces.md §2), by e_N, and the steady
+peak's ratio to the compliant one where such a row counts with its static force F_s instead.
 
     python benchmarks/method_ratio_report.py [results/summary.nc] [--impacts results/impacts]
 """
@@ -62,14 +64,19 @@ def report(summary: xr.Dataset) -> None:
     print(f"values outside the tolerance left unflagged: {int(unflagged.sum())}")
 
 
-def zoom_report(folder: str, tol: float) -> None:
-    """The zooms of the impacts that give each table's steady peak force per race."""
+def zoom_report(folder: str, tol: float, summary: xr.Dataset) -> None:
+    """The zooms of the impacts that give each table's steady peak force per race, and how
+    many of those are a loaded contact's start (``peak_at_onset``)."""
+    from collections import defaultdict
     from pathlib import Path
 
     from analysis.impacts import FLAG
 
     peaks = verdicts = disagree = loaded = 0
     ratios = []
+    onset = defaultdict(int)     # e_N: peak-force impacts flagged peak_at_onset
+    of_e = defaultdict(int)      # e_N: peak-force impacts
+    static_ratio = defaultdict(list)  # e_N: steady peak with onset rows at F_s, over compliant
     for path in sorted(Path(folder).glob("*.nc")):
         with xr.open_dataset(path) as table:
             if "F_max_zoom" not in table:
@@ -77,12 +84,21 @@ def zoom_report(folder: str, tol: float) -> None:
             settle = table.attrs.get("zoom_settle_time", -np.inf)
             force = table["F_max"].values
             steady = (table["time"].values > settle) & np.isfinite(force)
+            at_onset = (table["flags"].values & FLAG["peak_at_onset"]) > 0
+            static = np.where(at_onset, table["F_static"].values, force)
+            point = {name: float(table[name]) for name in ("clearance", "mu", "omega0", "e_N")
+                     if name in summary.coords and name in table.coords}
+            e_N = point.get("e_N", np.nan)
             for race in (0, 1):
                 rows = np.flatnonzero(steady & (table["race"].values == race))
                 if not rows.size:
                     continue
                 row = rows[np.argmax(force[rows])]
                 peaks += 1
+                of_e[e_N] += 1
+                onset[e_N] += bool(at_onset[row])
+                twin = float(summary["peak_force"].sel(model=1, race=race, **point))
+                static_ratio[e_N].append(np.max(static[rows]) / twin if twin > 0 else np.nan)
                 if "zoom_loaded_start" in table:
                     loaded += int(table["zoom_loaded_start"].values[row])
                 zoom = float(table["F_max_zoom"].values[row])
@@ -95,6 +111,11 @@ def zoom_report(folder: str, tol: float) -> None:
           f"zoom's start: {loaded}; zooms with a verdict: {verdicts} "
           f"(F_max / F_max_zoom {describe(np.asarray(ratios), tol)}); flagged "
           f"method_disagrees: {disagree}")
+    print("of them flagged peak_at_onset (F_max = F_s (1 + c), the start of a loaded contact's "
+          "force): " + ", ".join(f"{onset[e]} of {of_e[e]} at e_N = {e:g}" for e in sorted(of_e)))
+    print("steady peak with such rows at F_s instead, over the compliant peak:")
+    for e in sorted(static_ratio):
+        print(f"  e_N = {e:g}: {describe(np.asarray(static_ratio[e]), tol)}")
 
 
 def main(argv=None) -> int:
@@ -106,7 +127,7 @@ def main(argv=None) -> int:
         summary = summary.load()
     report(summary)
     if args.impacts:
-        zoom_report(args.impacts, float(summary.attrs.get("method_tol", 0.2)))
+        zoom_report(args.impacts, float(summary.attrs.get("method_tol", 0.2)), summary)
     return 0
 
 
