@@ -39,8 +39,10 @@ def test_the_paper_bearing_is_the_default_model_to_the_bit():
 @pytest.mark.parametrize("clearance_class", ["C2", "CN", "C3", "C4"])
 def test_clearance_class_is_half_the_middle_of_its_iso_range(clearance_class):
     lo, hi = _row(60.0)[clearance_class]  # the paper's 6012 has a 60 mm bore
-    cfg = load_config(overrides=[f"model.clearance_class={clearance_class}",
-                                 "model.clearance=0.001"])  # the class wins
+    with pytest.warns(UserWarning, match=r"model\.clearance = 0\.001 is given and replaced by "
+                      f"model\\.clearance_class = '{clearance_class}'"):
+        cfg = load_config(overrides=[f"model.clearance_class={clearance_class}",
+                                     "model.clearance=0.001"])  # the class wins, said
     assert cfg["model"]["clearance"] == pytest.approx(0.5 * 0.5 * (lo + hi) * 1e-6, rel=1e-12)
 
 
