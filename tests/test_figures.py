@@ -384,11 +384,9 @@ def test_study_figures_command_takes_the_layout(tmp_path, capsys):
 def test_study_figures_command_holds_an_axis_at_the_study_reference(tmp_path, monkeypatch):
     """A redraw from the summary file holds an undrawn axis where the study's own figures held
     it: the reference point the summary states, not the middle value."""
-    import analysis.figures
     from analysis.__main__ import main
     from analysis.figures import (
         REFERENCE_ATTRIBUTE,
-        figure_layout,
         reference_attribute,
         stored_reference,
     )
@@ -410,6 +408,21 @@ def test_study_figures_command_holds_an_axis_at_the_study_reference(tmp_path, mo
     swept.attrs[REFERENCE_ATTRIBUTE] = text
     with xr.open_dataset(write_netcdf(swept, tmp_path / "b.nc")) as back:
         assert stored_reference(back) == reference | {"bearing": 4.0}
+    layouts = _record_layouts(monkeypatch)
+    assert main(["study-figures", str(path), "--axes", "clearance", "omega0"]) == 0
+    assert layouts[-1].fixed == {"mu": 0.05}  # the reference's, not the middle 0.01
+    del ds.attrs[REFERENCE_ATTRIBUTE]
+    assert stored_reference(ds) is None
+    assert main(["study-figures", str(write_netcdf(ds, tmp_path / "t.nc")), "--axes",
+                 "clearance", "omega0"]) == 0
+    assert layouts[-1].fixed == {"mu": 0.01}  # no reference stated: the middle value
+
+
+def _record_layouts(monkeypatch) -> list:
+    """The layouts the study figures are drawn with, one per call of ``plot_study`` (which
+    still draws them)."""
+    import analysis.figures
+
     layouts = []
     real = analysis.figures.plot_study
 
@@ -419,13 +432,7 @@ def test_study_figures_command_holds_an_axis_at_the_study_reference(tmp_path, mo
         return real(summary, outdir, *args, **kwargs)
 
     monkeypatch.setattr(analysis.figures, "plot_study", spy)
-    assert main(["study-figures", str(path), "--axes", "clearance", "omega0"]) == 0
-    assert layouts[-1].fixed == {"mu": 0.05}  # the reference's, not the middle 0.01
-    del ds.attrs[REFERENCE_ATTRIBUTE]
-    assert stored_reference(ds) is None
-    assert main(["study-figures", str(write_netcdf(ds, tmp_path / "t.nc")), "--axes",
-                 "clearance", "omega0"]) == 0
-    assert layouts[-1].fixed == {"mu": 0.01}  # no reference stated: the middle value
+    return layouts
 
 
 def test_a_category_axis_is_labelled_by_its_names(tmp_path):
@@ -444,20 +451,11 @@ def test_a_category_axis_is_labelled_by_its_names(tmp_path):
 def test_study_figures_options_given_twice_add_up(tmp_path, monkeypatch):
     """--axes and --fixed given twice take both lists (not the last one alone); an axis held
     twice is refused, naming it, before the figures folder is made."""
-    import analysis.figures
     from analysis.__main__ import main
     from simcore.io import write_netcdf
 
     path = write_netcdf(_summary((2, 2, 2, 2))[["peak_force", "failed"]], tmp_path / "s.nc")
-    layouts = []
-    real = analysis.figures.plot_study
-
-    def spy(summary, outdir, *args, **kwargs):
-        layouts.append(figure_layout(summary, kwargs.get("figure_axes"),
-                                     kwargs.get("figure_fixed"), kwargs.get("reference")))
-        return real(summary, outdir, *args, **kwargs)
-
-    monkeypatch.setattr(analysis.figures, "plot_study", spy)
+    layouts = _record_layouts(monkeypatch)
     assert main(["study-figures", str(path), "--axes", "clearance", "--axes", "mu",
                  "--fixed", "omega0=25", "--fixed", "e_N=0.9"]) == 0
     assert (layouts[-1].x, layouts[-1].y) == ("clearance", "mu")
