@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +29,11 @@ from simcore.study import plan
 
 def _study(*overrides, sweep=None):
     """The default study's configuration with ``overrides``; ``sweep`` added to its sweep."""
-    cfg = simcore.load_config("config/config.yaml", overrides=list(overrides))
+    with warnings.catch_warnings():
+        # read as one run, the base file's clearance beside a class is warned of; a study
+        # does not warn of its base settings (test_a_clearance_the_user_gives_beside_a_...)
+        warnings.filterwarnings("ignore", "model.clearance = .* is given and replaced")
+        cfg = simcore.load_config("config/config.yaml", overrides=list(overrides))
     if sweep:
         cfg["sweep"].update(sweep)
     return simcore.validate_config(cfg)
