@@ -152,6 +152,11 @@ def steps_lines(ds, rows: int) -> list[str]:
         return [f"steps: {time_steps(ds):.0f}  dt = {a['solver.dt']} s  {span}"]
     lines = [f"steps: {time_steps(ds):.0f} adaptive ({a['n_steps_rejected']} redone)  "
              f"dt = {a['dt_smallest_s']:.3g} to {a['solver.dt']} s  {span}"]
+    retries = int(a.get("n_tolerance_retries", 0))
+    if retries:
+        lines.append(f"run again {retries} time(s) after the energy audit failed: "
+                     f"solver.adaptive_tol {a['solver.adaptive_tol']:g} -> "
+                     f"{a['adaptive_tol_used']:g} m")
     if "steps" in ds and rows:
         per_row = np.asarray(ds["steps"].values[1:])
         k = int(np.argmax(per_row))

@@ -386,3 +386,69 @@ def test_study_twin_whole_run_matches_converged_fixed_steps():
         assert min(fixed) > 1000.0  # the balls carry the load
         assert adaptive == pytest.approx(fixed, rel=1e-2)
         assert shorter == pytest.approx(fixed, rel=1e-2)
+
+
+#: the grooved study point (4e-4 m, mu 0.01, 25 rad/s, e_N 1, steel, constant drive) whose
+#: twin's energy error grows with its tolerance (docs/compliant.md, "Energy and the tolerance")
+UNDAMPED_GROOVE_POINT = [
+    "model.contact_model=compliant", "model.contact_geometry=groove", "model.clearance=4e-4",
+    "model.mu=0.01", "model.omega0=25.0", "model.e_N=1.0", "model.drive=constant",
+    "model.cage_stiffness=1e5", "model.cage_damping=1e3", "model.youngs_modulus=2.1e11",
+    "model.poisson_ratio=0.3"]
+
+
+def _undamped_groove_point():
+    return crank_slider(load_config(overrides=UNDAMPED_GROOVE_POINT)["model"])[0]
+
+
+def _twin_settings(tol, retries, **changes):
+    # energy_tol 0.0035: the window gain at 1e-8 m (0.081 J) is 1.4 times what it allows, at
+    # 1e-9 m (0.036 J) 0.6 times
+    return SolverSettings(1e-4, 0.02, contact_model="compliant", adaptive=True, rho_inf=0.5,
+                          adaptive_tol=tol, adaptive_retries=retries, energy_tol=0.0035,
+                          **changes)
+
+
+def test_an_adaptive_run_that_creates_energy_is_run_again_at_a_tenth_of_its_tolerance():
+    """At 1e-8 m the run's steps create energy together (the energy audit's window); with one
+    retry it is run again at 1e-9 m and gives that run's numbers exactly, recording the retry.
+    A tolerance still too loose after its retries stops the run or is flagged as before."""
+    model = _undamped_groove_point()
+    with pytest.raises(SolverError, match="energy audit: steps"):
+        model.simulate(_twin_settings(1e-8, 0))
+    tight = model.simulate(_twin_settings(1e-9, 0))
+    retried = model.simulate(_twin_settings(1e-8, 1))
+    assert int(retried.converged.min()) == 1
+    records = retried.extras["adaptive"]
+    assert records["n_tolerance_retries"] == 1 and records["adaptive_tol_used"] == 1e-9
+    assert tight.extras["adaptive"]["n_tolerance_retries"] == 0
+    np.testing.assert_array_equal(retried.F_N, tight.F_N)
+    np.testing.assert_array_equal(retried.energy, tight.energy)
+    with pytest.raises(SolverError, match="energy audit: steps"):
+        model.simulate(_twin_settings(1e-7, 1))
+    with pytest.warns(RuntimeWarning, match="energy audit: steps"):
+        flagged = model.simulate(_twin_settings(1e-7, 1, on_nonconvergence="warn"))
+    assert int(flagged.converged.min()) == 0
+    assert flagged.extras["adaptive"]["n_tolerance_retries"] == 1
+
+
+def test_run_file_and_summary_record_a_run_again_at_a_smaller_tolerance():
+    from simcore.cli import summary_lines
+
+    cfg = load_config(overrides=[*UNDAMPED_GROOVE_POINT, "solver.adaptive=true", "solver.dt=1e-4",
+                                 "solver.t_end=0.02", "solver.rho_inf=0.5",
+                                 "solver.adaptive_tol=1e-8", "solver.energy_tol=0.0035"])
+    ds = simcore.run(cfg)
+    assert ds.attrs["n_tolerance_retries"] == 1 and ds.attrs["adaptive_tol_used"] == 1e-9
+    assert ds.attrs["solver.adaptive_tol"] == 1e-8 and ds.attrs["n_energy_gain_steps"] == 0
+    assert ("run again 1 time(s) after the energy audit failed: solver.adaptive_tol 1e-08 -> "
+            "1e-09 m") in summary_lines(ds)
+
+
+def test_adaptive_retries_are_checked():
+    for bad in (-1, 4, 1.5, True):
+        with pytest.raises(ValueError, match="solver.adaptive_retries"):
+            SolverSettings(1e-5, 1e-3, contact_model="compliant", adaptive=True,
+                           adaptive_retries=bad)
+    with pytest.raises(ConfigError, match="solver.adaptive_retries"):
+        load_config(overrides=["solver.adaptive_retries=4"])

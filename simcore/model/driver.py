@@ -19,7 +19,7 @@ from __future__ import annotations
 import sys
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -36,6 +36,11 @@ CONTACT_MODELS = ("nonsmooth", "compliant")
 DT_MIN_DEFAULT = 1e-9
 ADAPTIVE_TOL_DEFAULT = 1e-9
 ONSET_STEPS_DEFAULT = 40.0
+#: an adaptive run whose energy audit fails is run again with its tolerance over this
+#: (``SolverSettings.adaptive_retries``; docs/compliant.md, "Energy and the tolerance")
+RETRY_TOL_DIVISOR = 10.0
+#: largest ``solver.adaptive_retries``
+MAX_ADAPTIVE_RETRIES = 3
 ON_NONCONVERGENCE = ("error", "warn")
 #: steps per kernel call by contact model when ``SolverSettings.chunk`` is None: a compliant
 #: step costs about 5 us, the checks and the call between two chunks about 0.2 ms
@@ -47,6 +52,11 @@ MAX_HALVINGS = 10
 
 class SolverError(RuntimeError):
     """A sub-problem of a step did not converge (with ``on_nonconvergence = "error"``)."""
+
+
+class _TighterTolerance(Exception):
+    """The energy audit failed in an adaptive run that may be run again with a smaller
+    tolerance (``SolverSettings.adaptive_retries``)."""
 
 
 def _finite(name, value, positive=False):
@@ -129,6 +139,11 @@ class SolverSettings:
     onset_steps : float
         Adaptive: a step in which a contact closes lasts at most the Hertz contact time of its
         approach speed over this many steps [-], > 0.
+    adaptive_retries : int
+        Adaptive: a run whose energy audit fails (its first failure) is run again from its
+        start with ``adaptive_tol`` over :data:`RETRY_TOL_DIVISOR`, at most this many times;
+        only a failure of the last try stops the run or is flagged. 0: never; at most
+        :data:`MAX_ADAPTIVE_RETRIES`.
     """
 
     dt: float
@@ -152,6 +167,7 @@ class SolverSettings:
     dt_min: float = DT_MIN_DEFAULT
     adaptive_tol: float = ADAPTIVE_TOL_DEFAULT
     onset_steps: float = ONSET_STEPS_DEFAULT
+    adaptive_retries: int = 1
 
     def __post_init__(self):
         dt = _finite("solver.dt", self.dt, positive=True)
@@ -201,6 +217,12 @@ class SolverSettings:
                              f"(0, solver.dt = {dt!r}]")
         _finite("solver.adaptive_tol", self.adaptive_tol, positive=True)
         _finite("onset_steps", self.onset_steps, positive=True)
+        retries = self.adaptive_retries
+        if (isinstance(retries, bool) or int(retries) != retries
+                or not 0 <= retries <= MAX_ADAPTIVE_RETRIES):
+            raise ValueError(f"solver.adaptive_retries: {retries!r} is not allowed; allowed: a "
+                             f"whole number in [0, {MAX_ADAPTIVE_RETRIES}]")
+        object.__setattr__(self, "adaptive_retries", int(retries))
 
     @classmethod
     def from_config(cls, cfg, **changes) -> SolverSettings:
@@ -219,7 +241,8 @@ class SolverSettings:
                       max_halvings=solver["max_halvings"],
                       max_indentation=solver["max_indentation"],
                       adaptive=solver["adaptive"], dt_min=solver["dt_min"],
-                      adaptive_tol=solver["adaptive_tol"])
+                      adaptive_tol=solver["adaptive_tol"],
+                      adaptive_retries=solver["adaptive_retries"])
         values.update(changes)
         return cls(**values)
 
@@ -509,8 +532,9 @@ class _Loop:
     """Stage 3: the chunks of the time loop and the checks between them."""
 
     def __init__(self, model, settings: SolverSettings, start: _Start, out: Trajectory,
-                 t0: float, release: ReleaseStop | None):
+                 t0: float, release: ReleaseStop | None, may_retry: bool = False):
         self.settings, self.out, self.t0 = settings, out, float(t0)
+        self.may_retry = may_retry  # an audit failure asks for a tighter tolerance
         self.state, self.work, self.arrays = start.state, start.work, start.arrays
         self.first_bad = -1
         self.adaptive = None
@@ -608,6 +632,8 @@ class _Loop:
         if self.adaptive is not None and bad >= 0:  # (the kernel returns a row)
             bad = bad * every - 1
         if gain >= 0 and self.first_bad < 0 and (bad < 0 or gain * every < bad):
+            if self.may_retry:
+                raise _TighterTolerance(self.audit.message(gain))
             self.first_bad = gain * every
             self._fail(self.audit.message(gain) + self._step_hint())
         if bad >= 0 and self.first_bad < 0:
@@ -724,10 +750,28 @@ def adaptive_records(aw, n_rows: int) -> dict:
 
 def simulate(model, settings: SolverSettings, q0=None, v0=None, t0: float = 0.0,
              release: ReleaseStop | None = None, v_pre0=None) -> Trajectory:
-    """Integrate ``model`` with ``settings``; see :meth:`simcore.model.Model.simulate`."""
-    start = _start(model, settings, q0, v0, t0, v_pre0)
-    out = _allocate(model, settings, start, t0)
-    loop = _Loop(model, settings, start, out, t0, release)
+    """Integrate ``model`` with ``settings``; see :meth:`simcore.model.Model.simulate`.
+
+    An adaptive run whose energy audit fails is run again from its start with a tolerance
+    :data:`RETRY_TOL_DIVISOR` times smaller, at most ``settings.adaptive_retries`` times: its
+    energy error shrinks with the tolerance (docs/compliant.md, "Energy and the tolerance").
+    The run records the tries (``n_tolerance_retries``) and the tolerance of the last
+    (``adaptive_tol_used``); its wall time counts them all."""
     began = time.perf_counter()
-    steps_done = loop.run()
-    return _finish(loop, steps_done, time.perf_counter() - began)
+    retries = 0
+    while True:
+        start = _start(model, settings, q0, v0, t0, v_pre0)
+        out = _allocate(model, settings, start, t0)
+        may_retry = settings.adaptive and retries < settings.adaptive_retries
+        loop = _Loop(model, settings, start, out, t0, release, may_retry)
+        try:
+            steps_done = loop.run()
+        except _TighterTolerance:
+            retries += 1
+            settings = replace(settings, adaptive_tol=settings.adaptive_tol / RETRY_TOL_DIVISOR)
+            continue
+        out = _finish(loop, steps_done, time.perf_counter() - began)
+        if settings.adaptive:
+            out.extras["adaptive"].update(n_tolerance_retries=retries,
+                                          adaptive_tol_used=settings.adaptive_tol)
+        return out
