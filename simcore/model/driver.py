@@ -68,6 +68,14 @@ def _finite(name, value, positive=False):
     return value
 
 
+def _count(name, value, largest: int) -> int:
+    """``value`` as a whole number in [0, largest]; a bool or a fraction is refused."""
+    if isinstance(value, bool) or int(value) != value or not 0 <= value <= largest:
+        raise ValueError(f"{name}: {value!r} is not allowed; allowed: a whole number in "
+                         f"[0, {largest}]")
+    return int(value)
+
+
 def _choice(name, value, allowed):
     if value not in allowed:
         raise ValueError(f"{name}: {value!r} is not allowed; allowed: " + ", ".join(allowed))
@@ -184,12 +192,8 @@ class SolverSettings:
             raise ValueError(f"solver.output_dt: {every} steps per output is not allowed; "
                              "allowed: 1 for the nonsmooth model (its impulse filter needs every "
                              "step), a whole number >= 1 of steps for compliant")
-        halvings = self.max_halvings
-        if (isinstance(halvings, bool) or int(halvings) != halvings
-                or not 0 <= halvings <= MAX_HALVINGS):
-            raise ValueError(f"solver.max_halvings: {halvings!r} is not allowed; allowed: a "
-                             f"whole number in [0, {MAX_HALVINGS}]")
-        object.__setattr__(self, "max_halvings", int(halvings))
+        object.__setattr__(self, "max_halvings",
+                           _count("solver.max_halvings", self.max_halvings, MAX_HALVINGS))
         if self.adaptive:
             self._check_adaptive(dt)
         object.__setattr__(self, "dt", dt)
@@ -217,12 +221,8 @@ class SolverSettings:
                              f"(0, solver.dt = {dt!r}]")
         _finite("solver.adaptive_tol", self.adaptive_tol, positive=True)
         _finite("onset_steps", self.onset_steps, positive=True)
-        retries = self.adaptive_retries
-        if (isinstance(retries, bool) or int(retries) != retries
-                or not 0 <= retries <= MAX_ADAPTIVE_RETRIES):
-            raise ValueError(f"solver.adaptive_retries: {retries!r} is not allowed; allowed: a "
-                             f"whole number in [0, {MAX_ADAPTIVE_RETRIES}]")
-        object.__setattr__(self, "adaptive_retries", int(retries))
+        object.__setattr__(self, "adaptive_retries", _count(
+            "solver.adaptive_retries", self.adaptive_retries, MAX_ADAPTIVE_RETRIES))
 
     @classmethod
     def from_config(cls, cfg, **changes) -> SolverSettings:
