@@ -139,8 +139,9 @@ def summary_lines(ds) -> list[str]:
 
 def steps_lines(ds, rows: int) -> list[str]:
     """The steps of a run, its step size and length; of an adaptive run the steps it took and
-    redid, the smallest step it took and the largest it allows (``solver.dt``), and how its
-    steps spread over the output intervals (variable ``steps``)."""
+    redid, the smallest step it took and the largest it allows (``solver.dt``), how its
+    steps spread over the output intervals (variable ``steps``), and whether it was run again
+    at a smaller tolerance (``n_tolerance_retries``)."""
     import numpy as np
 
     a = ds.attrs

@@ -8,6 +8,8 @@ need less than solver.dt_min; the configuration keys and the run file's records.
 
 import copy
 import math
+import re
+import warnings
 
 import numpy as np
 import pytest
@@ -390,15 +392,15 @@ def test_study_twin_whole_run_matches_converged_fixed_steps():
 
 #: the grooved study point (4e-4 m, mu 0.01, 25 rad/s, e_N 1, steel, constant drive) whose
 #: twin's energy error grows with its tolerance (docs/compliant.md, "Energy and the tolerance")
-UNDAMPED_GROOVE_POINT = [
+GROOVE_POINT_E1 = [
     "model.contact_model=compliant", "model.contact_geometry=groove", "model.clearance=4e-4",
     "model.mu=0.01", "model.omega0=25.0", "model.e_N=1.0", "model.drive=constant",
     "model.cage_stiffness=1e5", "model.cage_damping=1e3", "model.youngs_modulus=2.1e11",
     "model.poisson_ratio=0.3"]
 
 
-def _undamped_groove_point():
-    return crank_slider(load_config(overrides=UNDAMPED_GROOVE_POINT)["model"])[0]
+def _groove_point_e1():
+    return crank_slider(load_config(overrides=GROOVE_POINT_E1)["model"])[0]
 
 
 def _twin_settings(tol, retries, **changes):
@@ -413,7 +415,7 @@ def test_an_adaptive_run_that_creates_energy_is_run_again_at_a_tenth_of_its_tole
     """At 1e-8 m the run's steps create energy together (the energy audit's window); with one
     retry it is run again at 1e-9 m and gives that run's numbers exactly, recording the retry.
     A tolerance still too loose after its retries stops the run or is flagged as before."""
-    model = _undamped_groove_point()
+    model = _groove_point_e1()
     with pytest.raises(SolverError, match="energy audit: steps"):
         model.simulate(_twin_settings(1e-8, 0))
     tight = model.simulate(_twin_settings(1e-9, 0))
@@ -424,18 +426,44 @@ def test_an_adaptive_run_that_creates_energy_is_run_again_at_a_tenth_of_its_tole
     assert tight.extras["adaptive"]["n_tolerance_retries"] == 0
     np.testing.assert_array_equal(retried.F_N, tight.F_N)
     np.testing.assert_array_equal(retried.energy, tight.energy)
-    with pytest.raises(SolverError, match="energy audit: steps"):
+    again = ("run again 1 time(s) after the energy audit failed, solver.adaptive_tol now "
+             "1e-08 m (solver.adaptive_retries = 1)")
+    with pytest.raises(SolverError, match="energy audit: steps") as stopped:
         model.simulate(_twin_settings(1e-7, 1))
-    with pytest.warns(RuntimeWarning, match="energy audit: steps"):
+    assert again in str(stopped.value)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
         flagged = model.simulate(_twin_settings(1e-7, 1, on_nonconvergence="warn"))
+    # one warning, of the last try: the first try's failure is not reported
+    assert len(said) == 1 and str(said[0].message).startswith("energy audit: steps")
+    assert again in str(said[0].message)
     assert int(flagged.converged.min()) == 0
-    assert flagged.extras["adaptive"]["n_tolerance_retries"] == 1
+    records = flagged.extras["adaptive"]
+    assert records["n_tolerance_retries"] == 1 and records["adaptive_tol_used"] == 1e-8
+
+
+def test_a_run_whose_first_failure_is_not_the_energy_audit_is_not_run_again():
+    """An indentation beyond the allowed range (here 1e-4 of the ball's radius) before the
+    steps create energy is not the tolerance's doing: the run is not run again."""
+    model = _groove_point_e1()
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        traj = model.simulate(_twin_settings(1e-8, 1, on_nonconvergence="warn",
+                                             max_indentation=1e-4))
+    messages = [str(w.message) for w in said]
+    indented = [re.match(r"integrity check 'indentation' failed at step (\d+)", m)
+                for m in messages]
+    created = [re.match(r"energy audit: steps \d+ to (\d+)", m) for m in messages]
+    first_indented = min(int(m.group(1)) for m in indented if m)
+    first_created = min(int(m.group(1)) for m in created if m)
+    assert first_indented < first_created  # the audit fails, but not first
+    assert traj.extras["adaptive"]["n_tolerance_retries"] == 0
 
 
 def test_run_file_and_summary_record_a_run_again_at_a_smaller_tolerance():
     from simcore.cli import summary_lines
 
-    cfg = load_config(overrides=[*UNDAMPED_GROOVE_POINT, "solver.adaptive=true", "solver.dt=1e-4",
+    cfg = load_config(overrides=[*GROOVE_POINT_E1, "solver.adaptive=true", "solver.dt=1e-4",
                                  "solver.t_end=0.02", "solver.rho_inf=0.5",
                                  "solver.adaptive_tol=1e-8", "solver.energy_tol=0.0035"])
     ds = simcore.run(cfg)
@@ -450,5 +478,7 @@ def test_adaptive_retries_are_checked():
         with pytest.raises(ValueError, match="solver.adaptive_retries"):
             SolverSettings(1e-5, 1e-3, contact_model="compliant", adaptive=True,
                            adaptive_retries=bad)
+        with pytest.raises(ValueError, match="solver.adaptive_retries"):  # (fixed steps too)
+            SolverSettings(1e-5, 1e-3, adaptive_retries=bad)
     with pytest.raises(ConfigError, match="solver.adaptive_retries"):
         load_config(overrides=["solver.adaptive_retries=4"])

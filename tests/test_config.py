@@ -246,7 +246,7 @@ def test_solver_settings_defaults_are_the_schema_defaults():
 
     from simcore.config import load_schema
     from simcore.model import SolverSettings
-    from simcore.model.driver import MAX_HALVINGS
+    from simcore.model.driver import MAX_ADAPTIVE_RETRIES, MAX_HALVINGS
 
     sections = load_schema()["properties"]
     checked = []
@@ -259,6 +259,7 @@ def test_solver_settings_defaults_are_the_schema_defaults():
                 break
     assert {"tol", "max_iter", "dt_min", "adaptive_tol", "max_halvings"} <= set(checked)
     assert sections["solver"]["properties"]["max_halvings"]["maximum"] == MAX_HALVINGS
+    assert sections["solver"]["properties"]["adaptive_retries"]["maximum"] == MAX_ADAPTIVE_RETRIES
 
 
 def test_the_schema_names_the_contact_models_of_the_code():

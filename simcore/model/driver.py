@@ -24,6 +24,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .. import kernels as nb
+from ..config.parameters import tidy
 from ..kernels.bundles import STAGES
 from .audit import ENERGY_FLOOR_J, EnergyAudit, drive_rate
 from .hertz import DAMPING_LAWS
@@ -148,10 +149,10 @@ class SolverSettings:
         Adaptive: a step in which a contact closes lasts at most the Hertz contact time of its
         approach speed over this many steps [-], > 0.
     adaptive_retries : int
-        Adaptive: a run whose energy audit fails (its first failure) is run again from its
-        start with ``adaptive_tol`` over :data:`RETRY_TOL_DIVISOR`, at most this many times;
-        only a failure of the last try stops the run or is flagged. 0: never; at most
-        :data:`MAX_ADAPTIVE_RETRIES`.
+        Adaptive: a run whose first failure is energy created by its steps (the energy audit)
+        is run again from its start with ``adaptive_tol`` over :data:`RETRY_TOL_DIVISOR`, at
+        most this many times; the audit's failure in the last try, and any other failure,
+        stops the run or is flagged. 0: never; at most :data:`MAX_ADAPTIVE_RETRIES`.
     """
 
     dt: float
@@ -194,6 +195,8 @@ class SolverSettings:
                              "step), a whole number >= 1 of steps for compliant")
         object.__setattr__(self, "max_halvings",
                            _count("solver.max_halvings", self.max_halvings, MAX_HALVINGS))
+        object.__setattr__(self, "adaptive_retries", _count(
+            "solver.adaptive_retries", self.adaptive_retries, MAX_ADAPTIVE_RETRIES))
         if self.adaptive:
             self._check_adaptive(dt)
         object.__setattr__(self, "dt", dt)
@@ -221,8 +224,6 @@ class SolverSettings:
                              f"(0, solver.dt = {dt!r}]")
         _finite("solver.adaptive_tol", self.adaptive_tol, positive=True)
         _finite("onset_steps", self.onset_steps, positive=True)
-        object.__setattr__(self, "adaptive_retries", _count(
-            "solver.adaptive_retries", self.adaptive_retries, MAX_ADAPTIVE_RETRIES))
 
     @classmethod
     def from_config(cls, cfg, **changes) -> SolverSettings:
@@ -532,9 +533,9 @@ class _Loop:
     """Stage 3: the chunks of the time loop and the checks between them."""
 
     def __init__(self, model, settings: SolverSettings, start: _Start, out: Trajectory,
-                 t0: float, release: ReleaseStop | None, may_retry: bool = False):
+                 t0: float, release: ReleaseStop | None, retries_done: int = 0):
         self.settings, self.out, self.t0 = settings, out, float(t0)
-        self.may_retry = may_retry  # an audit failure asks for a tighter tolerance
+        self.retries_done = retries_done  # tries before this one, each at a larger tolerance
         self.state, self.work, self.arrays = start.state, start.work, start.arrays
         self.first_bad = -1
         self.adaptive = None
@@ -632,13 +633,25 @@ class _Loop:
         if self.adaptive is not None and bad >= 0:  # (the kernel returns a row)
             bad = bad * every - 1
         if gain >= 0 and self.first_bad < 0 and (bad < 0 or gain * every < bad):
-            if self.may_retry:
+            if self._retry_cures(gain, row0):
                 raise _TighterTolerance(self.audit.message(gain))
             self.first_bad = gain * every
             self._fail(self.audit.message(gain) + self._step_hint())
         if bad >= 0 and self.first_bad < 0:
             self.first_bad = int(bad)
             self._fail(self._unconverged_message(bad))
+
+    def _retry_cures(self, gain: int, row0: int) -> bool:
+        """Whether the audit's failure at step ``gain`` (output row gain + 1) of a chunk from
+        row ``row0`` is one a smaller tolerance cures: energy the steps created, finite, in
+        an adaptive run with a retry left, before any row that breaks an integrity check (a
+        blow-up, or a ball beyond Hertz's range, is not the steps' error)."""
+        s = self.settings
+        if not (s.adaptive and self.retries_done < s.adaptive_retries):
+            return False
+        if not np.isfinite(self.audit.error[gain + 1]):
+            return False
+        return not run_checks(self.checks, self.out, row0, gain + 2, self.check_settings)
 
     def _check_integrity(self, row0: int, row1: int) -> None:
         """The model's integrity checks on rows ``row0 .. row1``: every row that breaks one
@@ -661,9 +674,14 @@ class _Loop:
         """What to try after an integrity check or the energy audit failed in a run of fixed
         steps: a step too long for the motion breaks both (balls that bunch and pass the guard
         contacts, several contacts closing in one step, docs/reliability.md, section 4). An
-        adaptive run's steps are the error control's, and its dt_min failure says so."""
+        adaptive run's steps are the error control's, and its dt_min failure says so; it
+        says whether it was run again at a smaller tolerance."""
         if self.adaptive is not None:
-            return ""
+            if not self.retries_done:
+                return ""
+            return (f"; run again {self.retries_done} time(s) after the energy audit failed, "
+                    f"solver.adaptive_tol now {self.settings.adaptive_tol:g} m "
+                    f"(solver.adaptive_retries = {self.settings.adaptive_retries})")
         return (f"; a step too long for the motion is one cause: compare a smaller solver.dt "
                 f"(now {self.settings.dt:g} s)")
 
@@ -757,20 +775,25 @@ def simulate(model, settings: SolverSettings, q0=None, v0=None, t0: float = 0.0,
     energy error shrinks with the tolerance (docs/compliant.md, "Energy and the tolerance").
     The run records the tries (``n_tolerance_retries``) and the tolerance of the last
     (``adaptive_tol_used``); its wall time counts them all."""
-    began = time.perf_counter()
-    retries = 0
+    tol, retries, seconds = settings.adaptive_tol, 0, 0.0
     while True:
         start = _start(model, settings, q0, v0, t0, v_pre0)
         out = _allocate(model, settings, start, t0)
-        may_retry = settings.adaptive and retries < settings.adaptive_retries
-        loop = _Loop(model, settings, start, out, t0, release, may_retry)
+        loop = _Loop(model, settings, start, out, t0, release, retries)
+        began = time.perf_counter()
         try:
             steps_done = loop.run()
-        except _TighterTolerance:
+        except _TighterTolerance as failed:
             retries += 1
-            settings = replace(settings, adaptive_tol=settings.adaptive_tol / RETRY_TOL_DIVISOR)
+            # (tidy: 1e-11, not 1.0000000000000001e-11, in the records)
+            settings = replace(settings, adaptive_tol=tidy(tol / RETRY_TOL_DIVISOR ** retries))
+            if settings.progress and sys.stderr.isatty():
+                sys.stderr.write(f"\n{failed}; run again at solver.adaptive_tol = "
+                                 f"{settings.adaptive_tol:g} m\n")
             continue
-        out = _finish(loop, steps_done, time.perf_counter() - began)
+        finally:
+            seconds += time.perf_counter() - began
+        out = _finish(loop, steps_done, seconds)
         if settings.adaptive:
             out.extras["adaptive"].update(n_tolerance_retries=retries,
                                           adaptive_tol_used=settings.adaptive_tol)
