@@ -20,26 +20,18 @@ from __future__ import annotations
 
 import argparse
 import warnings
-from pathlib import Path
 
 import numpy as np
+from _common import point_twin
 
-import simcore
 from simcore.model import SolverSettings
 from simcore.model.mechanism import crank_slider
 from simcore.runner import warm_up
-from simcore.study import plan
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def twin(point, t_end: float, overrides) -> dict:
     """The twin's configuration of ``point`` (clearance, mu, omega0, e_N), ``t_end`` [s]."""
-    cfg = simcore.load_config(ROOT / "config" / "config.yaml", overrides)
-    clearance, mu, omega0, e_N = point
-    cfg = plan.twin_config(plan.run_config(cfg, {
-        "model.clearance": clearance, "model.mu": mu, "model.omega0": omega0,
-        "model.e_N": e_N}))
+    cfg = point_twin(point, 1.0, overrides)  # (its length is set here, not by revolutions)
     cfg["solver"].update(t_end=t_end, adaptive_retries=0, on_nonconvergence="warn")
     return cfg
 
