@@ -278,13 +278,13 @@ def check_prefix(prefix: str, outdir: str) -> str | None:
     import os
     from pathlib import Path
 
-    from simcore.cli import _name_problem
+    from simcore.cli import name_problem
 
     separators = sorted({sep for sep in (os.sep, os.altsep, "/") if sep})
     if any(sep in prefix for sep in separators):
         return (f"--prefix: {prefix!r} is not allowed; allowed: a file name prefix without "
                 f"{' or '.join(map(repr, separators))} (the figures go into --outdir)")
-    return _name_problem(Path(outdir) / f"{prefix}{FIGURE_SUFFIX}", "--prefix", 0)
+    return name_problem(Path(outdir) / f"{prefix}{FIGURE_SUFFIX}", "--prefix", 0)
 
 
 def check_args(args) -> str | None:

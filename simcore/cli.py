@@ -303,8 +303,21 @@ def _writable_folder(folder, option: str) -> str | None:
     return None
 
 
-def _name_problem(path, option: str, extra: int) -> str | None:
-    """Why the names of ``path`` are too long for its file system (one line), or None."""
+def name_problem(path, option: str, extra: int) -> str | None:
+    """Why the names of ``path`` are too long for its file system (one line), or None.
+
+    Shared by the output checks of ``python -m simcore`` and ``python -m analysis``.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file to be written.
+    option : str
+        The option that gave it, named in the message (``--out``, ``--prefix``).
+    extra : int
+        Characters a writer adds to the file's name (the atomic writer's temporary name:
+        :data:`TEMP_NAME_EXTRA`; 0 for a name written as it is).
+    """
     import os
 
     try:
@@ -357,7 +370,7 @@ def check_out(out: str, option: str = "--out", suffix: str = ".nc",
     from pathlib import Path
 
     path = Path(out)
-    problem = _name_problem(path, option, TEMP_NAME_EXTRA)
+    problem = name_problem(path, option, TEMP_NAME_EXTRA)
     if problem:
         return problem
     try:
@@ -386,7 +399,7 @@ def check_outdir(outdir: str, option: str = "--outdir") -> str | None:
     from pathlib import Path
 
     path = Path(outdir)
-    problem = _name_problem(path, option, 0)
+    problem = name_problem(path, option, 0)
     if problem:
         return problem
     try:
