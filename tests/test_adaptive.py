@@ -425,6 +425,16 @@ def test_an_adaptive_run_that_creates_energy_is_run_again_at_a_tenth_of_its_tole
     assert records["n_tolerance_retries"] == 1 and records["adaptive_tol_used"] == 1e-9
     assert tight.extras["adaptive"]["n_tolerance_retries"] == 0
     np.testing.assert_array_equal(retried.F_N, tight.F_N)
+    # the steps of both tries: the first try's are those of the same run flagged, summed up
+    # to a row at or after the audit's first failure (where the try stopped)
+    assert tight.extras["adaptive"]["n_steps_all_tries"] == tight.extras["adaptive"][
+        "n_steps_accepted"]
+    with pytest.warns(RuntimeWarning, match="energy audit: steps"):
+        loose = model.simulate(_twin_settings(1e-8, 0, on_nonconvergence="warn"))
+    first_try = records["n_steps_all_tries"] - records["n_steps_accepted"]
+    summed = np.cumsum(loose.extras["adaptive"]["row_steps"])
+    failed_row = int(np.flatnonzero(loose.converged == 0)[0])
+    assert first_try in summed[failed_row:]
     np.testing.assert_array_equal(retried.energy, tight.energy)
     again = ("run again 1 time(s) after the energy audit failed, solver.adaptive_tol now "
              "1e-08 m (solver.adaptive_retries = 1)")
@@ -468,6 +478,7 @@ def test_run_file_and_summary_record_a_run_again_at_a_smaller_tolerance():
                                  "solver.adaptive_tol=1e-8", "solver.energy_tol=0.0035"])
     ds = simcore.run(cfg)
     assert ds.attrs["n_tolerance_retries"] == 1 and ds.attrs["adaptive_tol_used"] == 1e-9
+    assert ds.attrs["n_steps_all_tries"] > ds.attrs["n_steps_accepted"] == ds["steps"].sum()
     assert ds.attrs["solver.adaptive_tol"] == 1e-8 and ds.attrs["n_energy_gain_steps"] == 0
     assert ("run again 1 time(s) after the energy audit failed: solver.adaptive_tol 1e-08 -> "
             "1e-09 m") in summary_lines(ds)

@@ -30,6 +30,7 @@ from simcore.config.limits import OMEGA_DT_MAX, memory_estimate, spring_scales, 
 from simcore.io import generalized, update_attributes
 from simcore.model import SolverSettings
 from simcore.model.audit import ENERGY_FLOOR_J, EnergyAudit
+from simcore.model.driver import _audit_first
 from simcore.model.mechanism import crank_slider
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -337,6 +338,21 @@ def test_a_conservative_run_that_gains_energy_is_flagged():
     expected = _window_flags(ds["energy_error"].values,
                              tol * independent_energy_scale(ds, cfg) + ENERGY_FLOOR_J)
     assert flagged == expected and ds.attrs["n_energy_gain_steps"] == len(flagged) > 0
+
+
+@pytest.mark.parametrize("every", [1, 2, 5])
+def test_the_first_failure_is_judged_by_rows_whatever_output_every(every):
+    """The audit places a gain only to an output row, a step that did not converge to its step:
+    a failed step in the audit's row (or an earlier one) is named first, a later one second,
+    for every step of every row and every output_every (an adaptive run's kernel returns a
+    row, which the loop turns into the row's last step)."""
+    for gain in range(4):  # the audit's row: gain + 1, steps gain*every .. (gain+1)*every - 1
+        for bad in range(8 * every):  # 0-based step
+            step_row = bad // every + 1
+            assert _audit_first(gain, bad, every) == (gain + 1 < step_row), (gain, bad)
+        for row in range(1, 8):  # adaptive: the row's last step
+            assert _audit_first(gain, row * every - 1, every) == (gain + 1 < row)
+        assert _audit_first(gain, -1, every)  # no failed step
 
 
 def test_reproduction_with_warn_is_stopped_by_the_energy_audit(tmp_path):

@@ -529,6 +529,15 @@ def _adaptive_state(model, settings: SolverSettings, start: _Start, n_out: int):
         vdot_old_save=np.zeros(mdiag.size), reuse_save=np.zeros(1, np.int64))
 
 
+def _audit_first(gain: int, bad: int, every: int) -> bool:
+    """Whether the energy audit's failure at ``gain`` (output row gain + 1) comes before the
+    first unconverged step ``bad`` (0-based, -1: none) with ``every`` steps a row.
+
+    The audit places a gain only to its row, so rows are compared: a step that failed in the
+    audit's own row comes first (it may have made the energy), whatever ``every``."""
+    return bad < 0 or gain + 1 < (bad + every) // every
+
+
 class _Loop:
     """Stage 3: the chunks of the time loop and the checks between them."""
 
@@ -631,8 +640,8 @@ class _Loop:
         nb.energy_scale_terms_into(out.energy, out.q, self.arrays, row0, row1, terms)
         gain = self.audit.check(out.energy, out.drive_torque, out.converged, row0, row1, terms)
         if self.adaptive is not None and bad >= 0:  # (the kernel returns a row)
-            bad = bad * every - 1
-        if gain >= 0 and self.first_bad < 0 and (bad < 0 or gain * every < bad):
+            bad = bad * every - 1  # (its last step)
+        if gain >= 0 and self.first_bad < 0 and _audit_first(gain, bad, every):
             if self._retry_cures(gain, row0):
                 raise _TighterTolerance(self.audit.message(gain))
             self.first_bad = gain * every
@@ -773,9 +782,10 @@ def simulate(model, settings: SolverSettings, q0=None, v0=None, t0: float = 0.0,
     An adaptive run whose energy audit fails is run again from its start with a tolerance
     :data:`RETRY_TOL_DIVISOR` times smaller, at most ``settings.adaptive_retries`` times: its
     energy error shrinks with the tolerance (docs/compliant.md, "Energy and the tolerance").
-    The run records the tries (``n_tolerance_retries``) and the tolerance of the last
-    (``adaptive_tol_used``); its wall time counts them all."""
-    tol, retries, seconds = settings.adaptive_tol, 0, 0.0
+    The run records the tries (``n_tolerance_retries``), the tolerance of the last
+    (``adaptive_tol_used``) and the steps all of them took (``n_steps_all_tries``, beside the
+    last try's ``n_steps_accepted``); its wall time counts them all."""
+    tol, retries, seconds, earlier_steps = settings.adaptive_tol, 0, 0.0, 0
     while True:
         start = _start(model, settings, q0, v0, t0, v_pre0)
         out = _allocate(model, settings, start, t0)
@@ -785,6 +795,7 @@ def simulate(model, settings: SolverSettings, q0=None, v0=None, t0: float = 0.0,
             steps_done = loop.run()
         except _TighterTolerance as failed:
             retries += 1
+            earlier_steps += int(loop.adaptive.counts[nb.ACCEPTED])
             # (tidy: 1e-11, not 1.0000000000000001e-11, in the records)
             settings = replace(settings, adaptive_tol=tidy(tol / RETRY_TOL_DIVISOR ** retries))
             if settings.progress and sys.stderr.isatty():
@@ -795,6 +806,7 @@ def simulate(model, settings: SolverSettings, q0=None, v0=None, t0: float = 0.0,
             seconds += time.perf_counter() - began
         out = _finish(loop, steps_done, seconds)
         if settings.adaptive:
-            out.extras["adaptive"].update(n_tolerance_retries=retries,
-                                          adaptive_tol_used=settings.adaptive_tol)
+            records = out.extras["adaptive"]
+            records.update(n_tolerance_retries=retries, adaptive_tol_used=settings.adaptive_tol,
+                           n_steps_all_tries=earlier_steps + records["n_steps_accepted"])
         return out

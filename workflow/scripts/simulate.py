@@ -95,9 +95,9 @@ with job_log(sm.log.simulate) as terminal:
         try:
             ds = simcore.run(cfg)
             integration[run["model"]] += ds.attrs["wall_time_s"]
-            # (an adaptive run counts the steps it took)
+            # (an adaptive run counts the steps it took, in every try its wall time counts)
             steps[run["model"]] += int(ds.attrs.get(
-                "n_steps_accepted", round(cfg["solver"]["t_end"] / cfg["solver"]["dt"])))
+                "n_steps_all_tries", round(cfg["solver"]["t_end"] / cfg["solver"]["dt"])))
             loading += ds.attrs["compile_time_s"]
         except (simcore.SolverError, LinAlgError) as exc:  # numerical failure of this run
             message = f"run {label(point)} failed ({run['model']} model): " \
