@@ -396,6 +396,7 @@ def _compliant_run(args, run_ds) -> int:
     from .episodes import contact_episodes
 
     table = contact_episodes(run_ds, args.r_eff, args.groove_conformity)
+    table.attrs["run_file"] = str(args.run)
     write_netcdf(table, args.out)
     largest = (f", the largest F_max {float(table['F_max'].max()):.4g} N" if table.sizes["impact"]
                else "")
@@ -432,6 +433,7 @@ def main(argv=None) -> int:
 
             imp = extract_impacts(run_ds, args.zero_tol, args.zero_floor, args.r_eff, args.v_min,
                                   args.groove_conformity, args.contact_long_ratio)
+            imp.attrs["run_file"] = str(args.run)
             write_netcdf(imp, args.out)
             a = imp.attrs
             print(f"{args.out}: {a['n_simple']} simple, {a['n_persistent']} persistent "
@@ -460,6 +462,7 @@ def main(argv=None) -> int:
                 contact_long_ratio=args.contact_long_ratio)
             print(format_dt_check(flagged, matches))
             if args.out:
+                flagged.attrs["run_file"] = str(args.run)
                 write_netcdf(flagged, args.out)
         elif args.cmd == "figures":
             from .figures import plot_run

@@ -86,7 +86,8 @@ def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = 
         The run's swept parameters (e.g. ``clearance`` [m], ``mu`` [-], ``omega0`` [rad/s],
         ``e_N`` [-]), stored as scalar coordinates with units.
     source : str
-        The run file's path, for the history of a failed run's table.
+        The run file's path: the table's attribute ``run_file`` (where given), and the
+        history of a failed run's table.
     timings : dict, optional
         If given, the seconds spent are added to its keys ``extract`` (filter and Flores forces,
         or episodes) and ``zoom`` (the compliant zooms) [s].
@@ -120,6 +121,8 @@ def impact_table(run_ds: xr.Dataset, settings: dict, point: dict, source: str = 
         table = _nonsmooth_table(run_ds, settings, timings)
     table = table.assign_coords(coords)
     table.attrs.setdefault("failed", 0)
+    if source:
+        table.attrs["run_file"] = str(source)
     if _stores_numbers(settings):  # the summary reads no run file
         numbers = point_numbers(run_ds, table, settings)
         table.attrs.update(stored_attributes(numbers, settings))

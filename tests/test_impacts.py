@@ -420,6 +420,7 @@ def test_cli(run, tmp_path, capsys):
     assert main(["impacts", str(rpath), "--out", str(out), "--groove-conformity", "0.52"]) == 0
     with xr.open_dataset(out) as back:
         assert back.sizes["impact"] > 0 and back.attrs["groove_conformity"] == 0.52
+        assert back.attrs["run_file"] == str(rpath)  # the table names what it was made from
     assert main(["top-forces", str(rpath)]) == 0
     text = capsys.readouterr().out
     assert "r_eff = concave" in text and "r_eff = paper" in text and "3.66" in text
@@ -446,7 +447,7 @@ def test_cli_of_a_compliant_run(tmp_path, capsys):
     assert main(["impacts", str(rpath), "--out", str(out)]) == 0
     assert "contact episodes of a compliant run" in capsys.readouterr().out
     with xr.open_dataset(out) as table, xr.open_dataset(rpath) as run:
-        assert table.sizes["impact"] > 0
+        assert table.sizes["impact"] > 0 and table.attrs["run_file"] == str(rpath)
         F = run["F_N"].values
         assert float(table["F_max"].max()) == pytest.approx(float(F.max()), rel=1e-6)
         for row in range(table.sizes["impact"]):  # each peak is the run's force there

@@ -25,7 +25,8 @@ def test_table_from_memory_matches_the_table_from_the_file(run_ds, tmp_path):
     path = tmp_path / "run.nc"
     keep = simcore.validate_config({})["study"]["keep"]
     simcore.write_netcdf(run_ds, path, keep=keep)
-    memory = impact_table(run_ds, SETTINGS, POINT)
+    memory = impact_table(run_ds, SETTINGS, POINT, source=str(path))
+    assert memory.attrs["run_file"] == str(path)
     from_file = analysis.extract_impacts(open_run(path))
     # the same impacts, found from Lambda_N (float64 in the file) ...
     np.testing.assert_array_equal(memory["time"].values, from_file["time"].values)
@@ -44,6 +45,7 @@ def test_failed_run_gives_an_empty_table():
     table = impact_table(failed_run_dataset(cfg, "run x failed: SolverError: boom"), SETTINGS,
                          POINT, source="runs/x.nc")
     assert table.attrs["failed"] == 1 and "boom" in table.attrs["error"]
+    assert table.attrs["run_file"] == "runs/x.nc"
     assert "impact" not in table.sizes and table["clearance"].item() == 4e-4
 
 
