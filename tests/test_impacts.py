@@ -23,7 +23,7 @@ from analysis import (
 from analysis.__main__ import main
 from analysis.contact_stress import contact_modulus
 from analysis.synthetic import make_pinch_dataset, make_run_dataset
-from simcore.io import write_netcdf
+from simcore.io import with_category_names, write_netcdf
 
 COLUMNS = ("contact", "ball", "race", "time", "kind", "impulse", "v_pre", "m_eff", "K",
            "F_static", "F_max", "delta_max", "contact_radius", "p_max", "contact_time",
@@ -350,6 +350,16 @@ def test_netcdf_round_trip(impacts, tmp_path):
         assert back["clearance"].attrs["units"] == "m"
         assert back.attrs["r_eff"] == "concave"
         assert back["flags"].attrs["flag_meanings"] == impacts["flags"].attrs["flag_meanings"]
+        # read by names: a row's race and kind are its codes' names, the bit mask stays
+        named = with_category_names(back)
+        for column, codes in (("race", RACE), ("kind", KIND)):
+            by_code = {v: k for k, v in codes.items()}
+            assert named[column].values.tolist() == [by_code[int(c)]
+                                                     for c in back[column].values]
+        outer = int((back["race"] == RACE["outer"]).sum())
+        assert 0 < outer < back.sizes["impact"]
+        assert int((named["race"] == "outer").sum()) == outer
+        np.testing.assert_array_equal(named["flags"].values, back["flags"].values)
 
 
 def test_empty_table(run, tmp_path):

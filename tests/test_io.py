@@ -3,6 +3,7 @@
 import importlib.util
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import netCDF4
@@ -81,6 +82,34 @@ def test_runs_combine_by_coords_without_arguments(two_runs):
                 np.testing.assert_array_equal(grid.Lambda_N.sel(clearance=c).values,
                                               one.Lambda_N.values)
                 assert grid.clearance.attrs["units"] == "m"
+
+
+def test_open_runs_gives_the_grid_of_runs_of_different_length_without_a_warning(two_runs,
+                                                                                tmp_path):
+    """Runs of different length (a shorter run, as at a higher crank speed) and a failed run's
+    marker combine into one grid: each run's numbers where it ran, NaN after its end and for
+    the failed one; no warning (xarray's FutureWarning on its defaults, dask's on chunks)."""
+    from simcore.io import open_runs
+
+    short = simcore.run(simcore.load_config(overrides=["solver.t_end=0.001",
+                                                       "model.clearance=2e-4"]))
+    paths = [*two_runs, write_netcdf(short, tmp_path / "short.nc"),
+             write_netcdf(failed_run_dataset(_cfg(clearance=2e-5), "SolverError: test"),
+                          tmp_path / "failed.nc")]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        grid = open_runs([str(p) for p in paths]).load()
+    assert list(grid.clearance.values) == [2e-5, 1e-4, 2e-4, 4e-4]
+    assert bool(grid.Lambda_N.sel(clearance=2e-5).isnull().all())
+    n = short.sizes["time"]
+    assert n < grid.sizes["time"]
+    np.testing.assert_array_equal(grid.Lambda_N.sel(clearance=2e-4).values[:n],
+                                  short.Lambda_N.values)
+    assert bool(grid.Lambda_N.sel(clearance=2e-4).isel(time=slice(n, None)).isnull().all())
+    for path in two_runs:
+        with xr.open_dataset(path) as one:
+            np.testing.assert_array_equal(
+                grid.Lambda_N.sel(clearance=one.clearance.item()).values, one.Lambda_N.values)
 
 
 def test_generalized_coordinates_are_those_of_the_kernels():

@@ -9,8 +9,9 @@ Turns the kernels' plain arrays into the run dataset and writes netCDF atomicall
 - :mod:`.netcdf`: atomic writing (temporary file in the target folder, then ``os.replace``, so
   that no reader ever sees a half-written file; :func:`update_attributes` edits a copy), the
   encoding, ``study.keep``;
-- :mod:`.read`: reading a run back (``q`` and ``v`` of the kernels, one sample's state), and a
-  file's category coordinates by their names (:func:`with_category_names`).
+- :mod:`.read`: reading a run back (``q`` and ``v`` of the kernels, one sample's state), a
+  study's runs as one grid (:func:`open_runs`), and a file's categories by their names
+  (:func:`with_category_names`).
 
 The files follow the CF conventions (version 1.10), as ``.ci/cf-check`` verifies on every file of
 the smoke study:
@@ -25,7 +26,8 @@ the smoke study:
 - the swept parameters (``clearance``, ``mu``, ``omega0``, ``e_N``, and in a study every other
   axis of its grid and the contact ``model``, :func:`study_coords`) are coordinates of length-1
   dimensions, so that ``xr.open_mfdataset("results/runs/*.nc", combine="by_coords")`` assembles a
-  study's runs into one grid. Read one value with ``ds.clearance.item()``: ``float()`` refuses a
+  study's runs into one grid (:func:`open_runs` adds the arguments that keep it so under
+  xarray's announced defaults). Read one value with ``ds.clearance.item()``: ``float()`` refuses a
   length-1 array.
 """
 
@@ -51,6 +53,7 @@ from .read import (
     GENERALIZED_PARTS,
     generalized,
     open_run,
+    open_runs,
     state_at,
     time_steps,
     with_category_names,
@@ -73,7 +76,7 @@ BASE_PARAMETERS = tuple(PARAMETERS)
 __all__ = ["write_netcdf", "replace_durably", "replacing", "update_attributes",
            "trajectory_dataset", "dataset_of_arrays",
            "failed_run_dataset",
-           "generalized", "open_run", "state_at", "time_steps", "with_category_names",
+           "generalized", "open_run", "open_runs", "state_at", "time_steps", "with_category_names",
            "parameter_coords",
            "study_coords",
            "history_line", "setting_attribute", "BASE_PARAMETERS",

@@ -76,35 +76,63 @@ def open_run(path: str | Path) -> xr.Dataset:
     return generalized(ds)
 
 
-def with_category_names(ds: xr.Dataset) -> xr.Dataset:
-    """``ds`` with every category coordinate by its names: a coordinate stored as int8 codes
-    with CF ``flag_values`` and ``flag_meanings`` (a summary's ``model``, ``race``, ``kind``,
-    ``stage`` and an enumerated or boolean swept axis such as ``bearing`` or
-    ``clearance_class``, a run file's swept categories) gets the names of its codes, so that
-    ``s.peak_force.sel(model="compliant", race="outer", bearing="6205")`` reads as the study
-    was written. The file keeps the codes (the data contract stores no strings); this is for
-    reading. A code without a meaning becomes ``""``.
+def open_runs(paths) -> xr.Dataset:
+    """A study's run files as one grid over its swept axes (lazy, with dask).
+
+    ``xarray.open_mfdataset`` with ``combine="by_coords"`` and the arguments that keep its
+    result what a study's files mean, whatever xarray's defaults: every variable along the
+    swept axes (``data_vars="all"``), runs of different length padded with NaN at the end
+    (``join="outer"``: a run at a higher crank speed is shorter in time), one chunk per file
+    along ``time``, ``contact`` and ``body`` (fewer dask tasks, and no warning that their
+    chunks were split). A failed run's marker file combines as missing values.
 
     Parameters
     ----------
-    ds : xarray.Dataset
-        A run file or a study summary, as opened.
+    paths : str or sequence of str or path
+        A glob (``"results/runs/*.nc"``) or the files. The runs of one bearing: bearings with
+        different ball counts have different ``contact`` and ``body`` and do not combine.
 
     Returns
     -------
     xarray.Dataset
-        A new dataset; the coordinates' other attributes (``long_name``, ``sweep_key``) stay.
     """
-    named = {}
-    for name, coord in ds.coords.items():
-        if "flag_values" not in coord.attrs or "flag_meanings" not in coord.attrs:
-            continue
-        codes = np.atleast_1d(coord.attrs["flag_values"]).tolist()
-        meaning = dict(zip(codes, str(coord.attrs["flag_meanings"]).split(), strict=True))
-        values = np.asarray(coord.values)
+    return xr.open_mfdataset(paths, combine="by_coords", data_vars="all", join="outer",
+                             chunks={"time": -1, "contact": -1, "body": -1})
+
+
+def with_category_names(ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` with every category by its names: a coordinate or variable stored as int8 codes
+    with CF ``flag_values`` and ``flag_meanings`` (a summary's ``model``, ``race``, ``kind``,
+    ``stage`` and an enumerated or boolean swept axis such as ``bearing`` or
+    ``clearance_class``, a run file's swept categories, an impact table's ``race``, ``kind``,
+    ``trusted`` and ``approach``) gets the names of its codes, so that
+    ``s.peak_force.sel(model="compliant", race="outer", bearing="6205")`` and
+    ``table.where(table.race == "outer")`` read as the study was written. The file keeps the
+    codes (the data contract stores no strings); this is for reading. A code without a meaning
+    becomes ``""``. A bit mask (``flag_masks``, an impact table's ``flags``) keeps its codes.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A run file, an impact table or a study summary, as opened.
+
+    Returns
+    -------
+    xarray.Dataset
+        A new dataset; the categories' other attributes (``long_name``, ``sweep_key``) stay.
+    """
+    def named(var):
+        codes = np.atleast_1d(var.attrs["flag_values"]).tolist()
+        meaning = dict(zip(codes, str(var.attrs["flag_meanings"]).split(), strict=True))
+        values = np.asarray(var.values)
         labels = np.array([meaning.get(int(v), "") if np.isfinite(v) else ""
                            for v in values.ravel()], dtype=object).reshape(values.shape)
-        attrs = {k: v for k, v in coord.attrs.items()
+        attrs = {k: v for k, v in var.attrs.items()
                  if k not in ("flag_values", "flag_meanings", "units")}
-        named[name] = (coord.dims, labels, attrs)
-    return ds.assign_coords(named)
+        return var.dims, labels, attrs
+
+    def categories(variables):
+        return {name: named(var) for name, var in variables.items()
+                if "flag_values" in var.attrs and "flag_meanings" in var.attrs}
+
+    return ds.assign(categories(ds.data_vars)).assign_coords(categories(ds.coords))
