@@ -1,4 +1,6 @@
-"""Command line of the analysis package.
+"""Command line of the analysis package: the paper's impulse filter, the Flores forces of
+a nonsmooth run's impacts, the contact episodes of a compliant run, their dt check and
+figures, and the study summary's figures (docs/forces.md, docs/study.md).
 
     python -m analysis impacts RUN.nc --out IMPACTS.nc [--zero-tol 1e-4] [--r-eff concave]
     python -m analysis filter RUN.nc --out FILTERED.nc
@@ -18,11 +20,20 @@ import numpy as np
 PAPER_TOP3_KN = (3.66, 5.22, 4.69)
 
 
-def _common(p):
+RUN_HELP = "a run file (python -m simcore run, a study's results/runs*/)"
+R_EFF_HELP = ("effective radius of a ball in the outer race: concave (r_B r_C / (r_C - r_B), "
+              "default) or paper (the convex form the paper used there); docs/forces.md")
+
+
+def _filter_thresholds(p):
     p.add_argument("--zero-tol", type=float, default=1e-4,
                    help="relative zero threshold of the filter [-] (default 1e-4)")
     p.add_argument("--zero-floor", type=float, default=1e-12,
                    help="absolute floor of the zero threshold [N s] (default 1e-12)")
+
+
+def _common(p):
+    _filter_thresholds(p)
     p.add_argument("--v-min", type=float, default=1e-3,
                    help="smallest approach speed for a Flores force [m/s] (default 1e-3)")
     p.add_argument("--groove-conformity", type=float, default=None,
@@ -38,29 +49,29 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``python -m analysis``."""
     ap = argparse.ArgumentParser(prog="python -m analysis", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = ap.add_subparsers(dest="cmd", required=True)
+    sub = ap.add_subparsers(dest="command", required=True)
     p = sub.add_parser("impacts", help="write the impact table of a run (of a compliant run or "
                                        "zoom: its contact episodes)")
-    p.add_argument("run")
-    p.add_argument("--out", required=True)
-    p.add_argument("--r-eff", choices=("concave", "paper"), default="concave")
+    p.add_argument("run", help=RUN_HELP)
+    p.add_argument("--out", required=True, help="the impact table to write (netCDF)")
+    p.add_argument("--r-eff", choices=("concave", "paper"), default="concave", help=R_EFF_HELP)
     _common(p)
     p = sub.add_parser("filter", help="write Lambda_FI, Lambda_S, Lambda_FIsuv of a run")
-    p.add_argument("run")
-    p.add_argument("--out", required=True)
-    p.add_argument("--zero-tol", type=float, default=1e-4)
-    p.add_argument("--zero-floor", type=float, default=1e-12)
+    p.add_argument("run", help=RUN_HELP)
+    p.add_argument("--out", required=True, help="the filtered impulses to write (netCDF)")
+    _filter_thresholds(p)
     p = sub.add_parser("top-forces",
-                       help="print the largest F_max on the outer race for both R_eff forms")
-    p.add_argument("run")
-    p.add_argument("-n", type=int, default=3)
-    p.add_argument("--race", choices=("outer", "inner", "all"), default="outer")
+                       help="print the largest F_max on a race (--race) for both R_eff forms")
+    p.add_argument("run", help=RUN_HELP)
+    p.add_argument("-n", type=int, default=3, help="how many of the largest forces (default 3)")
+    p.add_argument("--race", choices=("outer", "inner", "all"), default="outer",
+                   help="the contacts ranked (default outer)")
     p.add_argument("--every-row", action="store_true",
                    help="rank the impact table's rows, not events (by default the rows of one "
                         "stretch of load on one contact count once, with their largest force)")
     _common(p)
     p = sub.add_parser("dt-check", help="rerun at dt/2 and compare the largest impacts")
-    p.add_argument("run")
+    p.add_argument("run", help=RUN_HELP)
     p.add_argument("--t-check", type=float, default=None,
                    help="compare only the first T seconds (the rerun stops there)")
     p.add_argument("--tol", type=float, default=0.1,
@@ -68,20 +79,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-n", type=int, default=6, help="how many of the largest impacts (default 6)")
     p.add_argument("--out", default=None,
                    help="write the impact table of the run with the dt-check flags")
-    p.add_argument("--r-eff", choices=("concave", "paper"), default="concave")
+    p.add_argument("--r-eff", choices=("concave", "paper"), default="concave", help=R_EFF_HELP)
     _common(p)
     p = sub.add_parser("figures", help="figures of one run")
-    p.add_argument("run")
-    p.add_argument("--outdir", required=True)
+    p.add_argument("run", help=RUN_HELP)
+    p.add_argument("--outdir", required=True, help="the folder of the figures (created)")
     p.add_argument("--impacts", default=None,
                    help="impact table of RUN (python -m analysis impacts; computed if not given)")
     p.add_argument("--prefix", default=None,
                    help="file name prefix of the figures (default: from the run's parameters)")
-    p.add_argument("--r-eff", choices=("concave", "paper"), default="concave")
+    p.add_argument("--r-eff", choices=("concave", "paper"), default="concave", help=R_EFF_HELP)
     _common(p)
     p = sub.add_parser("study-figures",
                        help="figures of the study summary (every grid point) and its table")
-    p.add_argument("summary")
+    p.add_argument("summary", help="a study's summary (results/summary.nc)")
     p.add_argument("--outdir", default=None,
                    help="output folder (default: figures/ next to SUMMARY.nc)")
     # "extend": an option given twice adds to the first (the default "store" keeps the last)
@@ -379,15 +390,15 @@ def _compliant_run(args, run_ds) -> int:
     run's own ``F_N``, not impulses to filter)."""
     defaults = vars(build_parser().parse_args(["impacts", "RUN", "--out", "OUT"]))
     for name in FILTER_OPTIONS:
-        if args.cmd == "impacts" and getattr(args, name) != defaults[name]:
+        if args.command == "impacts" and getattr(args, name) != defaults[name]:
             option = "--" + name.replace("_", "-")
             print(f"error: {option}: not used on a compliant run ({args.run}: its episodes are "
                   f"its own forces, with no filter or Flores force); allowed: leave {option} "
                   "out", file=sys.stderr)
             return 2
-    if args.cmd in NONSMOOTH_COMMANDS:
+    if args.command in NONSMOOTH_COMMANDS:
         print(f"error: RUN: {args.run} is a compliant run (model.contact_model = compliant), "
-              f"whose contact forces F_N are in the file; allowed for {args.cmd}: a nonsmooth "
+              f"whose contact forces F_N are in the file; allowed for {args.command}: a nonsmooth "
               "run (the paper's method reads its impulses); a compliant run's table: python -m "
               "analysis impacts", file=sys.stderr)
         return 2
@@ -415,7 +426,7 @@ def main(argv=None) -> int:
     import xarray as xr
 
     try:
-        if args.cmd == "study-figures":
+        if args.command == "study-figures":
             return _study_figures(args)
         with xr.open_dataset(args.run) as ds:
             run_ds = ds.load()
@@ -426,7 +437,7 @@ def main(argv=None) -> int:
             return 2
         if _is_compliant(run_ds):
             return _compliant_run(args, run_ds)
-        if args.cmd == "impacts":
+        if args.command == "impacts":
             from simcore.io import write_netcdf
 
             from .impacts import extract_impacts
@@ -440,17 +451,17 @@ def main(argv=None) -> int:
                   f"(filter; {a['n_pinch']} pinch, {a['n_multi']} multi), "
                   f"{a['n_no_approach']} without approach, {a['n_flagged']} flagged "
                   f"(zero threshold {a['zero_threshold']:.3g} N s)")
-        elif args.cmd == "filter":
+        elif args.command == "filter":
             from simcore.io import write_netcdf
 
             from .filtering import split_dataset
 
             write_netcdf(split_dataset(run_ds, args.zero_tol, args.zero_floor), args.out)
-        elif args.cmd == "top-forces":
+        elif args.command == "top-forces":
             print(format_top_forces(run_ds, args.n, args.race, args.zero_tol, args.zero_floor,
                                     args.v_min, args.groove_conformity,
                                     args.contact_long_ratio, args.every_row))
-        elif args.cmd == "dt-check":
+        elif args.command == "dt-check":
             from simcore.io import write_netcdf
 
             from .dt_check import dt_check, format_dt_check
@@ -464,7 +475,7 @@ def main(argv=None) -> int:
             if args.out:
                 flagged.attrs["run_file"] = str(args.run)
                 write_netcdf(flagged, args.out)
-        elif args.cmd == "figures":
+        elif args.command == "figures":
             from .figures import plot_run
             from .impacts import extract_impacts
 

@@ -473,8 +473,10 @@ def _run_length_hint(cfg, study) -> str:
         t_end = run_length(cfg)
     except ConfigError:  # omega0 = 0, or too long: the revolutions give no length
         return hint + ")"
-    return hint + (f"; {cfg['analysis']['settle']:g} + {study['revolutions']:g} revolutions as "
-                   f"in a study: --set solver.t_end={t_end:g})")
+    # (a study reads config/config.yaml beneath its file: its runs' settings may differ)
+    return hint + (f"; {cfg['analysis']['settle']:g} + {study['revolutions']:g} revolutions of "
+                   f"this run's settings, which lack the config/config.yaml a study reads "
+                   f"beneath its FILE: --set solver.t_end={t_end:g})")
 
 
 class _WarnOnce:

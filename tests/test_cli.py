@@ -88,6 +88,7 @@ def test_a_run_warns_once_of_the_study_settings_it_does_not_read(tmp_path):
     study_length = run_length(load_config(overrides=items))
     assert "solver.t_end does (now 0.001 s" in lines[0], lines
     assert lines[0].endswith(f"--set solver.t_end={study_length:g})"), lines
+    assert "of this run's settings, which lack the config/config.yaml" in lines[0], lines
     code, lines = call(main, ["run", "--set", "solver.t_end=0.001", "--set",
                               "study.keep=[Lambda_N, iterations, converged, crank_angle]",
                               "--quiet", "--out", str(tmp_path / "k.nc")])

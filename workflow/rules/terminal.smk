@@ -25,7 +25,7 @@ def warm_numba_cache():
         log.write_text(f"kernels already compiled for these sources ({warm_stamp()})\n")
         print("Numba: kernels cached", file=sys.stderr, flush=True)
         return
-    print("Numba: compiling the kernels once before the jobs start (about a minute after an install "
+    print("Numba: compiling the kernels once before the jobs start (a minute or a few after an install "
           "or an update of simcore, a few seconds when cached) ...", file=sys.stderr, flush=True)
     start = time.perf_counter()
     with open(log, "w") as out:
