@@ -227,23 +227,21 @@ def check_impacts(path: str, run: str) -> str | None:
     --impacts``; one line), or None: it must be an impact table (:data:`TABLE_COLUMNS`,
     :data:`TABLE_ATTRIBUTES`) whose records of its run (the run's title, the parameters
     clearance, mu, omega0, e_N, the step) match the run, with its impacts inside the run's
-    time span. A table does not record which run file it was made from: a table of another
-    run with the same settings and a longer span passes if its impacts lie within this run's.
-    A run that cannot be read is not compared (the command reports it)."""
-    import os
-
+    time span. The path a table records (``run_file``) may have moved since, so it is not
+    compared: a table of another run with the same settings and a longer span passes if its
+    impacts lie within this run's. A run that cannot be read is not compared (the command
+    reports it)."""
     import xarray as xr
+
+    from simcore.io import load_netcdf
 
     from .impacts import STUDY_PARAMETERS
     from .reads import run_setting
 
-    if not os.path.isfile(path):
-        return f"--impacts: {path} does not exist or is not a file; {_MAKE_TABLE}"
     try:
-        with xr.open_dataset(path) as table:
-            table = table.load()
-    except (OSError, ValueError) as exc:
-        return f"--impacts: cannot read {path}: {str(exc).splitlines()[0]}; {_MAKE_TABLE}"
+        table = load_netcdf(path, "--impacts")
+    except ValueError as exc:
+        return f"{exc}; {_MAKE_TABLE}"
     if "impact" not in table.dims:
         return f"--impacts: {path} is not an impact table (no dimension impact); {_MAKE_TABLE}"
     lacks = [name for name in TABLE_COLUMNS
@@ -330,8 +328,7 @@ def _study_figures(args) -> int:
     """``study-figures``: the study's heat maps and its table from a summary file."""
     from pathlib import Path
 
-    import xarray as xr
-
+    from simcore.io import load_netcdf
     from simcore.study.plan import FIGURE_OPTIONS
 
     from .figures import figure_layout, plot_study, stored_reference
@@ -350,8 +347,11 @@ def _study_figures(args) -> int:
                   "allowed; allowed: one value per axis", file=sys.stderr)
             return 2
         fixed[axis] = value  # a number or a category's name (analysis.figures.figure_layout)
-    with xr.open_dataset(args.summary) as ds:
-        summary = ds.load()
+    try:
+        summary = load_netcdf(args.summary, "SUMMARY")
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     if not ("model" in summary.dims and "peak_force" in summary):
         print(f"error: SUMMARY: {args.summary} is not a study's summary (it has no model "
               "dimension and peak_force); allowed: the summary.nc a study writes",
@@ -425,11 +425,16 @@ def main(argv=None) -> int:
         return 2
     import xarray as xr
 
+    from simcore.io import load_netcdf
+
     try:
         if args.command == "study-figures":
             return _study_figures(args)
-        with xr.open_dataset(args.run) as ds:
-            run_ds = ds.load()
+        run_ds = load_netcdf(args.run, "RUN")
+        if "impact" in run_ds.dims:
+            print(f"error: RUN: {args.run} is an impact table (dimension impact); allowed: a run "
+                  "file, of which python -m analysis impacts makes the table", file=sys.stderr)
+            return 2
         if int(run_ds.attrs.get("failed", 0)):
             print(f"error: RUN: {args.run} is the marker of a failed run (its error: "
                   f"{run_ds.attrs.get('error', 'not given')}); allowed: a file that holds a run",

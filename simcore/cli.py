@@ -219,14 +219,12 @@ def _zoom_main(args) -> int:
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    import xarray as xr
+    from .io import load_netcdf
 
     try:
-        with xr.open_dataset(args.run) as run_ds:
-            run_ds = run_ds.load()
-    except (OSError, ValueError) as exc:
-        print(f"error: RUN: cannot read {args.run}: {str(exc).splitlines()[0]}",
-              file=sys.stderr)
+        run_ds = load_netcdf(args.run, "RUN")
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
         return 2
     import warnings
 

@@ -438,7 +438,18 @@ def test_cli(run, tmp_path, capsys):
     assert main(["top-forces", str(rpath), "--every-row", "-n", "5"]) == 0
     assert capsys.readouterr().out.count("\n   5 ") == 2  # rank 5, for both R_eff
     assert main(["filter", str(rpath), "--out", str(tmp_path / "f.nc")]) == 0
-    assert main(["impacts", str(tmp_path / "missing.nc"), "--out", str(out)]) == 2
+    capsys.readouterr()
+    # a file that is not a run: one line naming the argument, no output written
+    text = tmp_path / "run.yaml"
+    text.write_text("model: {}\n")
+    for given, says in ((tmp_path / "missing.nc", "does not exist"), (tmp_path, "is a folder"),
+                        (text, "is not a netCDF file"), (out, "is an impact table")):
+        assert main(["impacts", str(given), "--out", str(tmp_path / "y.nc")]) == 2
+        assert main(["top-forces", str(given)]) == 2
+        lines = capsys.readouterr().err.splitlines()
+        assert len(lines) == 2 and all(line.startswith(f"error: RUN: {given} {says}")
+                                       for line in lines), lines
+    assert not (tmp_path / "y.nc").exists()
     bad = tmp_path / "bad.nc"
     assert main(["impacts", str(rpath), "--out", str(bad), "--groove-conformity", "0.3"]) == 2
     assert not bad.exists()

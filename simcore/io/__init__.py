@@ -52,6 +52,7 @@ from .netcdf import (
 from .read import (
     GENERALIZED_PARTS,
     generalized,
+    load_netcdf,
     open_run,
     open_runs,
     state_at,
@@ -76,7 +77,8 @@ BASE_PARAMETERS = tuple(PARAMETERS)
 __all__ = ["write_netcdf", "replace_durably", "replacing", "update_attributes",
            "trajectory_dataset", "dataset_of_arrays",
            "failed_run_dataset",
-           "generalized", "open_run", "open_runs", "state_at", "time_steps", "with_category_names",
+           "generalized", "load_netcdf", "open_run", "open_runs", "state_at", "time_steps",
+           "with_category_names",
            "parameter_coords",
            "study_coords",
            "history_line", "setting_attribute", "BASE_PARAMETERS",

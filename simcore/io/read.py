@@ -66,6 +66,34 @@ def time_steps(ds: xr.Dataset) -> float:
     return float(round((time[-1] - time[0]) / float(dt)))
 
 
+#: The first bytes of a netCDF file: classic (CDF\x01, \x02, \x05) or netCDF-4 (HDF5).
+_NETCDF_MAGIC = (b"CDF", b"\x89HDF")
+
+
+def load_netcdf(path: str | Path, name: str) -> xr.Dataset:
+    """The netCDF file ``path``, loaded into memory, for a command line's argument ``name``.
+
+    Raises
+    ------
+    ValueError
+        One line naming ``name`` and ``path``: it does not exist, is a folder, is not a
+        netCDF file, or cannot be read (the reader's first line).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ValueError(f"{name}: {path} does not exist")
+    if path.is_dir():
+        raise ValueError(f"{name}: {path} is a folder; allowed: a netCDF file")
+    with open(path, "rb") as head:
+        if not head.read(4).startswith(_NETCDF_MAGIC):
+            raise ValueError(f"{name}: {path} is not a netCDF file")
+    try:
+        with xr.open_dataset(path) as ds:
+            return ds.load()
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{name}: cannot read {path}: {str(exc).splitlines()[0]}") from None
+
+
 def open_run(path: str | Path) -> xr.Dataset:
     """Open a run file (in memory) with ``q`` and ``v`` added where it has their parts
     (:func:`generalized`)."""
