@@ -47,8 +47,13 @@ def test_clearance_class_is_half_the_middle_of_its_iso_range(clearance_class):
 
 
 def test_unknown_classes_and_entries_and_an_entry_without_its_balls_are_refused(monkeypatch):
-    with pytest.raises(ConfigError, match=r"^model\.clearance_class: 'C7' is not allowed"):
+    with pytest.raises(ConfigError, match=r"^model\.clearance_class: 'C7' is not allowed") as no:
         load_config(overrides=["model.clearance_class=C7"])
+    # the allowed values as a YAML file or --set writes them: each one is accepted as written
+    offered = str(no.value).split("allowed: one of ", 1)[1].split(", ")
+    assert "null" in offered and "None" not in offered
+    for value in offered:
+        load_config(overrides=[f"model.clearance_class={value.strip(chr(39))}"])
     with pytest.raises(ConfigError, match=r"^model\.bearing: 'x' is not allowed; allowed: "):
         load_config(overrides=["model.bearing=x"])
     entries = dict(bearing_module.catalogue())

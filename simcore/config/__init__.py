@@ -187,16 +187,26 @@ def _list_words(schema: Mapping[str, Any]) -> str:
     what = {"string": "names", "number": "numbers", "integer": "integers"}.get(
         items.get("type"), "values")
     distinct = "distinct " if schema.get("uniqueItems") else ""
-    of = (" from " + ", ".join(repr(v) for v in items["enum"])) if "enum" in items else ""
+    of = (" from " + ", ".join(_yaml_value(v) for v in items["enum"])) if "enum" in items else ""
     if lo is not None and hi is not None:
         return f"a list of {lo} to {hi} {distinct}{what}{of}"
     return f"a {'non-empty ' if lo else ''}list of {distinct}{what}{of}"
 
 
+def _yaml_value(value) -> str:
+    """A schema's allowed value as a YAML file or ``--set`` writes it: ``null``, ``true``,
+    ``'C3'`` (not Python's ``None``, ``True``)."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return repr(value)
+
+
 def _allowed(schema: Mapping[str, Any]) -> str:
     """Describe in words what a schema node allows (for one-line error messages)."""
     if "enum" in schema:
-        return "one of " + ", ".join(repr(v) for v in schema["enum"])
+        return "one of " + ", ".join(_yaml_value(v) for v in schema["enum"])
     parts = []
     kind = schema.get("type")
     if kind in ("number", "integer"):
