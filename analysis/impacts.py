@@ -461,8 +461,9 @@ def _impact_dataset(data: dict, contact_long_ratio: float, vname: str) -> xr.Dat
     ds["approach"].attrs.pop("units", None)
     ds["approach"].attrs.update(flag_values=np.array([0, 1], dtype=np.int8),
                                 flag_meanings="no_approach approach")
-    ds["K"].attrs["comment"] = ("stored as K**2 because UDUNITS has no fractional powers; "
-                                "K = sqrt(K) [N m-1.5]")
+    ds["K"].attrs["comment"] = ("the Hertz stiffness squared, because UDUNITS has no "
+                                "fractional powers: the stiffness [N m-1.5] is the square root "
+                                "of this variable (analysis.impacts.stiffness)")
     ds["v_pre"].attrs["comment"] = f"from {vname}"
     return ds
 

@@ -428,7 +428,7 @@ def add_zoom_forces(run_ds: xr.Dataset, impacts_ds: xr.Dataset, zoom_top: int = 
         A copy of ``impacts_ds`` with ``F_max_zoom`` [N], ``contact_time_zoom`` [s] and
         ``dt_zoom`` [s] (NaN where not zoomed), the flags and counts updated, and attributes
         ``zoom_top``, ``zoom_steps_per_contact`` (the steps per contact time used, 0 for a
-        given ``dt``), ``zoom_adaptive`` (0/1), ``zoom_window``, ``zoom_max_window``,
+        given ``dt``), ``zoom_adaptive`` (0/1), ``zoom_window`` and ``zoom_max_window`` [s],
         ``method_tol``, ``n_zoomed``, ``n_zoom_steps`` (steps of all the zooms: accepted
         adaptive steps, or fixed steps), ``n_method_disagrees``; column ``dt_zoom_smallest``
         [s], the smallest step each zoom took.
