@@ -62,7 +62,8 @@ A failed run (a marker file with attribute ``failed = 1``, written by the workfl
 solver did not converge) gives ``failed = 1`` for its model and NaN in every other value of that
 model at its point: missing, never zero.
 
-The file is CF-1.10: every variable has UDUNITS ``units`` and a ``long_name``, and coordinates
+The file is CF-1.10: every variable has UDUNITS ``units`` and a ``long_name`` (a label of at
+most :data:`LABEL_LENGTH` characters; a longer explanation is its ``comment``), and coordinates
 carry no fill value.
 """
 
@@ -239,6 +240,35 @@ _GRID_VARIABLES = {
                                          "in series) under the largest steady load, over the "
                                          "clearance (the compliant twin's load, else the "
                                          "nonsmooth one's)"),
+}
+#: The longest ``long_name`` a summary's variable takes (xarray labels a plot's axis with it).
+LABEL_LENGTH = 80
+#: ``long_name`` of the variables whose registry text above is longer than a label: that text
+#: becomes their CF ``comment``.
+_LABELS = {
+    "peak_force": "largest contact force of the steady window, per race",
+    "peak_force_rev_median": "median of the steady revolutions' largest forces, per race",
+    "peak_force_rev_spread": "spread of the steady revolutions' largest forces, per race",
+    "p_max": "largest Hertz contact pressure of the steady window, per race",
+    "p_max_groove": "Hertz pressure of a real deep groove at peak_force, per race",
+    "top3_force": "largest forces of the steady window, one per event",
+    "startup_peak_force": "largest force of the start-up, both races",
+    "n_above": "impacts or contact episodes of the steady window reaching the level",
+    "ball_deflection_ratio": "Hertz deflection of a ball at the largest steady force / clearance",
+    "peak_force_flagged": "1 where the paper's method's peak_force is not to be trusted",
+    "n_impacts": "impacts in the steady window, by race and kind",
+    "n_flagged": "impacts in the steady window whose force carries a flag",
+    "time_steps": "time steps of the run",
+    "rings_on_lands_fraction": "fraction of the output samples with the rings on their lands",
+    "L10": "ISO 281 basic rating life L10",
+    "L10r": "reference rating life L10r from the ball loads",
+    "equivalent_load": "dynamic equivalent load P of L10",
+    "load_rating": "basic dynamic load rating C of L10",
+    "static_load_rating": "basic static load rating C0 (ISO 76)",
+    "static_equivalent_load": "static equivalent load P0",
+    "static_safety_factor": "static safety factor s0 = C0 / P0",
+    "method_ratio": "the paper's method's steady peak force over the compliant model's",
+    "static_deflection_ratio": "Hertz deflection of a ball at the largest steady load / clearance",
 }
 _COORDS = {
     "model": ("1", "contact model"),
@@ -1062,11 +1092,14 @@ def _across_models(summary: xr.Dataset, method_tol) -> xr.Dataset:
 
 
 def _describe(summary: xr.Dataset) -> xr.Dataset:
-    """units, long_name, flag attributes; no fill value on coordinates."""
-    for name, (_, _, units, long_name) in _VARIABLES.items():
-        summary[name].attrs.update(units=units, long_name=long_name)
-    for name, (_, units, long_name) in _GRID_VARIABLES.items():
-        summary[name].attrs.update(units=units, long_name=long_name)
+    """units, long_name (a label; a longer text as ``comment``), flag attributes; no fill
+    value on coordinates."""
+    texts = {name: (units, text) for name, (_, _, units, text) in _VARIABLES.items()}
+    texts.update({name: (units, text) for name, (_, units, text) in _GRID_VARIABLES.items()})
+    for name, (units, text) in texts.items():
+        summary[name].attrs.update(units=units, long_name=_LABELS.get(name, text))
+        if name in _LABELS:
+            summary[name].attrs["comment"] = text
     for name, (units, long_name) in _COORDS.items():
         summary[name].attrs.update(units=units, long_name=long_name)
         if name in _FLAGS:

@@ -11,6 +11,7 @@ from hertz_exact import exact_ellipse
 
 from analysis.summary import (
     COMPLIANT,
+    LABEL_LENGTH,
     NONSMOOTH,
     SteadyWindow,
     category_codes,
@@ -436,6 +437,10 @@ def test_summary_file_is_cf_style(study):
             assert var.dtype != str and var.dtype.kind != "S", f"{name} is a string variable"
             attrs = var.ncattrs()
             assert "units" in attrs and "long_name" in attrs, name
+            # a label a plot's axis can show; what it leaves out is the comment
+            assert len(var.long_name) <= LABEL_LENGTH, (name, var.long_name)
+            if "comment" in attrs:
+                assert len(var.comment) > len(var.long_name), name
             if name in nc.dimensions:
                 assert "_FillValue" not in attrs, f"coordinate {name} has a fill value"
         assert nc.variables["race"].getncattr("flag_meanings") == "inner outer"
