@@ -63,8 +63,8 @@ solver did not converge) gives ``failed = 1`` for its model and NaN in every oth
 model at its point: missing, never zero.
 
 The file is CF-1.10: every variable has UDUNITS ``units`` and a ``long_name`` (a label of at
-most :data:`LABEL_LENGTH` characters; a longer explanation is its ``comment``), and coordinates
-carry no fill value.
+most :data:`simcore.io.variables.LABEL_LENGTH` characters; a longer explanation is its
+``comment``), and coordinates carry no fill value.
 """
 
 from __future__ import annotations
@@ -241,8 +241,6 @@ _GRID_VARIABLES = {
                                          "clearance (the compliant twin's load, else the "
                                          "nonsmooth one's)"),
 }
-#: The longest ``long_name`` a summary's variable takes (xarray labels a plot's axis with it).
-LABEL_LENGTH = 80
 #: ``long_name`` of the variables whose registry text above is longer than a label: that text
 #: becomes their CF ``comment``.
 _LABELS = {

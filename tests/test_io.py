@@ -72,6 +72,24 @@ def test_a_file_without_velocities_opens_with_its_coordinates(two_runs, tmp_path
 
 
 @pytest.mark.filterwarnings("ignore:In a future version of xarray:FutureWarning")
+def test_every_long_name_is_a_label_and_a_longer_text_its_comment():
+    """xarray labels a plot's axis with long_name: every variable of either model gets one of
+    at most LABEL_LENGTH characters; where the registry's text is longer, the file keeps it
+    whole as the CF comment."""
+    from simcore.io.variables import LABEL_LENGTH, VARIABLES
+
+    for name, var in VARIABLES.items():
+        for compliant in (False, True):
+            text = var.compliant_long_name if compliant and var.compliant_long_name \
+                else var.long_name
+            attrs = var.attrs(compliant=compliant)
+            assert attrs["long_name"] and len(attrs["long_name"]) <= LABEL_LENGTH, (name, attrs)
+            if len(text) > LABEL_LENGTH:
+                assert attrs["comment"] == text, name
+            else:
+                assert attrs["long_name"] == text and "comment" not in attrs, name
+
+
 def test_runs_combine_by_coords_without_arguments(two_runs):
     with xr.open_mfdataset([str(p) for p in two_runs], combine="by_coords") as grid:
         assert grid.sizes["clearance"] == 2

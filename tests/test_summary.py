@@ -11,7 +11,6 @@ from hertz_exact import exact_ellipse
 
 from analysis.summary import (
     COMPLIANT,
-    LABEL_LENGTH,
     NONSMOOTH,
     SteadyWindow,
     category_codes,
@@ -20,6 +19,7 @@ from analysis.summary import (
 )
 from analysis.synthetic import PAPER_MODEL, make_compliant_run
 from simcore.io import write_netcdf
+from simcore.io.variables import LABEL_LENGTH
 
 DT = 1.0e-3
 T_END = 3.0

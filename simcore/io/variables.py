@@ -35,6 +35,10 @@ TIME_BODY_AXIS = ("time", "body", "axis")
 TIME_BODY = ("time", "body")
 TIME = ("time",)
 
+#: The longest ``long_name`` written (xarray labels a plot's axis with it): a longer text is
+#: written as the CF ``comment``, under a shorter label (:attr:`RunVariable.label`).
+LABEL_LENGTH = 80
+
 
 class RunVariable(NamedTuple):
     """One data variable of a run file."""
@@ -50,12 +54,18 @@ class RunVariable(NamedTuple):
     compliant_long_name: str | None = None
     #: further CF attributes, as (name, value) pairs
     extra: tuple = ()
+    #: the long name written where the model's long name is longer than :data:`LABEL_LENGTH`
+    #: (that text is then the ``comment``)
+    label: str | None = None
 
     def attrs(self, compliant: bool = False, storage: str | None = None) -> dict:
-        """The variable's attributes in a file: units, long name, ``extra``, storage."""
-        long_name = self.compliant_long_name if compliant and self.compliant_long_name \
+        """The variable's attributes in a file: units, long name (a label, the longer text as
+        ``comment``), ``extra``, storage."""
+        text = self.compliant_long_name if compliant and self.compliant_long_name \
             else self.long_name
-        out = {"units": self.units, "long_name": long_name}
+        out = {"units": self.units, "long_name": text}
+        if len(text) > LABEL_LENGTH:
+            out.update(long_name=self.label, comment=text)
         out.update(self.extra)
         out["storage"] = storage or self.storage
         return out
@@ -68,7 +78,7 @@ VARIABLES: dict[str, RunVariable] = {
         TIME_CONTACT, "N s",
         "normal contact impulse of the velocity jump of the step ending at time", "float64",
         "What the impulse filter and the impact table read (analysis.split_impulses).",
-        "normal contact impulse over the output interval ending at time (integral of F dt)"),
+        "normal contact impulse of the output interval ending at time, integral of F dt"),
     "Lambda_T": RunVariable(
         TIME_CONTACT, "N s", "tangential contact impulse along t = e_z x n", "float32",
         "Friction impulse, positive along t = e_z x n.",
@@ -87,7 +97,7 @@ VARIABLES: dict[str, RunVariable] = {
         TIME_CONTACT, "m s-1",
         "normal relative velocity at the start of the step (negative: approaching)", "float32",
         "Normal velocity at the start of the step.",
-        "normal relative velocity at the start of the output interval (negative: approaching)"),
+        "normal relative velocity at the start of the output interval (< 0: approaching)"),
     "vn_post": RunVariable(
         TIME_CONTACT, "m s-1",
         "normal relative velocity after the velocity jump (negative: approaching)", "float32",
@@ -98,7 +108,8 @@ VARIABLES: dict[str, RunVariable] = {
         "normal relative velocity before the velocity jump: smooth-step velocity at the "
         "corrected position (negative: approaching; t = 0: initial velocity)", "float32",
         "The approach speed an impact's peak force is computed from (docs/forces.md).",
-        "normal relative velocity at time (compliant: no jump, = vn_post)"),
+        "normal relative velocity at time (compliant: no jump, = vn_post)",
+        label="normal relative velocity before the velocity jump"),
     "position": RunVariable(
         TIME_BODY_AXIS, "m", "position of the body's centre of mass", "float32",
         "x, y of q; restart state of the compliant zoom (simcore.io.state_at)."),
@@ -137,20 +148,22 @@ VARIABLES: dict[str, RunVariable] = {
         "Solver effort per stage (stored as int32 when a count exceeds int16).",
         "largest Newton iterations per step in the output interval (smooth: "
         "generalized-alpha step with contact forces, position: joint projection, "
-        "velocity: 0)"),
+        "velocity: 0)", label="Newton iterations of the step, per sub-problem"),
     "converged": RunVariable(
         TIME, "1", "1 where every sub-problem of the step converged, the step created no "
         "energy, alone or with the steps before it (energy audit), and broke no integrity "
         "check of the bearing", "int8",
         "0 marks a step the impact table flags as untrusted.",
-        extra=(("flag_values", np.array([0, 1], dtype=np.int8)), ("flag_meanings", "no yes"))),
+        extra=(("flag_values", np.array([0, 1], dtype=np.int8)), ("flag_meanings", "no yes")),
+        label="1 where the step converged, created no energy and broke no check"),
     "halvings": RunVariable(
         TIME, "1", "times the step was halved: 0 taken whole, L taken again as 2^L substeps of "
         "dt/2^L after a failure (impulses and drive torque: the step's sums and mean; "
         "iterations: the largest of its substeps)", "int8",
         "The retries of a failed step (docs/method.md); a compliant run with fixed steps: the "
         "most halvings of a step in the output interval.",
-        "0: adaptive compliant steps are not halved (the error control shrinks them)"),
+        "0: adaptive compliant steps are not halved (the error control shrinks them)",
+        label="times the step was halved after a failure"),
     "steps": RunVariable(
         TIME, "1", "steps taken in the output interval ending at time (0 at the start)",
         "int32",
@@ -159,17 +172,19 @@ VARIABLES: dict[str, RunVariable] = {
     "energy_error": RunVariable(
         TIME, "J", "energy created by the step ending at time: energy change minus drive work "
         "(<= 0 when the step only dissipates)", "float32",
-        "Written with the energy audit (simcore.model.audit)."),
+        "Written with the energy audit (simcore.model.audit).",
+        label="energy created by the step ending at time"),
     "F_N": RunVariable(
         TIME_CONTACT, "N",
         "largest normal contact force in the output interval ending at time", "float32",
         "Compliant runs only."),
     "F_T": RunVariable(
         TIME_CONTACT, "N", "friction force along t = e_z x n at the instant of the largest "
-        "normal force of the interval", "float32", "Compliant runs only."),
+        "normal force of the interval", "float32", "Compliant runs only.",
+        label="friction force at the interval's largest normal force"),
     "guard_Lambda_N": RunVariable(
         TIME_GUARD, "N s",
-        "normal impulse of the guard contact in the velocity jump of the step ending at time",
+        "normal impulse of a guard contact, velocity jump of the step ending at time",
         "float64",
         "The contacts that keep the bearing together (ball against ball, the rings' lands; "
         "docs/model.md, Guard contacts); with model.guard_contacts only.",
@@ -177,8 +192,7 @@ VARIABLES: dict[str, RunVariable] = {
     "guard_gap_N": RunVariable(
         TIME_GUARD, "m", "normal gap of the guard contact after the step", "float32",
         "Gap of a guard contact (the rings': the land gap less the journal offset).",
-        "smallest normal gap of the guard contact in the output interval (negative: "
-        "indentation)"),
+        "smallest normal gap of the guard contact in the output interval (< 0: overlap)"),
     "guard_F_N": RunVariable(
         TIME_GUARD, "N",
         "largest normal force of the guard contact in the output interval ending at time",
