@@ -28,6 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
+from simcore.io.variables import label_attrs
+
 from ._checks import positive
 from .contact_stress import contact_modulus, elliptical_contact, groove_radii, hertz_circular
 from .filtering import impact_masks, split_impulses, zero_threshold
@@ -60,7 +62,7 @@ FLAG = {
 
 _BALL_FACTOR = 2.0  # a pinch impulse exceeds twice what the ball alone can carry
 
-# name: (units or None, long_name)
+# name: (units or None, long_name[, label where long_name is longer than a label])
 _VARS = {
     "contact": ("1", "contact index (balls 0..n-1 on the inner race, then on the outer race)"),
     "ball": ("1", "ball index"),
@@ -73,12 +75,15 @@ _VARS = {
     "m_eff": ("kg", "effective mass impulse / ((1 + e_N) v_pre)"),
     "F_static": ("N", "static contact force before the impact, Lambda_S / h (0 if none)"),
     "K": ("N2 m-3", "square of the contact stiffness K of F = K delta^1.5 (pinch: the series "
-                    "stiffness); K itself in N m^-1.5 is the square root"),
+                    "stiffness), because UDUNITS has no fractional powers: K itself [N m-1.5] is "
+                    "its square root (analysis.impacts.stiffness)",
+          "square of the Hertz contact stiffness"),
     "F_max": ("N", "peak Flores contact force (missing where flagged no_approach or e_N_zero)"),
     "delta_max": ("m", "Hertz indentation of this contact under F_max"),
     "contact_radius": ("m", "Hertz contact radius under F_max (ellipse: semi-major axis)"),
     "contact_semi_minor": ("m", "semi-minor axis of the contact under F_max (= contact_radius "
-                                "for the circular contact)"),
+                                "for the circular contact)",
+                           "semi-minor axis of the contact under F_max"),
     "p_max": ("Pa", "largest Hertz contact pressure under F_max, 3 F / (2 pi a b)"),
     "contact_time": ("s", "duration of the Flores impact"),
     "contact_time_steps": ("1", "contact_time / dt"),
@@ -228,8 +233,8 @@ def _partners(balls, races):
 
 
 def _set_attrs(name, units_long):
-    units, long_name = units_long
-    attrs = {"long_name": long_name}
+    units, long_name = units_long[:2]
+    attrs = label_attrs(long_name, units_long[2] if len(units_long) > 2 else None)
     if units is not None:
         attrs["units"] = units
     return attrs
@@ -461,9 +466,6 @@ def _impact_dataset(data: dict, contact_long_ratio: float, vname: str) -> xr.Dat
     ds["approach"].attrs.pop("units", None)
     ds["approach"].attrs.update(flag_values=np.array([0, 1], dtype=np.int8),
                                 flag_meanings="no_approach approach")
-    ds["K"].attrs["comment"] = ("the Hertz stiffness squared, because UDUNITS has no "
-                                "fractional powers: the stiffness [N m-1.5] is the square root "
-                                "of this variable (analysis.impacts.stiffness)")
     ds["v_pre"].attrs["comment"] = f"from {vname}"
     return ds
 

@@ -83,7 +83,7 @@ import numpy as np
 import xarray as xr
 
 from simcore.io.read import time_steps
-from simcore.io.variables import STAGES
+from simcore.io.variables import STAGES, label_attrs
 from simcore.model.driver import CONTACT_MODELS
 from simcore.study.plan import SUMMARY_ONLY_SETTINGS
 
@@ -1095,9 +1095,7 @@ def _describe(summary: xr.Dataset) -> xr.Dataset:
     texts = {name: (units, text) for name, (_, _, units, text) in _VARIABLES.items()}
     texts.update({name: (units, text) for name, (_, units, text) in _GRID_VARIABLES.items()})
     for name, (units, text) in texts.items():
-        summary[name].attrs.update(units=units, long_name=_LABELS.get(name, text))
-        if name in _LABELS:
-            summary[name].attrs["comment"] = text
+        summary[name].attrs.update(units=units, **label_attrs(text, _LABELS.get(name)))
     for name, (units, long_name) in _COORDS.items():
         summary[name].attrs.update(units=units, long_name=long_name)
         if name in _FLAGS:

@@ -42,6 +42,8 @@ import warnings
 import numpy as np
 import xarray as xr
 
+from simcore.io.variables import label_attrs
+
 from .impacts import FLAG, KIND, count_flags
 
 _METHOD_DISAGREES = FLAG["method_disagrees"]
@@ -496,33 +498,38 @@ def _zoom_columns(out: xr.Dataset, F_zoom, t_zoom, steps, marks, adaptive) -> No
     flagged a step, and those not zoomed for a loaded ball."""
     dt_zoom, dt_smallest = steps
     zoom_flagged, at_load = marks
-    out["F_max_zoom"] = ("impact", F_zoom, {
-        "units": "N", "long_name": "largest contact force of the impact's ball during the "
-        "impact (the ball's contact episode that contains the impact contact's first closing) "
-        "in a compliant (Hertz) zoom from the state before the impact (NaN: not zoomed, e.g. "
-        "its ball loaded at the zoom's start (zoom_loaded_start), or the force was still "
-        "rising at the end of the zoom)"})
-    out["contact_time_zoom"] = ("impact", t_zoom, {
-        "units": "s", "long_name": "duration of the impact's contact in the compliant zoom "
-        "(first contact episode; NaN: not zoomed, or still closed at the end of the zoom)"})
+    out["F_max_zoom"] = ("impact", F_zoom, {"units": "N", **label_attrs(
+        "largest contact force of the impact's ball during the impact (the ball's contact "
+        "episode that contains the impact contact's first closing) in a compliant (Hertz) zoom "
+        "from the state before the impact (NaN: not zoomed, e.g. its ball loaded at the zoom's "
+        "start (zoom_loaded_start), or the force was still rising at the end of the zoom)",
+        "largest force of the impact's ball in its compliant zoom")})
+    out["contact_time_zoom"] = ("impact", t_zoom, {"units": "s", **label_attrs(
+        "duration of the impact's contact in the compliant zoom (first contact episode; NaN: "
+        "not zoomed, or still closed at the end of the zoom)",
+        "duration of the impact's contact in its compliant zoom")})
     step = ("largest step allowed to the adaptive steps of the compliant zoom of the impact, "
             "also its output interval" if adaptive else
             "time step of the compliant zoom of the impact")
-    out["dt_zoom"] = ("impact", dt_zoom, {
-        "units": "s", "long_name": f"{step} (its shortest Hertz contact time over the table's "
-        "zoom_steps_per_contact, at most the run's step; NaN: not zoomed)"})
-    out["dt_zoom_smallest"] = ("impact", dt_smallest, {
-        "units": "s", "long_name": "smallest time step the compliant zoom of the impact took "
-        "(adaptive: chosen by the error control and at contact onsets; fixed: dt_zoom; NaN: "
-        "not zoomed)"})
-    out["zoom_flagged"] = ("impact", zoom_flagged, {
-        "units": "1", "long_name": "1 where the compliant zoom of the impact flagged a step "
-        "(not converged, energy created, or an integrity check such as an indentation beyond "
-        "solver.max_indentation, Hertz's range)", "flag_values": np.array([0, 1], np.int8),
-        "flag_meanings": "no yes"})
+    out["dt_zoom"] = ("impact", dt_zoom, {"units": "s", **label_attrs(
+        f"{step} (its shortest Hertz contact time over the table's zoom_steps_per_contact, at "
+        "most the run's step; NaN: not zoomed)",
+        "largest time step of the impact's compliant zoom" if adaptive else
+        "time step of the impact's compliant zoom")})
+    out["dt_zoom_smallest"] = ("impact", dt_smallest, {"units": "s", **label_attrs(
+        "smallest time step the compliant zoom of the impact took (adaptive: chosen by the "
+        "error control and at contact onsets; fixed: dt_zoom; NaN: not zoomed)",
+        "smallest time step the impact's compliant zoom took")})
+    out["zoom_flagged"] = ("impact", zoom_flagged, {"units": "1", **label_attrs(
+        "1 where the compliant zoom of the impact flagged a step (not converged, energy "
+        "created, or an integrity check such as an indentation beyond solver.max_indentation, "
+        "Hertz's range)", "1 where the impact's compliant zoom flagged a step"),
+        "flag_values": np.array([0, 1], np.int8), "flag_meanings": "no yes"})
     out["zoom_loaded_start"] = ("impact", np.asarray(at_load, dtype=np.int8), {
-        "units": "1", "long_name": "1 where the impact was chosen for a compliant zoom but its "
-        "ball carried load in the state the zoom would start from (rigid contact force above "
-        "method_tol x F_max): a restart starts those contacts undeformed, so no zoom verdict "
-        "(the grid point's compliant twin checks the number)",
+        "units": "1", **label_attrs(
+            "1 where the impact was chosen for a compliant zoom but its ball carried load in "
+            "the state the zoom would start from (rigid contact force above method_tol x "
+            "F_max): a restart starts those contacts undeformed, so no zoom verdict (the grid "
+            "point's compliant twin checks the number)",
+            "1 where the impact's ball was loaded at its zoom's start: no zoom"),
         "flag_values": np.array([0, 1], np.int8), "flag_meanings": "no yes"})

@@ -24,6 +24,7 @@ from analysis.__main__ import main
 from analysis.contact_stress import contact_modulus
 from analysis.synthetic import make_pinch_dataset, make_run_dataset
 from simcore.io import with_category_names, write_netcdf
+from simcore.io.variables import LABEL_LENGTH
 
 COLUMNS = ("contact", "ball", "race", "time", "kind", "impulse", "v_pre", "m_eff", "K",
            "F_static", "F_max", "delta_max", "contact_radius", "p_max", "contact_time",
@@ -61,7 +62,7 @@ def test_table_layout_and_cf(impacts, run):
         assert var.dtype.kind in "fiu", f"{name} is not numeric"
         if var.dtype.kind == "f":
             assert var.attrs.get("units") in UDUNITS_USED, name
-        assert "long_name" in var.attrs, name
+        assert 0 < len(var.attrs["long_name"]) <= LABEL_LENGTH, name  # a plot's axis label
     for name in ("kind", "race", "trusted"):
         assert len(impacts[name].attrs["flag_values"]) == len(
             impacts[name].attrs["flag_meanings"].split())

@@ -9,6 +9,7 @@ import simcore
 from analysis.study_tables import impact_table
 from simcore.config import load_config
 from simcore.io import failed_run_dataset, open_run
+from simcore.io.variables import LABEL_LENGTH
 from simcore.study import plan
 
 SETTINGS = {"zero_tol": 1e-4, "zero_floor": 1e-12, "r_eff": "concave", "v_min": 1e-3,
@@ -36,6 +37,8 @@ def test_table_from_memory_matches_the_table_from_the_file(run_ds, tmp_path):
     np.testing.assert_allclose(memory["v_pre"].values, from_file["v_pre"].values, rtol=1e-6)
     assert memory.attrs["failed"] == 0
     assert np.isfinite(memory["F_max_zoom"].values).sum() == 2
+    for name, var in memory.variables.items():  # the zoom's columns too: a label each
+        assert 0 < len(var.attrs["long_name"]) <= LABEL_LENGTH, name
     for key, value in POINT.items():
         assert memory[key].item() == value and memory[key].attrs["units"]
 

@@ -286,7 +286,8 @@ def test_adaptive_zoom_of_an_impact_matches_the_fine_fixed_zoom(steel_run):
     assert adaptive.attrs["zoom_adaptive"] == 1 and fine.attrs["zoom_adaptive"] == 0
     assert adaptive.attrs["zoom_steps_per_contact"] == ADAPTIVE_STEPS_PER_CONTACT
     assert 0 < adaptive.attrs["n_zoom_steps"] < fine.attrs["n_zoom_steps"]
-    assert adaptive["dt_zoom"].attrs["long_name"].startswith("largest step allowed")
+    assert adaptive["dt_zoom"].attrs["comment"].startswith("largest step allowed")
+    assert fine["dt_zoom"].attrs["comment"].startswith("time step of the compliant zoom")
     assert int(adaptive["zoom_flagged"].max()) == 0
 
 

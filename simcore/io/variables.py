@@ -40,6 +40,25 @@ TIME = ("time",)
 LABEL_LENGTH = 80
 
 
+def label_attrs(text: str, label: str | None = None) -> dict:
+    """The ``long_name`` of a variable that means ``text``: the text itself where it is short
+    enough for a label (:data:`LABEL_LENGTH`), else ``label``, with the whole text as the CF
+    ``comment``.
+
+    Raises
+    ------
+    ValueError
+        A text longer than a label without a ``label`` of at most :data:`LABEL_LENGTH`
+        characters (a registry's omission, caught by the tests of each file).
+    """
+    if len(text) <= LABEL_LENGTH:
+        return {"long_name": text}
+    if not label or len(label) > LABEL_LENGTH:
+        raise ValueError(f"a long name of {len(text)} characters needs a label of at most "
+                         f"{LABEL_LENGTH}: {text!r}")
+    return {"long_name": label, "comment": text}
+
+
 class RunVariable(NamedTuple):
     """One data variable of a run file."""
 
@@ -63,9 +82,7 @@ class RunVariable(NamedTuple):
         ``comment``), ``extra``, storage."""
         text = self.compliant_long_name if compliant and self.compliant_long_name \
             else self.long_name
-        out = {"units": self.units, "long_name": text}
-        if len(text) > LABEL_LENGTH:
-            out.update(long_name=self.label, comment=text)
+        out = {"units": self.units, **label_attrs(text, self.label)}
         out.update(self.extra)
         out["storage"] = storage or self.storage
         return out
