@@ -31,8 +31,9 @@ def _parser() -> argparse.ArgumentParser:
         "run", help="simulate one run and write its netCDF file",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="examples:\n" + "".join(f"  {line}\n" for line in RUN_EXAMPLES)
-               + "every key, its unit and allowed values: config/README.md and "
-                 "simcore/config/schema/config.schema.json")
+               + "every key, its unit and allowed values: "
+                 "simcore/config/schema/config.schema.json (a study's sweep and study keys: "
+                 "config/README.md)")
     r.add_argument("--config", help="YAML configuration (default: the paper's case)")
     r.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override one key, e.g. --set model.mu=0 --set solver.t_end=0.05")
