@@ -2,6 +2,8 @@
 of the step's sizes (symmetric positive definite, general, block-structured), and the velocity
 problem's solver against the complementarity conditions it must meet."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -179,6 +181,39 @@ def test_velocity_problem_meets_newton_and_coulomb(seed):
     slip = ~stick & (lN > 1e-8)
     # sliding: the friction impulse opposes the slip
     assert (lT[slip] * xT[slip] <= 1e-8).all()
+
+
+PINCHED_RINGS = Path(__file__).parent / "data" / "velocity_problems_pinched_rings.npz"
+
+
+@pytest.mark.parametrize("problem", ["singular", "pinched"])
+def test_newton_after_the_fallback_solves_the_velocity_problems_of_pinched_rings(problem):
+    """Two velocity problems on which Newton cycles and Gauss-Seidel stalls above the tolerance
+    at every substep of a retried step (velocity jumps of benchmarks/fuzz_corners.py 150 0.05
+    11: a 16-ball ring at 0.77 mm, mu 0.13, 132 rad/s, whose Delassus matrix is singular, 38
+    rows; a 19-ball ring at 1.3 um, mu 0.47, 333 rad/s, 42 rows; balls pinched between both
+    rings). A retried step's Newton from the fallback's iterate solves them: Newton's and
+    Coulomb's laws hold to the tolerance, checked here on xi = D lam + c."""
+    data = np.load(PINCHED_RINGS)
+    D, c, kind, mu, pair, lam0 = (data[f"{problem}_{k}"]
+                                  for k in ("D", "c", "kind", "mu_row", "pair", "lam"))
+    tol, max_iter, eta = (float(data[f"{problem}_tol"]), int(data[f"{problem}_max_iter"]),
+                          float(data[f"{problem}_eta"]))
+    assert not solve_velocity_problem(D, c, kind, mu, pair, lam0.copy(), tol, max_iter, eta)[1]
+    lam = lam0.copy()
+    its, ok = solve_velocity_problem(D, c, kind, mu, pair, lam, tol, max_iter, eta, 1)
+    assert ok
+    xi = D @ lam + c
+    normal, tangent = kind == 1, kind == 2
+    lN, xN = lam[normal], xi[normal]
+    assert (lN >= 0.0).all() and (xN >= -tol).all()
+    assert np.all((lN <= 1e-12 * np.abs(lam).max()) | (np.abs(xN) <= tol))  # complementarity
+    lT, xT = lam[tangent], xi[tangent]
+    bound = mu[tangent] * lam[pair[tangent]]
+    assert (np.abs(lT) <= bound * (1 + 1e-12) + 1e-15).all()
+    stick = np.abs(lT) < bound * (1 - 1e-9)
+    assert (np.abs(xT[stick]) <= tol).all()
+    assert (lT[~stick] * xT[~stick] <= tol * np.abs(lT[~stick])).all()  # opposes the slip
 
 
 def test_block_gram_entry_is_the_delassus_diagonal():

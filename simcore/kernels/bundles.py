@@ -29,9 +29,12 @@ ModelArrays = namedtuple("ModelArrays", [
 
 #: Scalars of the step: h [s], rho_inf, tol, max_iter, eta (proximal), drive_row (-1: none),
 #: and for the compliant model t0 (start time [s]), v_reg (friction regularisation [m/s]) and
-#: v_pre_min (floor of the onset approach speed in the damping term [m/s]).
+#: v_pre_min (floor of the onset approach speed in the damping term [m/s]);
+#: newton_after_fallback (1 in a retried step's velocity jump, 0 otherwise:
+#: :func:`~.velocity_jump.solve_velocity_problem`).
 StepSettings = namedtuple("StepSettings", ["h", "rho_inf", "tol", "max_iter", "eta",
-                                           "drive_row", "t0", "v_reg", "v_pre_min"])
+                                           "drive_row", "t0", "v_reg", "v_pre_min",
+                                           "newton_after_fallback"], defaults=(0,))
 
 #: State carried from step to step (updated in place): q, v, the generalized-alpha
 #: accelerations acc and vdot, the joint multipliers of the smooth stage lam_s and of the

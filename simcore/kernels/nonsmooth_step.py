@@ -7,9 +7,10 @@ A step whose sub-problems do not all converge, or that creates energy (the energ
 criterion, :mod:`simcore.model.audit`), is taken again from the same state as 2, then 4, ...
 substeps, at most 2^max_halvings (:func:`integrate_chunk`); the run then goes on at h. The
 velocity jump of a retried step may take :data:`RETRY_VELOCITY_ITERATIONS` times max_iter
-iterations: its frictional impact problem does not get easier with a smaller step (its impulses
-do not shrink with it), more iterations do. The outputs keep one row per step: the impulses of
-a subdivided step are the sums of its substeps'.
+iterations, and Newton again after its Gauss-Seidel fallback: its frictional impact problem
+does not get easier with a smaller step (its impulses do not shrink with it), more iterations
+and a solver that finishes where the fallback stalls do. The outputs keep one row per step:
+the impulses of a subdivided step are the sums of its substeps'.
 """
 
 from __future__ import annotations
@@ -300,7 +301,7 @@ def integrate_chunk(k0, k1, st, ma, state, out, work, rs):
     nu_b = pwk.nu_b
     rw = work.retry
     st_retry = StepSettings(st.h, st.rho_inf, st.tol, RETRY_VELOCITY_ITERATIONS * st.max_iter,
-                            st.eta, st.drive_row, st.t0, st.v_reg, st.v_pre_min)
+                            st.eta, st.drive_row, st.t0, st.v_reg, st.v_pre_min, 1)
     first_bad = -1
     for k in range(k0, k1):
         _update_energy_scale(k, out.energy, out.q, ma, rw.energy_scale)

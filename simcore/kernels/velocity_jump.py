@@ -6,8 +6,9 @@ forces' change), :func:`_jump_rows` (the rows of the problem), :func:`_delassus`
 free velocity), :func:`_solve_jump` (joints eliminated, then the frictional contact problem,
 :func:`solve_velocity_problem`) and :func:`_apply_jump`. The contact problem's solver reads
 likewise: semismooth Newton (:func:`_law_branches`, :func:`_factor_velocity_newton`,
-:func:`_velocity_line_search`), a Gauss-Seidel fallback (:func:`_gauss_seidel`) and the
-admissibility projection (:func:`_make_admissible`).
+:func:`_velocity_line_search`), a Gauss-Seidel fallback (:func:`_gauss_seidel`), in a
+retried step Newton again from the fallback's iterate (:func:`_newton_after_fallback`), and
+the admissibility projection (:func:`_make_admissible`).
 """
 
 from __future__ import annotations
@@ -80,9 +81,10 @@ VelocityWork = namedtuple("VelocityWork", ["metric", "rows", "problem", "solver"
 
 #: Work arrays of the velocity problem's Newton solver: the augmentation r, the residual F and
 #: a trial's F_try, velocities xi and xi_try, trial impulses lam_try, the Newton step dl, its
-#: matrix J and pivots piv, and the law's branch of each row.
+#: matrix J and pivots piv, the law's branch of each row, and the fallback's impulses kept
+#: while Newton tries to finish them (lam_keep).
 VelocitySolverWork = namedtuple("VelocitySolverWork", ["r", "F", "F_try", "xi", "xi_try",
-    "lam_try", "dl", "J", "piv", "branch"])
+    "lam_try", "dl", "J", "piv", "branch", "lam_keep"])
 
 #: A contact problem xi = D lam + c (:func:`solve_velocity_problem`): its matrix and free
 #: velocity, each row's kind, friction coefficient and normal row, the impulses.
@@ -117,7 +119,7 @@ def velocity_solver_work(m):
     return VelocitySolverWork(r=np.zeros(m), F=np.zeros(m), F_try=np.zeros(m), xi=np.zeros(m),
                               xi_try=np.zeros(m), lam_try=np.zeros(m), dl=np.zeros(m),
                               J=np.zeros((m, m)), piv=np.zeros(m, dtype=np.int64),
-                              branch=np.zeros(m, dtype=np.int64))
+                              branch=np.zeros(m, dtype=np.int64), lam_keep=np.zeros(m))
 
 
 # -- the contact problem ---------------------------------------------------------------------
@@ -384,27 +386,50 @@ def _make_admissible(p, res, w):
     return res
 
 
-def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta):
+def solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta,
+                           newton_after_fallback=0):
     """Solve xi = D lam + c with xi_b = 0 (joints), Newton's law 0 <= xi_N ⊥ lam_N >= 0 and
     Coulomb's law |lam_T| <= mu lam_N (stick xi_T = 0, else lam_T opposes xi_T).
 
     Semismooth Newton with Delassus-scaled augmentation, proximal regularisation and a line
-    search; projected Gauss-Seidel as fallback. ``lam`` holds the warm start on entry and the
-    solution on exit. Returns (iterations, converged). (Allocates its work arrays; the time
-    loop calls :func:`_solve_velocity_problem` with arrays made once per run.)"""
+    search; projected Gauss-Seidel as fallback; with ``newton_after_fallback`` (1: a retried
+    step's) Newton again from the fallback's iterate where that did not converge either.
+    ``lam`` holds the warm start on entry and the solution on exit. Returns (iterations,
+    converged). (Allocates its work arrays; the time loop calls
+    :func:`_solve_velocity_problem` with arrays made once per run.)"""
     return _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta,
-                                   velocity_solver_work(lam.shape[0]))
+                                   newton_after_fallback, velocity_solver_work(lam.shape[0]))
+
+
+@stage
+def _newton_after_fallback(p, tol, max_iter, eta, res, w):
+    """Newton again from the Gauss-Seidel fallback's iterate, kept only where it ends with a
+    smaller residual. Where the fallback stalls it converges slowly along the problem's
+    softest mode (in a ring of balls pinched between both rings, the rings' motion), while
+    Newton from the warm start cycles between branches; from near the solution Newton's
+    branches are right and it finishes in one or two iterations. Returns (iterations,
+    residual)."""
+    m = p.lam.shape[0]
+    copy_vector(w.lam_keep, p.lam, m)
+    iters, res_newton = _newton_velocity(p, tol, max_iter, eta, w)
+    if res_newton < res:
+        return iters, res_newton
+    copy_vector(p.lam, w.lam_keep, m)
+    return iters, _residual(p, p.lam, w.r, w.xi, w.F)
 
 
 @step_kernel
-def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, sw):
+def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta,
+                            newton_after_fallback, sw):
     """:func:`solve_velocity_problem` on the work arrays ``sw`` (:func:`velocity_solver_work`):
-    semismooth Newton, the Gauss-Seidel fallback if it did not reach half the tolerance, then
-    the admissibility projection. Returns (iterations + fallback sweeps, converged)."""
+    semismooth Newton, the Gauss-Seidel fallback if it did not reach half the tolerance, with
+    ``newton_after_fallback`` Newton again if neither did, then the admissibility projection.
+    Returns (iterations + fallback sweeps, converged)."""
     m = lam.shape[0]
     p = VelocityProblem(D, c, kind, mu_row, pair, lam)
     w = VelocitySolverWork(sw.r[:m], sw.F[:m], sw.F_try[:m], sw.xi[:m], sw.xi_try[:m],
-                           sw.lam_try[:m], sw.dl[:m], sw.J, sw.piv, sw.branch)
+                           sw.lam_try[:m], sw.dl[:m], sw.J, sw.piv, sw.branch,
+                           sw.lam_keep[:m])
     for i in range(m):
         w.r[i] = 1.0
         if D[i, i] > 0.0:
@@ -413,6 +438,9 @@ def _solve_velocity_problem(D, c, kind, mu_row, pair, lam, tol, max_iter, eta, s
     if res > 0.5 * tol:
         sweeps, res = _gauss_seidel(p, tol, max_iter, res, w)
         iters += sweeps
+        if newton_after_fallback and res > 0.5 * tol:
+            more, res = _newton_after_fallback(p, tol, max_iter, eta, res, w)
+            iters += more
     res = _make_admissible(p, res, w)
     return iters, res <= tol
 
@@ -622,7 +650,8 @@ def _solve_jump(nbil, n_rows, st, jr, jp, sw):
         _eliminate_joints(nbil, nct, jr, jp)
         iters, ok = _solve_velocity_problem(jp.Dc, jp.cc[:nct], jr.kind[nbil:n_rows],
                                             jr.mu_row[nbil:n_rows], jp.pair_c[:nct],
-                                            jp.lam_c[:nct], tol, st.max_iter, st.eta, sw)
+                                            jp.lam_c[:nct], tol, st.max_iter, st.eta,
+                                            st.newton_after_fallback, sw)
         return iters, _joint_impulses(nbil, nct, tol, jr, jp) and ok
     Dv = jp.Dc  # its leading n_rows x n_rows block
     D = jp.D
@@ -631,7 +660,7 @@ def _solve_jump(nbil, n_rows, st, jr, jp, sw):
             Dv[a, j] = D[a, j]
     return _solve_velocity_problem(Dv, jp.c[:n_rows], jr.kind[:n_rows], jr.mu_row[:n_rows],
                                    jr.pair[:n_rows], jr.lam[:n_rows], tol, st.max_iter,
-                                   st.eta, sw)
+                                   st.eta, st.newton_after_fallback, sw)
 
 
 @stage
