@@ -180,9 +180,9 @@ def main(n=300, t_end=0.1, seed=11, max_halvings=4, max_iter=None):
     rng = np.random.default_rng(seed)
     table = {}
     silent_gain = silent_pen = 0
-    slowest = 0.0
+    slowest, slowest_run = 0.0, ""
     start = time.perf_counter()
-    for _ in range(n):
+    for index in range(n):
         cap = [] if max_iter is None else [f"solver.max_iter={max_iter}"]
         cfg = simcore.load_config(overrides=draw(rng, t_end) + cap
                                   + [f"solver.max_halvings={max_halvings}"])
@@ -211,7 +211,12 @@ def main(n=300, t_end=0.1, seed=11, max_halvings=4, max_iter=None):
                        "gain": int(gains.any()), "pen": int(pens.any())}
             silent_gain += int(gains.sum())
             silent_pen += int(pens.sum())
-            slowest = max(slowest, time.process_time() - began)
+            if time.process_time() - began > slowest:
+                slowest = time.process_time() - began
+                m = cfg["model"]
+                slowest_run = (f": configuration {index}, {m['n_balls']} balls, clearance "
+                               f"{m['clearance']:.3g} m, omega0 {m['omega0']:.4g} rad/s, "
+                               f"{ds.attrs['n_retried_steps']} steps retried")
         for name in regions(cfg):
             r = table.setdefault(name, dict(row))
             r["n"] += 1
@@ -220,7 +225,7 @@ def main(n=300, t_end=0.1, seed=11, max_halvings=4, max_iter=None):
     cap = cfg["solver"]["max_iter"]
     print(f"{n} configurations, t_end = {t_end} s, seed {seed}, max_halvings {max_halvings}, "
           f"max_iter {cap}, {time.perf_counter() - start:.0f} s (slowest run {slowest:.1f} s "
-          "of CPU)")
+          f"of CPU{slowest_run})")
     print(f"{'region':28s} {'runs':>5s} {'refused':>8s} {'defect':>7s} {'flagged':>9s} "
           f"{'worst':>6s} {'gain':>5s} {'pen':>4s}")
     for name in sorted(table):
