@@ -84,9 +84,13 @@ def load_netcdf(path: str | Path, name: str) -> xr.Dataset:
         raise ValueError(f"{name}: {path} does not exist")
     if path.is_dir():
         raise ValueError(f"{name}: {path} is a folder; allowed: a netCDF file")
-    with open(path, "rb") as head:
-        if not head.read(4).startswith(_NETCDF_MAGIC):
-            raise ValueError(f"{name}: {path} is not a netCDF file")
+    try:
+        with open(path, "rb") as head:
+            magic = head.read(4)
+    except OSError as exc:  # no permission, a device that fails
+        raise ValueError(f"{name}: cannot read {path}: {exc.strerror}") from None
+    if not magic.startswith(_NETCDF_MAGIC):
+        raise ValueError(f"{name}: {path} is not a netCDF file")
     try:
         with xr.open_dataset(path) as ds:
             return ds.load()
