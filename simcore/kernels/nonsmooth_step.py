@@ -114,7 +114,8 @@ def loop_stage_calls(st, ma, state, work):
         # of the same types)
         "velocity_solver": (_solve_velocity_problem, (jp.Dc, jp.cc, jr.kind, jr.mu_row,
                                                       jp.pair_c, jp.lam_c, st.tol, st.max_iter,
-                                                      st.eta, work.velocity.solver)),
+                                                      st.eta, st.newton_after_fallback,
+                                                      work.velocity.solver)),
     }
 
 
