@@ -211,8 +211,9 @@ def main(n=300, t_end=0.1, seed=11, max_halvings=4, max_iter=None):
                        "gain": int(gains.any()), "pen": int(pens.any())}
             silent_gain += int(gains.sum())
             silent_pen += int(pens.sum())
-            if time.process_time() - began > slowest:
-                slowest = time.process_time() - began
+            cpu = time.process_time() - began
+            if cpu > slowest:
+                slowest = cpu
                 m = cfg["model"]
                 slowest_run = (f": configuration {index}, {m['n_balls']} balls, clearance "
                                f"{m['clearance']:.3g} m, omega0 {m['omega0']:.4g} rad/s, "
