@@ -58,18 +58,21 @@ def twin_runs(cfg, tols, ns, rhos=(None,), shifts=()):
     """{label: (steps, peak, median and spread per race, integration time)} of the point's
     twin with adaptive steps at each tolerance (and each spectral radius of ``rhos``, None: the
     twin's own ``analysis.twin_rho_inf``; and, at the first tolerance and radius, ball 0 moved
-    by each of ``shifts`` [m] at the start) and fixed steps at each N."""
+    by each of ``shifts`` [m] at the start, beyond the configuration's ``model.ball0_shift``)
+    and fixed steps at each N."""
     out = {}
     twin = [r for r in plan.plan_runs(cfg) if r.model == "compliant"][0].config
     out_dt = twin["solver"]["output_dt"]
     rho_twin = twin["solver"]["rho_inf"]
+    base_shift = float(twin["model"]["ball0_shift"])
     for i, (rho, tol) in enumerate([(r, t) for r in rhos for t in tols]):
         rho = rho_twin if rho is None else rho
         twin["solver"].update(adaptive=True, adaptive_tol=tol, dt=out_dt, rho_inf=rho)
         for shift in (0.0, *shifts) if i == 0 else (0.0,):
-            ds = simcore.run(dict(twin, model=dict(twin["model"], ball0_shift=shift)))
+            start = base_shift + shift
+            ds = simcore.run(dict(twin, model=dict(twin["model"], ball0_shift=start)))
             label = f"adaptive tol={tol:.3g} m rho={rho:g}" + (
-                f" shift={shift:.3g} m" if shift else "")
+                f" shift={start:.3g} m" if start else "")
             out[label] = (int(ds.attrs["n_steps_accepted"]), *steady_peaks(ds),
                           ds.attrs["wall_time_s"])
     for n in sorted(ns):
