@@ -181,6 +181,10 @@ def test_adaptive_settings_are_checked():
         SolverSettings(1e-5, 1e-3, contact_model="compliant", adaptive=True, dt_min=2e-5)
     with pytest.raises(ValueError, match="solver.adaptive_tol"):
         SolverSettings(1e-5, 1e-3, contact_model="compliant", adaptive=True, adaptive_tol=0.0)
+    for keep in (0.9, 2.5, float("nan")):
+        with pytest.raises(ValueError, match=r"solver.adaptive_keep_growth.*allowed"):
+            SolverSettings(1e-5, 1e-3, contact_model="compliant", adaptive=True,
+                           adaptive_keep_growth=keep)
 
 
 @pytest.mark.parametrize("overrides, key", [
@@ -189,6 +193,8 @@ def test_adaptive_settings_are_checked():
       "solver.dt_min=1e-5"], "solver.dt_min"),
     (["model.contact_model=compliant", "solver.adaptive=true", "solver.adaptive_tol=0"],
      "solver.adaptive_tol"),
+    (["model.contact_model=compliant", "solver.adaptive=true",
+      "solver.adaptive_keep_growth=2.5"], "solver.adaptive_keep_growth"),
 ])
 def test_adaptive_config_keys_are_checked(overrides, key):
     with pytest.raises(ConfigError, match=key):
@@ -267,6 +273,29 @@ def test_error_constant_of_the_scheme():
     assert error_constant(nb.alpha_coefficients(1.0)) == pytest.approx(1.0 / 12.0)
     assert error_constant(nb.alpha_coefficients(0.0)) == pytest.approx(1.0 / 3.0)
     assert error_constant(nb.alpha_coefficients(0.5)) == pytest.approx(1.0 / 9.0)
+
+
+@pytest.mark.parametrize("keep", [1.0, 1.1, 1.5, 2.0])
+def test_next_step_size_keeps_the_plan_inside_its_band(keep):
+    """After a step of the planned size h with error ratio r the next size is h 0.9 r^(-1/3)
+    (within [0.2, 2] h), except that the plan stays while that lies in [0.95, keep) h; a step
+    cut short by the output grid returns to the plan unless its error asks for less."""
+    from simcore.kernels.compliant_adaptive import _next_size
+
+    h, dt_max = 1e-6, 1.0
+    ad = nb.AdaptiveSettings(1e-4, 1e-12, 1e-9, 40.0, keep)
+    for growth in np.linspace(0.1, 2.4, 47) + 0.013:  # off the band's edges (rounding)
+        ratio = (0.9 / growth) ** 3  # the ratio whose estimate allows growth h
+        wanted = h * min(max(growth, 0.2), 2.0)
+        kept = 0.95 <= growth < keep
+        assert _next_size(h, h, ratio, False, ad, dt_max) == pytest.approx(
+            h if kept else wanted, rel=1e-12), growth
+    assert _next_size(h, h, 0.0, False, ad, dt_max) == pytest.approx(2.0 * h)  # no error
+    short = 0.3 * h  # cut by the output grid with a small error: back to the plan
+    assert _next_size(short, h, 0.5, True, ad, dt_max) == pytest.approx(h, rel=1e-12)
+    assert _next_size(short, h, 2.0, True, ad, dt_max) == pytest.approx(
+        short * 0.9 * 2.0 ** (-1.0 / 3.0), rel=1e-12)
+    assert _next_size(h, h, 1e-6, False, ad, 1.5 * h) == pytest.approx(1.5 * h)  # dt_max
 
 
 def test_crossing_speed_of_a_quadratic_gap():

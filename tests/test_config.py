@@ -241,12 +241,12 @@ def test_a_later_study_config_replaces_a_sweep_axis_whatever_its_spelling(tmp_pa
 def test_solver_settings_defaults_are_the_schema_defaults():
     """``SolverSettings`` made in Python (no configuration) takes the same defaults as a
     configuration does, for every field named like a schema key of ``solver`` or ``model``;
-    its halving bound is the schema's maximum."""
+    its bounds are the schema's."""
     import dataclasses
 
     from simcore.config import load_schema
     from simcore.model import SolverSettings
-    from simcore.model.driver import MAX_ADAPTIVE_RETRIES, MAX_HALVINGS
+    from simcore.model.driver import KEEP_GROWTH_RANGE, MAX_ADAPTIVE_RETRIES, MAX_HALVINGS
 
     sections = load_schema()["properties"]
     checked = []
@@ -257,9 +257,13 @@ def test_solver_settings_defaults_are_the_schema_defaults():
                 assert field.default == node["default"], (section, field.name)
                 checked.append(field.name)
                 break
-    assert {"tol", "max_iter", "dt_min", "adaptive_tol", "max_halvings"} <= set(checked)
-    assert sections["solver"]["properties"]["max_halvings"]["maximum"] == MAX_HALVINGS
-    assert sections["solver"]["properties"]["adaptive_retries"]["maximum"] == MAX_ADAPTIVE_RETRIES
+    assert {"tol", "max_iter", "dt_min", "adaptive_tol", "max_halvings",
+            "adaptive_keep_growth"} <= set(checked)
+    solver = sections["solver"]["properties"]
+    assert solver["max_halvings"]["maximum"] == MAX_HALVINGS
+    assert solver["adaptive_retries"]["maximum"] == MAX_ADAPTIVE_RETRIES
+    keep = solver["adaptive_keep_growth"]
+    assert (keep["minimum"], keep["maximum"]) == KEEP_GROWTH_RANGE
 
 
 def test_the_schema_names_the_contact_models_of_the_code():

@@ -63,9 +63,10 @@ CompliantOutputs = namedtuple("CompliantOutputs", [
 #: Settings of the compliant loop with adaptive steps (the largest step is StepSettings.h):
 #: ``out_dt`` the output interval [s], ``dt_min`` the smallest step the error control may ask
 #: for [s], ``err_tol`` the local error tolerance of a step [m], ``onset_steps`` the steps per
-#: Hertz contact time of the step in which a contact closes [-].
+#: Hertz contact time of the step in which a contact closes [-], ``keep_growth`` the largest
+#: growth the estimate may allow while a step keeps its planned size [-].
 AdaptiveSettings = namedtuple("AdaptiveSettings", ["out_dt", "dt_min", "err_tol",
-                                                   "onset_steps"])
+                                                   "onset_steps", "keep_growth"])
 
 #: State and records of the adaptive loop (updated in place): ``h`` (2) the next step's size
 #: and the last accepted step's [s]; ``counts`` (5) accepted steps, steps rejected by the error

@@ -19,8 +19,10 @@ most twice and at least a fifth of h.
 
 Step sizes and the Newton factors. A chord iterate reuses the factors of the last Newton
 matrix (:func:`~.compliant_step.compliant_smooth_step`), which depend on h: a step that keeps
-its size keeps them serving. So a step grows only when the estimate allows at least 1.5 times
-the current size, and otherwise keeps it exactly.
+its size keeps them serving. So a step grows only when the estimate allows at least
+``keep_growth`` times the current size (``solver.adaptive_keep_growth``, default 1.5), and
+otherwise keeps it exactly. The price: a kept size can sit up to keep_growth / 0.9 times below
+the one the tolerance allows, and where in that band it sits depends on the run's history.
 
 Changes of size. a_n - v'_n is (alpha_m - alpha_f) h v''(t_n) to leading order: with a new
 size h' the step starts from a_n* = v'_n + (h'/h)(a_n - v'_n), which keeps the scheme second
@@ -61,10 +63,9 @@ GROWTH_MAX = 2.0
 SHRINK_MIN = 0.2
 #: ... aiming at this fraction of the tolerance (the error is of order h^3)
 SAFETY = 0.9
-#: a step keeps its planned size while the estimate allows between these factors of it (see
-#: the module docstring)
+#: a step keeps its planned size while the estimate allows between KEEP_LOW and
+#: AdaptiveSettings.keep_growth of it (see the module docstring)
 KEEP_LOW = 0.95
-GROWTH_MIN = 1.5
 #: a smooth stage that does not converge is redone at this fraction of its size
 FAILED_SHRINK = 0.25
 #: a step is redone at most this many times for the onset speeds of its closing contacts
@@ -274,12 +275,13 @@ def _clear(onset):
 def _next_size(h, h_plan, err, grid_cut, ad, dt_max):
     """The size of the step after an accepted one of size ``h`` [s] with error ratio ``err``:
     h 0.9 err^(-1/3), within [SHRINK_MIN, GROWTH_MAX] of h and [dt_min, dt_max]; but the
-    planned size ``h_plan`` [s] stays while that is between KEEP_LOW and GROWTH_MIN of it, or
-    when the output grid (``grid_cut``), not the error, made this step shorter than planned."""
+    planned size ``h_plan`` [s] stays while that is between KEEP_LOW and ``ad.keep_growth``
+    of it, or when the output grid (``grid_cut``), not the error, made this step shorter than
+    planned."""
     factor = GROWTH_MAX if err <= 0.0 else min(GROWTH_MAX, SAFETY * err ** (-1.0 / 3.0))
     new = h * max(factor, SHRINK_MIN)
-    if KEEP_LOW * h_plan <= new < GROWTH_MIN * h_plan or (grid_cut and factor >= 1.0
-                                                           and new < h_plan):
+    if KEEP_LOW * h_plan <= new < ad.keep_growth * h_plan or (
+            grid_cut and factor >= 1.0 and new < h_plan):
         new = h_plan
     return min(max(new, ad.dt_min), dt_max)
 

@@ -26,17 +26,22 @@ import numpy as np
 from .. import kernels as nb
 from ..config.parameters import tidy
 from ..kernels.bundles import STAGES
+from ..kernels.compliant_adaptive import GROWTH_MAX
 from .audit import ENERGY_FLOOR_J, EnergyAudit, drive_rate
 from .hertz import DAMPING_LAWS
 from .integrity import CheckSettings, run_checks
 
 CONTACT_MODELS = ("nonsmooth", "compliant")
 #: defaults of the adaptive compliant step (docs/compliant.md, "Adaptive steps"): the smallest
-#: step [s], the local error tolerance [m] and the steps per Hertz contact time at a contact's
-#: onset [-]
+#: step [s], the local error tolerance [m], the steps per Hertz contact time at a contact's
+#: onset [-] and the largest growth the estimate may allow while a step keeps its size [-]
 DT_MIN_DEFAULT = 1e-9
 ADAPTIVE_TOL_DEFAULT = 1e-9
 ONSET_STEPS_DEFAULT = 40.0
+KEEP_GROWTH_DEFAULT = 1.5
+#: allowed ``solver.adaptive_keep_growth``: from no band at all to the largest growth a step
+#: may take
+KEEP_GROWTH_RANGE = (1.0, GROWTH_MAX)
 #: an adaptive run whose energy audit fails is run again with its tolerance over this
 #: (``SolverSettings.adaptive_retries``; docs/compliant.md, "Energy and the tolerance")
 RETRY_TOL_DIVISOR = 10.0
@@ -148,6 +153,9 @@ class SolverSettings:
     onset_steps : float
         Adaptive: a step in which a contact closes lasts at most the Hertz contact time of its
         approach speed over this many steps [-], > 0.
+    adaptive_keep_growth : float
+        Adaptive: a step keeps its planned size (and the Newton factors of that size keep
+        serving) while the error estimate allows up to this factor of it [-], in [1, 2].
     adaptive_retries : int
         Adaptive: a run whose first failure is energy created by its steps (the energy audit)
         is run again from its start with ``adaptive_tol`` over :data:`RETRY_TOL_DIVISOR`, at
@@ -176,6 +184,7 @@ class SolverSettings:
     dt_min: float = DT_MIN_DEFAULT
     adaptive_tol: float = ADAPTIVE_TOL_DEFAULT
     onset_steps: float = ONSET_STEPS_DEFAULT
+    adaptive_keep_growth: float = KEEP_GROWTH_DEFAULT
     adaptive_retries: int = 1
 
     def __post_init__(self):
@@ -224,6 +233,11 @@ class SolverSettings:
                              f"(0, solver.dt = {dt!r}]")
         _finite("solver.adaptive_tol", self.adaptive_tol, positive=True)
         _finite("onset_steps", self.onset_steps, positive=True)
+        keep = _finite("solver.adaptive_keep_growth", self.adaptive_keep_growth)
+        low, high = KEEP_GROWTH_RANGE
+        if not low <= keep <= high:
+            raise ValueError(f"solver.adaptive_keep_growth: {self.adaptive_keep_growth!r} is not "
+                             f"allowed; allowed: in [{low:g}, {high:g}]")
 
     @classmethod
     def from_config(cls, cfg, **changes) -> SolverSettings:
@@ -243,6 +257,7 @@ class SolverSettings:
                       max_indentation=solver["max_indentation"],
                       adaptive=solver["adaptive"], dt_min=solver["dt_min"],
                       adaptive_tol=solver["adaptive_tol"],
+                      adaptive_keep_growth=solver["adaptive_keep_growth"],
                       adaptive_retries=solver["adaptive_retries"])
         values.update(changes)
         return cls(**values)
@@ -560,7 +575,8 @@ class _Loop:
             if settings.adaptive:
                 aset = nb.AdaptiveSettings(settings.output_dt, float(settings.dt_min),
                                            float(settings.adaptive_tol),
-                                           float(settings.onset_steps))
+                                           float(settings.onset_steps),
+                                           float(settings.adaptive_keep_growth))
                 self.adaptive = _adaptive_state(model, settings, start, out.time.size)
                 self._advance = lambda k, k_next: nb.integrate_compliant_adaptive(
                     k // every, k_next // every, kset, aset, start.arrays, start.state,
