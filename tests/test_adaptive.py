@@ -136,12 +136,15 @@ def _steady_state(name_overrides, t_lead, dt=1e-6):
     return model, (lead.q[-1], lead.v[-1], float(lead.time[-1]), v_pre)
 
 
-@pytest.mark.parametrize("rho_inf", [0.0, 0.5])  # the default and the study's twins'
-def test_adaptive_window_of_a_steady_bearing_matches_fixed_steps(rho_inf):
+# the default rho_inf and the study's twins', each at the default band; and a narrower band
+@pytest.mark.parametrize("rho_inf, keep", [(0.0, 1.5), (0.5, 1.5), (0.5, 1.1)])
+def test_adaptive_window_of_a_steady_bearing_matches_fixed_steps(rho_inf, keep):
     """The small-clearance point (2e-5 m, mu 0.01, 100 rad/s, e_N 0.7) with steel, restarted
     from the state (and the contacts' onset speeds) after a quarter revolution of fixed steps:
     over the next 2 ms (balls loaded between both races) the largest force per race with
-    adaptive steps is within 1 % of a fixed step of 0.25 us, with several times fewer steps."""
+    adaptive steps is within 1 % of a fixed step of 0.25 us, with several times fewer steps,
+    at either band where a step keeps its size (solver.adaptive_keep_growth), which changes
+    the steps taken."""
     model, (q0, v0, t0, v_pre) = _steady_state(
         ["model.clearance=2e-5", "model.mu=0.01", "model.omega0=100.0", "model.e_N=0.7"],
         0.25 * 2 * math.pi / 100.0)
@@ -149,13 +152,20 @@ def test_adaptive_window_of_a_steady_bearing_matches_fixed_steps(rho_inf):
     start = dict(q0=q0, v0=v0, t0=t0, v_pre0=v_pre)
     fixed = model.simulate(SolverSettings(2.5e-7, window, contact_model="compliant",
                                           output_every=40), **start)
-    adaptive = model.simulate(SolverSettings(1e-5, window, contact_model="compliant",
-                                             adaptive=True, rho_inf=rho_inf), **start)
+    def adaptive_run(keep_growth):
+        return model.simulate(SolverSettings(1e-5, window, contact_model="compliant",
+                                             adaptive=True, rho_inf=rho_inf,
+                                             adaptive_keep_growth=keep_growth), **start)
+
+    adaptive = adaptive_run(keep)
     for race in (slice(0, n), slice(n, 2 * n)):
         ref = fixed.F_N[1:, race].max()
         assert ref > 100.0  # loaded
         assert adaptive.F_N[1:, race].max() == pytest.approx(ref, rel=1e-2)
-    assert adaptive.extras["adaptive"]["n_steps_accepted"] < 8000 / 3
+    steps = adaptive.extras["adaptive"]["n_steps_accepted"]
+    assert steps < 8000 / 3
+    if keep != 1.5:
+        assert steps != adaptive_run(1.5).extras["adaptive"]["n_steps_accepted"]
 
 
 def test_a_step_below_dt_min_is_an_error_or_a_flag():
