@@ -1093,9 +1093,8 @@ def _steps_at_h(k0, k1, every, retrying, coef, st, ma, state, cs, out, work):
     as not converged. Returns (the step it stopped at, or k1; the first step committed as not
     converged, or -1).
 
-    A function of its own so that the time loop's hot path holds no retry: inlined into the
-    loop with the retry's code, the step ran a fifth to a third slower (measured with
-    ``benchmarks/bench_compliant.py``), for code that a converging run never enters."""
+    A function of its own so that the loop every step runs holds no retry, code that a
+    converging run never enters (what it costs inside: docs/compliant.md, "Speed")."""
     h = st.h
     lam = state.lam_s
     rw = work.retry
