@@ -259,11 +259,50 @@ def test_solver_settings_defaults_are_the_schema_defaults():
                 break
     assert {"tol", "max_iter", "dt_min", "adaptive_tol", "max_halvings",
             "adaptive_keep_growth"} <= set(checked)
+    # every field a configuration sets is checked against its key's range and read from it
+    from simcore.model.driver import SETTING_KEYS
+
+    named = {f.name: f"{section}.{f.name}" for f in dataclasses.fields(SolverSettings)
+             for section in ("model", "solver") if f.name in sections[section]["properties"]}
+    assert named == SETTING_KEYS
     solver = sections["solver"]["properties"]
     assert solver["max_halvings"]["maximum"] == MAX_HALVINGS
     assert solver["adaptive_retries"]["maximum"] == MAX_ADAPTIVE_RETRIES
     keep = solver["adaptive_keep_growth"]
     assert (keep["minimum"], keep["maximum"]) == KEEP_GROWTH_RANGE
+
+
+@pytest.mark.parametrize("field, value", [
+    ("dt", 0.2), ("rho_inf", 1.5), ("rho_inf", -0.1), ("tol", 0.0), ("max_iter", 0),
+    ("max_iter", 2.5), ("proximal", -1e-6), ("on_nonconvergence", "ignore"),
+    ("damping_law", "linear"), ("friction_regularization", 0.0), ("energy_tol", 0.0),
+    ("max_halvings", 11), ("max_indentation", 1.5), ("adaptive", 2), ("dt_min", 0.0),
+    ("adaptive_tol", 2.0), ("adaptive_keep_growth", 0.9), ("adaptive_retries", 4)])
+def test_solver_settings_refuse_what_a_configuration_refuses(field, value):
+    """A value a configuration refuses for a key (its schema range) is refused as well by
+    ``SolverSettings`` made in Python, naming the same key, before any work."""
+    from simcore.model import SolverSettings
+    from simcore.model.driver import SETTING_KEYS
+
+    key = SETTING_KEYS[field]
+    with pytest.raises(ConfigError, match=f"^{key}: "):
+        load_config(overrides=[f"{key}={value}"])
+    with pytest.raises(ValueError, match=f"^{key}: .* is not allowed; allowed: "):
+        SolverSettings(**{"dt": 1e-6, "t_end": 1e-3, field: value})
+
+
+def test_solver_settings_store_values_as_a_configuration_does():
+    """NumPy scalars, a whole float of an integer key and 0/1 of a boolean key become the
+    Python values a configuration holds, which the run file's attributes then carry."""
+    import numpy as np
+
+    from simcore.model import SolverSettings
+
+    settings = SolverSettings(np.float64(1e-6), 1e-3, max_iter=np.int64(20), max_halvings=3.0,
+                              contact_model="compliant", adaptive=1)
+    assert (type(settings.dt), type(settings.max_iter), type(settings.max_halvings)) == (
+        float, int, int)
+    assert settings.adaptive is True and (settings.max_iter, settings.max_halvings) == (20, 3)
 
 
 def test_the_schema_names_the_contact_models_of_the_code():

@@ -11,6 +11,7 @@ import json
 import math
 import re
 import warnings
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
@@ -178,6 +179,40 @@ def schema_default(section: str, key: str):
     """The default of the setting ``section.key`` as the schema gives it (e.g.
     ``schema_default("model", "bearing")``)."""
     return load_schema()["properties"][section]["properties"][key]["default"]
+
+
+@lru_cache(maxsize=None)
+def _setting_validator(key: str):
+    """The validator of the schema node of the setting ``key`` (``section.name``), and the
+    node; KeyError for a key the schema lacks."""
+    import jsonschema
+
+    root = load_schema()
+    section, name = key.split(".", 1)
+    node = _resolve(root["properties"][section]["properties"][name], root)
+    return jsonschema.Draft7Validator(node), node
+
+
+def check_setting(key: str, value):
+    """``value`` of the setting ``key`` (``section.name``) as a configuration holds it, checked
+    against the schema as a configuration's value is: a NumPy scalar as a Python one, then as
+    :func:`_coerce_scalars` stores it (a whole float of an integer key as an int, 0 and 1 of a
+    boolean key as false and true).
+
+    Raises
+    ------
+    ConfigError
+        Naming the key and what the schema allows, for a value the schema refuses or one that
+        is not finite.
+    """
+    validator, node = _setting_validator(key)
+    plain = value.item() if type(value).__module__ == "numpy" else value
+    if isinstance(plain, float) and not math.isfinite(plain):
+        raise ConfigError(f"{key}: {value!r} is not allowed; allowed: a finite number")
+    plain = _coerced(node, plain)
+    if not validator.is_valid(plain):
+        raise ConfigError(f"{key}: {value!r} is not allowed; allowed: {_allowed(node)}")
+    return plain
 
 
 def _list_words(schema: Mapping[str, Any]) -> str:
@@ -356,6 +391,17 @@ def _resolve_bearing(cfg: dict, explicit: set) -> None:
         raise ConfigError(str(exc)) from None
 
 
+def _coerced(node: Mapping[str, Any], value):
+    """``value`` of a key with schema ``node`` as :func:`_coerce_scalars` stores it."""
+    if node.get("type") == "integer" and isinstance(value, float) and value.is_integer():
+        return int(value)
+    if isinstance(value, bool) or not isinstance(value, int):
+        return value
+    if node.get("type") == "boolean" and value in (0, 1):
+        return bool(value)
+    return str(value) if node.get("type") == "string" else value
+
+
 def _coerce_scalars(cfg: dict, schema: Mapping[str, Any]) -> None:
     """0 and 1 as false and true for the boolean keys of the sections (a run file's netCDF
     attributes store the booleans of its configuration as integers), a whole number as its
@@ -367,17 +413,8 @@ def _coerce_scalars(cfg: dict, schema: Mapping[str, Any]) -> None:
         if not isinstance(values, dict):
             continue
         for key, sub in node.get("properties", {}).items():
-            value = values.get(key)
-            if (sub.get("type") == "integer" and isinstance(value, float)
-                    and value.is_integer()):
-                values[key] = int(value)
-                continue
-            if isinstance(value, bool) or not isinstance(value, int):
-                continue
-            if sub.get("type") == "boolean" and value in (0, 1):
-                values[key] = bool(value)
-            elif sub.get("type") == "string":
-                values[key] = str(value)
+            if key in values:
+                values[key] = _coerced(sub, values[key])
     _coerce_swept_names(cfg.get("sweep"), schema)
     study = cfg.get("study")
     if isinstance(study, dict):  # a held value of a category axis too: figure_fixed.bearing

@@ -19,22 +19,12 @@ from .driver import (  # noqa: F401  (re-exported)
     SolverError,
     SolverSettings,
     Trajectory,
+    _finite,
 )
 from .hertz import DAMPING_LAWS, damping_factor, hertz_stiffness  # noqa: F401
 
 CONTACT_KINDS = {"plane": nb.CONTACT_PLANE, "outside": nb.CONTACT_OUTSIDE,
                  "inside": nb.CONTACT_INSIDE}
-
-
-def _finite(name, value, positive=False, nonneg=False):
-    value = float(value)
-    if not np.isfinite(value):
-        raise ValueError(f"{name}: {value!r} is not allowed; allowed: a finite number")
-    if positive and value <= 0.0:
-        raise ValueError(f"{name}: {value!r} is not allowed; allowed: > 0")
-    if nonneg and value < 0.0:
-        raise ValueError(f"{name}: {value!r} is not allowed; allowed: >= 0")
-    return value
 
 
 class Model:

@@ -28,7 +28,6 @@ from ..config.parameters import tidy
 from ..kernels.bundles import STAGES
 from ..kernels.compliant_adaptive import GROWTH_MAX
 from .audit import ENERGY_FLOOR_J, EnergyAudit, drive_rate
-from .hertz import DAMPING_LAWS
 from .integrity import CheckSettings, run_checks
 
 CONTACT_MODELS = ("nonsmooth", "compliant")
@@ -47,7 +46,6 @@ KEEP_GROWTH_RANGE = (1.0, GROWTH_MAX)
 RETRY_TOL_DIVISOR = 10.0
 #: largest ``solver.adaptive_retries``
 MAX_ADAPTIVE_RETRIES = 3
-ON_NONCONVERGENCE = ("error", "warn")
 #: steps per kernel call by contact model when ``SolverSettings.chunk`` is None: a compliant
 #: step costs about 5 us, the checks and the call between two chunks about 0.2 ms
 #: (benchmarks/bench_compliant.py prints the paper case's time in 500-step chunks against this)
@@ -65,32 +63,39 @@ class _TighterTolerance(Exception):
     tolerance (``SolverSettings.adaptive_retries``)."""
 
 
-def _finite(name, value, positive=False):
+def _finite(name, value, positive=False, nonneg=False):
     value = float(value)
     if not np.isfinite(value):
         raise ValueError(f"{name}: {value!r} is not allowed; allowed: a finite number")
     if positive and value <= 0.0:
         raise ValueError(f"{name}: {value!r} is not allowed; allowed: > 0")
+    if nonneg and value < 0.0:
+        raise ValueError(f"{name}: {value!r} is not allowed; allowed: >= 0")
     return value
 
 
-def _count(name, value, largest: int) -> int:
-    """``value`` as a whole number in [0, largest]; a bool or a fraction is refused."""
-    if isinstance(value, bool) or int(value) != value or not 0 <= value <= largest:
-        raise ValueError(f"{name}: {value!r} is not allowed; allowed: a whole number in "
-                         f"[0, {largest}]")
-    return int(value)
-
-
-def _choice(name, value, allowed):
-    if value not in allowed:
-        raise ValueError(f"{name}: {value!r} is not allowed; allowed: " + ", ".join(allowed))
-    return value
+#: the configuration key of each :class:`SolverSettings` field a configuration sets: the
+#: schema's range for that key is the field's (:func:`simcore.config.check_setting`), and
+#: :meth:`SolverSettings.from_config` reads the field from it
+SETTING_KEYS = {
+    "dt": "solver.dt", "t_end": "solver.t_end", "rho_inf": "solver.rho_inf",
+    "tol": "solver.tol", "max_iter": "solver.max_iter", "proximal": "solver.proximal",
+    "on_nonconvergence": "solver.on_nonconvergence", "contact_model": "model.contact_model",
+    "damping_law": "model.damping_law",
+    "friction_regularization": "model.friction_regularization",
+    "energy_tol": "solver.energy_tol", "max_halvings": "solver.max_halvings",
+    "max_indentation": "solver.max_indentation", "adaptive": "solver.adaptive",
+    "dt_min": "solver.dt_min", "adaptive_tol": "solver.adaptive_tol",
+    "adaptive_keep_growth": "solver.adaptive_keep_growth",
+    "adaptive_retries": "solver.adaptive_retries",
+}
 
 
 @dataclass(frozen=True)
 class SolverSettings:
-    """Every setting of a run's time integration, checked when the object is made.
+    """Every setting of a run's time integration, checked when the object is made: a field a
+    configuration sets (:data:`SETTING_KEYS`) against its key's range in the schema, as the
+    configuration's value would be, and stored as the configuration holds it.
 
     Parameters
     ----------
@@ -188,56 +193,36 @@ class SolverSettings:
     adaptive_retries: int = 1
 
     def __post_init__(self):
-        dt = _finite("solver.dt", self.dt, positive=True)
-        t_end = _finite("solver.t_end", self.t_end, positive=True)
-        if t_end < dt:
-            raise ValueError(f"solver.t_end: {t_end} is not allowed; allowed: >= solver.dt")
-        _choice("solver.on_nonconvergence", self.on_nonconvergence, ON_NONCONVERGENCE)
-        _choice("model.contact_model", self.contact_model, CONTACT_MODELS)
-        _choice("model.damping_law", self.damping_law, DAMPING_LAWS)
-        v_reg = _finite("model.friction_regularization", self.friction_regularization,
-                        positive=True)
+        from ..config import check_setting
+
+        for name, key in SETTING_KEYS.items():  # each value as a configuration file's
+            object.__setattr__(self, name, check_setting(key, getattr(self, name)))
+        if self.t_end < self.dt:
+            raise ValueError(f"solver.t_end: {self.t_end} is not allowed; allowed: >= "
+                             "solver.dt")
+        _finite("v_pre_min", self.v_pre_min, positive=True)
         every = int(self.output_every)
         if every < 1 or (not self.compliant and every != 1):
             raise ValueError(f"solver.output_dt: {every} steps per output is not allowed; "
                              "allowed: 1 for the nonsmooth model (its impulse filter needs every "
                              "step), a whole number >= 1 of steps for compliant")
-        object.__setattr__(self, "max_halvings",
-                           _count("solver.max_halvings", self.max_halvings, MAX_HALVINGS))
-        object.__setattr__(self, "adaptive_retries", _count(
-            "solver.adaptive_retries", self.adaptive_retries, MAX_ADAPTIVE_RETRIES))
-        if self.adaptive:
-            self._check_adaptive(dt)
-        object.__setattr__(self, "dt", dt)
-        object.__setattr__(self, "t_end", t_end)
-        object.__setattr__(self, "friction_regularization", v_reg)
         object.__setattr__(self, "output_every", every)
-        indentation = _finite("solver.max_indentation", self.max_indentation, positive=True)
-        if indentation > 1.0:
-            raise ValueError(f"solver.max_indentation: {indentation} is not allowed; allowed: "
-                             "in (0, 1]")
-        object.__setattr__(self, "max_indentation", indentation)
+        if self.adaptive:
+            self._check_adaptive()
         whole = isinstance(self.chunk, (int, np.integer)) and not isinstance(self.chunk, bool)
         if self.chunk is not None and not (whole and self.chunk >= 1):
             raise ValueError(f"chunk: {self.chunk!r} is not allowed; allowed: a whole number "
                              ">= 1 of steps, or None")
 
-    def _check_adaptive(self, dt: float) -> None:
+    def _check_adaptive(self) -> None:
         if not self.compliant:
             raise ValueError("solver.adaptive: true is not allowed with model.contact_model = "
                              "nonsmooth; allowed: false (adaptive steps are for compliant "
                              "contacts)")
-        dt_min = _finite("solver.dt_min", self.dt_min, positive=True)
-        if dt_min > dt:
+        if self.dt_min > self.dt:
             raise ValueError(f"solver.dt_min: {self.dt_min!r} is not allowed; allowed: in "
-                             f"(0, solver.dt = {dt!r}]")
-        _finite("solver.adaptive_tol", self.adaptive_tol, positive=True)
+                             f"(0, solver.dt = {self.dt!r}]")
         _finite("onset_steps", self.onset_steps, positive=True)
-        keep = _finite("solver.adaptive_keep_growth", self.adaptive_keep_growth)
-        low, high = KEEP_GROWTH_RANGE
-        if not low <= keep <= high:
-            raise ValueError(f"solver.adaptive_keep_growth: {self.adaptive_keep_growth!r} is not "
-                             f"allowed; allowed: in [{low:g}, {high:g}]")
 
     @classmethod
     def from_config(cls, cfg, **changes) -> SolverSettings:
@@ -245,20 +230,9 @@ class SolverSettings:
         ``changes`` replace single fields (e.g. ``t_end``)."""
         from ..config import output_every
 
-        solver, model = cfg["solver"], cfg["model"]
-        values = dict(dt=solver["dt"], t_end=solver["t_end"], rho_inf=solver["rho_inf"],
-                      tol=solver["tol"], max_iter=solver["max_iter"],
-                      proximal=solver["proximal"],
-                      on_nonconvergence=solver["on_nonconvergence"],
-                      contact_model=model["contact_model"], damping_law=model["damping_law"],
-                      friction_regularization=model["friction_regularization"],
-                      output_every=output_every(cfg), energy_tol=solver["energy_tol"],
-                      max_halvings=solver["max_halvings"],
-                      max_indentation=solver["max_indentation"],
-                      adaptive=solver["adaptive"], dt_min=solver["dt_min"],
-                      adaptive_tol=solver["adaptive_tol"],
-                      adaptive_keep_growth=solver["adaptive_keep_growth"],
-                      adaptive_retries=solver["adaptive_retries"])
+        values = {name: cfg[section][setting] for name, (section, setting)
+                  in ((name, key.split(".", 1)) for name, key in SETTING_KEYS.items())}
+        values["output_every"] = output_every(cfg)
         values.update(changes)
         return cls(**values)
 
