@@ -208,10 +208,10 @@ def check_setting(key: str, value):
     validator, node = _setting_validator(key)
     plain = value.item() if type(value).__module__ == "numpy" else value
     if isinstance(plain, float) and not math.isfinite(plain):
-        raise ConfigError(f"{key}: {value!r} is not allowed; allowed: a finite number")
+        raise ConfigError(f"{key}: {plain!r} is not allowed; allowed: a finite number")
     plain = _coerced(node, plain)
     if not validator.is_valid(plain):
-        raise ConfigError(f"{key}: {value!r} is not allowed; allowed: {_allowed(node)}")
+        raise ConfigError(f"{key}: {plain!r} is not allowed; allowed: {_allowed(node)}")
     return plain
 
 

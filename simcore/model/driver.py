@@ -24,6 +24,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .. import kernels as nb
+from ..config import check_setting
 from ..config.parameters import tidy
 from ..kernels.bundles import STAGES
 from ..kernels.compliant_adaptive import GROWTH_MAX
@@ -193,8 +194,6 @@ class SolverSettings:
     adaptive_retries: int = 1
 
     def __post_init__(self):
-        from ..config import check_setting
-
         for name, key in SETTING_KEYS.items():  # each value as a configuration file's
             object.__setattr__(self, name, check_setting(key, getattr(self, name)))
         if self.t_end < self.dt:
@@ -230,9 +229,10 @@ class SolverSettings:
         ``changes`` replace single fields (e.g. ``t_end``)."""
         from ..config import output_every
 
-        values = {name: cfg[section][setting] for name, (section, setting)
-                  in ((name, key.split(".", 1)) for name, key in SETTING_KEYS.items())}
-        values["output_every"] = output_every(cfg)
+        values = {"output_every": output_every(cfg)}
+        for name, key in SETTING_KEYS.items():
+            section, setting = key.split(".", 1)
+            values[name] = cfg[section][setting]
         values.update(changes)
         return cls(**values)
 
