@@ -291,6 +291,25 @@ def test_solver_settings_refuse_what_a_configuration_refuses(field, value):
         SolverSettings(**{"dt": 1e-6, "t_end": 1e-3, field: value})
 
 
+@pytest.mark.parametrize("key, value", [("clearance", -1e-3), ("n_balls", 2.5),
+                                        ("cage_damping", -1.0), ("bearing", "9999")])
+def test_a_model_section_changed_by_hand_is_checked_by_the_builders(key, value):
+    """A validated ``model`` section changed by hand (a notebook's way to vary one value) is
+    checked by the mechanism builders as a configuration would be: the value the schema
+    refuses, and an unknown key, are refused naming the key."""
+    from simcore.model.mechanism import bearing_alone, crank_slider
+
+    with pytest.raises(ConfigError, match=f"^model.{key}: "):
+        load_config(overrides=[f"model.{key}={value}"])
+    for build in (crank_slider, lambda m: bearing_alone(m, 100.0)):
+        model = dict(load_config()["model"], **{key: value})
+        with pytest.raises(ConfigError, match=f"^model.{key}: .* is not allowed; allowed: "):
+            build(model)
+        model = dict(load_config()["model"], clearence=1e-4)
+        with pytest.raises(ConfigError, match="^model.clearence: unknown key"):
+            build(model)
+
+
 def test_solver_settings_store_values_as_a_configuration_does():
     """NumPy scalars, a whole float of an integer key and 0/1 of a boolean key become the
     Python values a configuration holds, which the run file's attributes then carry."""

@@ -215,6 +215,28 @@ def check_setting(key: str, value):
     return plain
 
 
+def check_section(section: str, values: Mapping[str, Any]) -> dict:
+    """The settings ``values`` of the configuration section ``section`` (``"model"``, ...),
+    each checked and stored by :func:`check_setting`; a key the section lacks is refused.
+    The checks that need several keys at once are the whole configuration's
+    (:func:`validate_config`).
+
+    Raises
+    ------
+    ConfigError
+        Naming the first offending key and what is allowed.
+    """
+    checked = {}
+    for key, value in values.items():
+        try:
+            checked[key] = check_setting(f"{section}.{key}", value)
+        except KeyError:
+            allowed = load_schema()["properties"][section]["properties"]
+            raise ConfigError(f"{section}.{key}: unknown key; allowed keys here: "
+                              + ", ".join(allowed)) from None
+    return checked
+
+
 def _list_words(schema: Mapping[str, Any]) -> str:
     """What a list node of the schema allows, in words ("a list of 1 to 4 distinct names")."""
     lo, hi = schema.get("minItems"), schema.get("maxItems")

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..config import check_section
 from .bearing import BearingGeometry, race_grooves
 from .builder import Model
 from .integrity import BearingChecks
@@ -165,7 +166,9 @@ def crank_slider(model: dict) -> tuple[Model, BearingLayout]:
     Parameters
     ----------
     model : dict
-        The ``model`` section of a validated configuration (SI units; docs/model.md).
+        The ``model`` section of a validated configuration (SI units; docs/model.md); each
+        value is checked against its key's range in the schema (a section changed by hand
+        after :func:`simcore.config.load_config` too), an unknown key is refused.
 
     Returns
     -------
@@ -182,6 +185,7 @@ def crank_slider(model: dict) -> tuple[Model, BearingLayout]:
     each ball given the cage rotation and spin with zero slip at both races as the contact
     element measures it (at r_A and r_C).
     """
+    model = check_section("model", model)  # (a section changed by hand, too)
     L1, L2 = model["crank_length"], model["rod_length"]
     w0 = model["omega0"]
     spec = BearingSpec.from_model(model)
@@ -277,7 +281,8 @@ def bearing_alone(model: dict, load: float, phase: float = 0.0,
     ----------
     model : dict
         The ``model`` section of a validated configuration: the bearing's radii, balls, cage
-        and contact laws, the material and ``gravity`` (> 0) are read from it.
+        and contact laws, the material and ``gravity`` (> 0) are read from it; each value is
+        checked against its key's range in the schema, as by :func:`crank_slider`.
     load : float
         Radial load [N], > 0: the free race is a body of mass ``load / gravity`` hanging on the
         balls, so its weight is the load (its inertia is the race's, ``outer_inertia`` or
@@ -298,6 +303,7 @@ def bearing_alone(model: dict, load: float, phase: float = 0.0,
     """
     if fixed not in ("inner", "outer"):
         raise ValueError(f"fixed: {fixed!r} is not allowed; allowed: 'inner', 'outer'")
+    model = check_section("model", model)
     gravity = float(model["gravity"])
     if gravity <= 0.0 or not load > 0.0:
         raise ValueError(f"load: {load!r} with model.gravity = {gravity!r} is not allowed; "
