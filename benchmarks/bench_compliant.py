@@ -8,8 +8,10 @@ Prints:
   default;
 - Newton iterations per step (smooth stage) and joint projection iterations;
 - where the time goes: one step's parts timed apart in compiled loops (force evaluation without
-  and with tangents, the Newton matrix solve, a chord iterate's update, the joint projection,
-  the energy of an output sample);
+  and with tangents, the Newton matrix solve, the explicit inverse of its factors that the
+  chord iterates after it use, a chord iterate's update, the joint projection, the energy of
+  an output sample), at the paper case's end and at a loaded state (the study's reference
+  point's compliant twin after 0.2 s, at a step of 8 us);
 - the cost of one zoom (0.5 ms at dt = 1e-6 s from the largest impact of a nonsmooth run);
 - the cost of a compliant step in the study's setting: a zoom of a steady run of the default
   study (clearance 1e-4 m, omega0 = 50 rad/s) on its largest impact, 2,000 steps, where the
@@ -43,6 +45,7 @@ def main() -> None:
     from simcore.model import SolverSettings
     from simcore.model.driver import DEFAULT_CHUNK
     from simcore.model.mechanism import crank_slider
+    from simcore.study.plan import twin_config
 
     cfg = load_config(overrides=["model.youngs_modulus=2.1e11"])
     model, _ = crank_slider(cfg["model"])
@@ -83,7 +86,12 @@ def main() -> None:
         project_joints_into,
         projection_work,
     )
-    from simcore.kernels.generalized_alpha import smooth_work
+    from simcore.kernels.generalized_alpha import (
+        WITH_CONTACT_BLOCKS,
+        alpha_coefficients,
+        newton_matrix_into,
+        smooth_work,
+    )
     from simcore.kernels.hertz import (
         RECORD_ROWS,
         ContactLaw,
@@ -108,18 +116,24 @@ def main() -> None:
         return K, C
 
     @njit
-    def loop_chord(rhs, G, sw, bw, reps):
+    def loop_chord(rhs, G, cv, sw, bw, reps):
         # a chord iterate's update (products with the explicit inverse of the last factors)
         for _ in range(reps):
             copy_vector(sw.sol, rhs, rhs.shape[0])
-            chord_apply(sw.fac, G, 1.5e-6, 1.0, bw, sw.sol)
+            chord_apply(sw.fac, G, cv, 1.0, bw, sw.sol)
 
     @njit
-    def loop_solve(J, rhs, G, sw, bw, reps):
+    def loop_solve(J, rhs, G, cv, sw, bw, reps):
         # the Newton step as the compliant stage takes it (on a copy of the residual)
         for _ in range(reps):
             copy_vector(sw.sol, rhs, rhs.shape[0])
-            newton_solve(J, G, 1.5e-6, sw.sol, sw.fac, sw.S, sw.piv, bw)
+            newton_solve(J, G, cv, sw.sol, sw.fac, sw.S, sw.piv, bw)
+
+    @njit
+    def loop_operator(G, cv, sw, bw, reps):
+        # the explicit inverse of a Newton step's factors, made for the chord iterates after it
+        for _ in range(reps):
+            chord_operator(sw.fac, G, cv, sw.S, sw.piv, bw)
 
     @njit
     def loop_project(q, v, ma, pw, reps):
@@ -144,24 +158,49 @@ def main() -> None:
         fn(*a, 20000)
         return (time.process_time() - t0) / 20000 * 1e6
 
-    K, C = loop_forces(st.q, st.v, arr, cs.v_pre, hw, np.bool_(True), 1)
-    n = st.q.size
-    m = nb.joint_row_count(arr.jt_type)
-    G = np.zeros((m, n))
-    nb.bilateral(st.q, st.v, 0.0, arr, np.zeros(m), G, np.zeros(m), np.zeros(m))
-    J = np.diag(arr.mdiag) + 1e-12 * K + 1.5e-6 * C
-    rhs = np.ones(n + m)
-    cw = compliant_work(n, m, arr.ct_type.size)
-    sw = smooth_work(n, m)
-    newton = cpu(loop_solve, J, rhs, G, sw, cw.branches)
-    chord_operator(sw.fac, G, 1.5e-6, sw.S, sw.piv, cw.branches)
-    print(f"parts of a step (CPU us, {int(cs.closed.sum())} contacts closed): forces "
-          f"{cpu(loop_forces, st.q, st.v, arr, cs.v_pre, hw, np.bool_(False)):.2f} and with "
-          f"tangents {cpu(loop_forces, st.q, st.v, arr, cs.v_pre, hw, np.bool_(True)):.2f} per "
-          f"evaluation, Newton solve {newton:.2f}, chord update "
-          f"{cpu(loop_chord, rhs, G, sw, cw.branches):.2f}, joint projection "
-          f"{cpu(loop_project, st.q, st.v, arr, projection_work(n, m)):.2f}, energy (per "
-          f"output sample) {cpu(loop_energy, st.q, st.v, arr, hw):.2f}")
+    def print_parts(what, st, cs, arr, J_of):
+        """One step's parts at the state (st, cs) of a model with arrays ``arr``; ``J_of(K,
+        C)``: the Newton matrix and the coefficient cv of the joint rows."""
+        K, C = loop_forces(st.q, st.v, arr, cs.v_pre, hw, np.bool_(True), 1)
+        n = st.q.size
+        m = nb.joint_row_count(arr.jt_type)
+        G = np.zeros((m, n))
+        nb.bilateral(st.q, st.v, 0.0, arr, np.zeros(m), G, np.zeros(m), np.zeros(m))
+        J, cv = J_of(K, C, arr)
+        rhs = np.ones(n + m)
+        bw = compliant_work(n, m, arr.ct_type.size).branches
+        sw = smooth_work(n, m)
+        newton = cpu(loop_solve, J, rhs, G, cv, sw, bw)
+        operator = cpu(loop_operator, G, cv, sw, bw)
+        print(f"parts of a step, {what} (CPU us, {int(cs.closed.sum())} contacts closed): "
+              f"forces {cpu(loop_forces, st.q, st.v, arr, cs.v_pre, hw, np.bool_(False)):.2f} "
+              f"and with tangents "
+              f"{cpu(loop_forces, st.q, st.v, arr, cs.v_pre, hw, np.bool_(True)):.2f} per "
+              f"evaluation, Newton solve {newton:.2f}, chord operator {operator:.2f}, chord "
+              f"update {cpu(loop_chord, rhs, G, cv, sw, bw):.2f}, joint projection "
+              f"{cpu(loop_project, st.q, st.v, arr, projection_work(n, m)):.2f}, energy (per "
+              f"output sample) {cpu(loop_energy, st.q, st.v, arr, hw):.2f}")
+
+    print_parts("paper case", st, cs, arr,
+                lambda K, C, arr: (np.diag(arr.mdiag) + 1e-12 * K + 1.5e-6 * C, 1.5e-6))
+
+    # a loaded state: the reference point's twin (steady, several balls loaded) after 0.2 s
+    twin = twin_config(load_config(overrides=[
+        "model.clearance=4e-4", "model.mu=0.01", "model.omega0=50", "model.e_N=0.9",
+        "model.youngs_modulus=2.1e11", "model.drive=constant"]))
+    twin_model, _ = crank_slider(twin["model"])
+    twin_settings = SolverSettings.from_config(twin, t_end=0.2)
+    end = twin_model.simulate(twin_settings).extras
+    coef = alpha_coefficients(twin_settings.rho_inf)
+    h = 8e-6  # about the twin's mean step there
+
+    def twin_matrix(K, C, arr):
+        J = np.zeros_like(K)
+        newton_matrix_into(J, K, C, h, coef, arr, WITH_CONTACT_BLOCKS)
+        return J, h * coef[2] * (1.0 - coef[1]) / (1.0 - coef[0])
+
+    print_parts(f"reference point's twin at t = 0.2 s, h = {h:g} s", end["step_state"],
+                end["compliant_state"], twin_model.arrays(), twin_matrix)
 
     run = simcore.run(load_config(overrides=["solver.t_end=0.004"]))
     lam = run["Lambda_N"].values
