@@ -232,9 +232,14 @@ def check_section(section: str, values: Mapping[str, Any]) -> dict:
             checked[key] = check_setting(f"{section}.{key}", value)
         except KeyError:
             allowed = load_schema()["properties"][section]["properties"]
-            raise ConfigError(f"{section}.{key}: unknown key; allowed keys here: "
-                              + ", ".join(allowed)) from None
+            raise ConfigError(_unknown_key(f"{section}.{key}", allowed)) from None
     return checked
+
+
+def _unknown_key(name: str, allowed: Iterable[str]) -> str:
+    """The message that refuses the key ``name`` (as written, with its section) where only
+    the keys ``allowed`` are."""
+    return f"{name}: unknown key; allowed keys here: " + ", ".join(allowed)
 
 
 def _list_words(schema: Mapping[str, Any]) -> str:
@@ -333,7 +338,7 @@ def _format_error(error, root: Mapping[str, Any]) -> str:
             return (f"sweep.{extra[0]}: {what}; allowed: a numeric, boolean or enumerated "
                     "key of model, solver or analysis as section.key (e.g. "
                     "model.cage_stiffness, solver.dt), or a model key alone (e.g. clearance)")
-        return (f"{where}{extra[0]}: unknown key; allowed keys here: " + ", ".join(allowed))
+        return _unknown_key(f"{where}{extra[0]}", allowed)
     node = _resolve(error.schema, root)
     value = error.instance
     return f"{path}: {value!r} is not allowed; allowed: {_allowed(node)}"
