@@ -160,7 +160,7 @@ def main() -> None:
 
     def print_parts(what, st, cs, arr, J_of):
         """One step's parts at the state (st, cs) of a model with arrays ``arr``; ``J_of(K,
-        C)``: the Newton matrix and the coefficient cv of the joint rows."""
+        C, arr)``: the Newton matrix and the coefficient cv of the joint rows."""
         K, C = loop_forces(st.q, st.v, arr, cs.v_pre, hw, np.bool_(True), 1)
         n = st.q.size
         m = nb.joint_row_count(arr.jt_type)

@@ -231,7 +231,7 @@ def check_section(section: str, values: Mapping[str, Any]) -> dict:
         try:
             checked[key] = check_setting(f"{section}.{key}", value)
         except KeyError:
-            allowed = load_schema()["properties"][section]["properties"]
+            allowed = sorted(load_schema()["properties"][section]["properties"])
             raise ConfigError(_unknown_key(f"{section}.{key}", allowed)) from None
     return checked
 
