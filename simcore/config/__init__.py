@@ -207,8 +207,7 @@ def check_setting(key: str, value):
     """
     validator, node = _setting_validator(key)
     plain = value.item() if type(value).__module__ == "numpy" else value
-    if isinstance(plain, float) and not math.isfinite(plain):
-        raise ConfigError(f"{key}: {plain!r} is not allowed; allowed: a finite number")
+    _check_finite(plain, key)
     plain = _coerced(node, plain)
     if not validator.is_valid(plain):
         raise ConfigError(f"{key}: {plain!r} is not allowed; allowed: {_allowed(node)}")
@@ -456,17 +455,15 @@ def _coerce_swept_names(sweep, schema: Mapping[str, Any], lists: bool = True) ->
 
     if not isinstance(sweep, dict):
         return
-
-    def text(v):
-        return str(v) if isinstance(v, int) and not isinstance(v, bool) else v
-
     for written, values in sweep.items():
         key = canonical(str(written))
         if key is None or (lists and not isinstance(values, list)):
             continue
         section, name = key.split(".", 1)
-        if schema["properties"][section]["properties"][name].get("type") == "string":
-            sweep[written] = [text(v) for v in values] if lists else text(values)
+        node = schema["properties"][section]["properties"][name]
+        if node.get("type") == "string":
+            sweep[written] = ([_coerced(node, v) for v in values] if lists
+                              else _coerced(node, values))
 
 
 def _check_magnitudes(cfg: Mapping[str, Any]) -> None:
