@@ -195,6 +195,30 @@ def test_a_loop_kernel_is_linked():
     assert patches.LINKED[before:] == ["_toy_loop"] and not patches.LINK_FAILED
 
 
+def _toy_step(x, out):
+    s = 0.0
+    for i in range(x.shape[0]):
+        out[i] = _stage(x, i)
+        s += out[i]
+    return s
+
+
+def test_a_step_kernel_is_linked():
+    """A step kernel (simcore.kernels.jit.step_kernel) is registered as a loop is: called from
+    Python (through its twin with an entry), its library is only linked and it computes what
+    the Python function computes."""
+    from simcore.kernels.jit import step_kernel
+
+    x = np.linspace(0.0, 1.0, 5)
+    expected = _toy_step(x, np.zeros(5))
+    before = len(patches.LINKED)
+    assert step_kernel(_toy_step)(x, np.zeros(5)) == expected
+    if not patches.enabled("numba_link_only"):
+        assert patches.LINKED[before:] == []
+        return
+    assert patches.LINKED[before:] == ["_toy_step"] and not patches.LINK_FAILED
+
+
 def test_a_noinline_callee_is_left_as_it_is():
     """``noinline`` excludes ``alwaysinline`` (LLVM refuses the pair): the linking passes over
     such a callee (llvmlite reports attributes as bytes)."""
@@ -218,8 +242,11 @@ print(",".join(patches.LINKED), ",".join(patches.LINK_FAILED) or "-")
 @pytest.mark.skipif(not patches.enabled("numba_link_only"),
                     reason="start-up patch numba_link_only is off")
 def test_the_compliant_loop_is_linked(tmp_path):
-    """With an empty cache the compliant model's time loop is linked too, none falls back."""
+    """With an empty cache the compliant model's time loop and the step kernels it compiles
+    are linked, none falls back."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
     out = subprocess.run([sys.executable, "-c", COMPLIANT_LINKED], env=env, check=True,
                          capture_output=True, text=True).stdout.split()
-    assert out == ["integrate_compliant_chunk", "-"]
+    linked, failed = out
+    assert failed == "-"
+    assert {"integrate_compliant_chunk", "compliant_smooth_step"} <= set(linked.split(","))

@@ -1084,79 +1084,6 @@ def _retry_in_substeps(t1, h, h_before, max_halvings, coef, st, ma, state, cs, w
     return all_ok, level, h_last
 
 
-@step_kernel
-def _steps_at_h(k0, k1, every, retrying, coef, st, ma, state, cs, out, work):
-    """Steps k0 .. k1-1 of size ``st.h`` [s] from a state whose last step had that size (the
-    fixed loop's steps but the rare ones of :func:`_step_off_course`). With ``retrying`` it
-    stops at a step that does not converge, taken but not committed (``state.lam_s`` its
-    failed iterate, ``work.retry.lam_save`` the start's); without, such a step is committed
-    as not converged. Returns (the step it stopped at, or k1; the first step committed as not
-    converged, or -1).
-
-    A function of its own so that the loop every step runs holds no retry, code that a
-    converging run never enters (what it costs inside: docs/compliant.md, "Speed")."""
-    h = st.h
-    lam = state.lam_s
-    rw = work.retry
-    first_bad = -1
-    for k in range(k0, k1):
-        t1 = st.t0 + (k + 1) * h
-        # the open contacts' velocities are needed at the output rows only (elsewhere an
-        # onset speed is computed when its contact closes)
-        sample = (k + 1) % every == 0
-        if retrying:
-            copy_vector(rw.lam_save, lam, lam.shape[0])
-        it_s, ok_s, it_p, ok_p = compliant_step_into(state, state.acc, t1, h, 1.0, coef, st,
-                                                     ma, cs, work, sample)
-        ok = ok_s and ok_p
-        if not ok and retrying:
-            return k, first_bad
-        commit_step(h, state, cs, work, it_s, it_p, ok, st.drive_row, sample)
-        if not ok and first_bad < 0:
-            first_bad = k
-        if sample:
-            write_sample((k + 1) // every, state, cs, out, ma, st.drive_row, work.smooth.trig,
-                         every * h)
-    return k1, first_bad
-
-
-@step_kernel
-def _step_off_course(k, every, h_last, max_halvings, failed, coef, st, ma, state, cs, out,
-                     work):
-    """Step k of the fixed loop where it is not an ordinary step of size ``st.h``: one that
-    :func:`_steps_at_h` stopped at (``failed``), taken again as substeps
-    (:func:`_retry_in_substeps`; ``out.halvings`` of its interval records the halvings), or the
-    step after substeps (the last of size ``h_last`` [s]), from start accelerations corrected
-    to its size (:func:`start_accelerations`) and itself retried if it fails. Writes the
-    step's output row if it ends one. Returns (whether it converged, the size of its last
-    (sub)step [s])."""
-    h = st.h
-    t1 = st.t0 + (k + 1) * h
-    sample = (k + 1) % every == 0
-    rw = work.retry
-    lam = state.lam_s
-    ok = False
-    if not failed:
-        start_accelerations(state, h / h_last, rw.acc_c)
-        if max_halvings > 0:
-            copy_vector(rw.lam_save, lam, lam.shape[0])
-        it_s, ok_s, it_p, ok_p = compliant_step_into(state, rw.acc_c, t1, h, h / h_last, coef,
-                                                     st, ma, cs, work, sample)
-        ok = ok_s and ok_p
-        if ok or max_halvings == 0:
-            commit_step(h, state, cs, work, it_s, it_p, ok, st.drive_row, sample)
-            h_last = h
-    if not ok and max_halvings > 0:
-        ok, level, h_last = _retry_in_substeps(t1, h, h_last, max_halvings, coef, st, ma,
-                                               state, cs, work, sample)
-        row = k // every + 1
-        out.halvings[row] = max(out.halvings[row], level)
-    if sample:
-        write_sample((k + 1) // every, state, cs, out, ma, st.drive_row, work.smooth.trig,
-                     every * h)
-    return ok, h_last
-
-
 @loop_kernel
 def integrate_compliant_chunk(k0, k1, every, max_halvings, st, ma, state, cs, out, work):
     """Advance steps k0 .. k1-1 of the compliant model by the fixed step ``st.h`` (state at
@@ -1164,8 +1091,7 @@ def integrate_compliant_chunk(k0, k1, every, max_halvings, st, ma, state, cs, ou
     taken again from its start as 2, 4, ... 2^``max_halvings`` substeps
     (:func:`_retry_in_substeps`; ``out.halvings`` of its interval records the halvings), and
     the step after the substeps starts from accelerations corrected to its size
-    (:func:`start_accelerations`). The ordinary steps run in :func:`_steps_at_h`, those two
-    kinds in :func:`_step_off_course`.
+    (:func:`start_accelerations`).
 
     Every ``every`` steps the output row (k + 1) // every is written (:func:`write_sample`):
     q, v, energy (kinetic, gravitational, springs and the contacts' elastic energy) at that
@@ -1197,21 +1123,33 @@ def integrate_compliant_chunk(k0, k1, every, max_halvings, st, ma, state, cs, ou
     first_bad = -1
     rw = work.retry
     h_last = rw.h_last[0] if rw.h_last[0] > 0.0 else h
-    k = k0
-    while k < k1:
-        failed = False
-        if h_last == h:
-            k, bad = _steps_at_h(k, k1, every, max_halvings > 0, coef, st, ma, state, cs, out,
-                                 work)
-            if bad >= 0 and first_bad < 0:
-                first_bad = bad
-            if k >= k1:
-                break
-            failed = True
-        ok, h_last = _step_off_course(k, every, h_last, max_halvings, failed, coef, st, ma,
-                                      state, cs, out, work)
+    lam = state.lam_s
+    for k in range(k0, k1):
+        t1 = st.t0 + (k + 1) * h
+        # the open contacts' velocities are needed at the output rows only (elsewhere an
+        # onset speed is computed when its contact closes)
+        sample = (k + 1) % every == 0
+        acc = state.acc
+        if h_last != h:  # the step after a retried one's substeps
+            start_accelerations(state, h / h_last, rw.acc_c)
+            acc = rw.acc_c
+        if max_halvings > 0:
+            copy_vector(rw.lam_save, lam, lam.shape[0])
+        it_s, ok_s, it_p, ok_p = compliant_step_into(state, acc, t1, h, h / h_last, coef, st,
+                                                     ma, cs, work, sample)
+        ok = ok_s and ok_p
+        if ok or max_halvings == 0:
+            commit_step(h, state, cs, work, it_s, it_p, ok, st.drive_row, sample)
+            h_last = h
+        else:
+            ok, level, h_last = _retry_in_substeps(t1, h, h_last, max_halvings, coef, st,
+                                                   ma, state, cs, work, sample)
+            row = k // every + 1
+            out.halvings[row] = max(out.halvings[row], level)
         if not ok and first_bad < 0:
             first_bad = k
-        k += 1
+        if sample:
+            write_sample((k + 1) // every, state, cs, out, ma, st.drive_row, work.smooth.trig,
+                         every * h)
     rw.h_last[0] = h_last
     return first_bad

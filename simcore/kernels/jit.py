@@ -2,7 +2,7 @@
 
 :data:`kernel` is Numba's ``njit`` with the on-disk cache and NumPy's error model (a division by
 zero gives inf or NaN, which the convergence and energy checks catch, instead of a compiled
-exception path). :data:`step_kernel` is the same for the kernels of the time step that allocate
+exception path). :func:`step_kernel` is the same for the kernels of the time step that allocate
 no array: they are compiled without Numba's reference counting. With it, every array handed to
 a function (each member of a bundle too) and every row view gets two atomic updates of its
 count, some 15 % of a step's time in the bearing's small functions. Such a kernel must not
@@ -14,10 +14,11 @@ Both are for kernels that only other kernels call: they are compiled without a P
 call from Python still works, through a twin compiled on first use). A kernel that simcore
 calls from Python is an :data:`entry_kernel` or :data:`entry_step_kernel`.
 
-:data:`inline_kernel` is :data:`step_kernel` for small helpers that their callers take in
+:data:`inline_kernel` is :func:`step_kernel` for small helpers that their callers take in
 whole (see its comment); :data:`stage` is a named part of a larger kernel, compiled only as
-part of it. :func:`loop_kernel` is :data:`entry_step_kernel` for a time loop, whose
-callees (the stages of a step) are large and already optimised: see its docstring.
+part of it. :func:`loop_kernel` is :data:`entry_step_kernel` for a time loop. A step kernel's
+and a time loop's libraries are only linked, their callees inlined as they were optimised in
+their own libraries (see :func:`step_kernel`).
 
 All release Python's global interpreter lock while they run (``nogil``): runs started from
 several Python threads integrate in parallel (each run has its own arrays; the kernels keep no
@@ -38,9 +39,8 @@ _STEP = dict(cache=True, error_model="numpy", _nrt=False, no_cfunc_wrapper=True,
 
 #: Kernels that may allocate arrays, called by other kernels only.
 kernel = internal_njit(**_ALLOCATING)
-#: Kernels that allocate nothing, called by other kernels only.
-step_kernel = internal_njit(**_STEP)
-#: :data:`kernel` and :data:`step_kernel` for kernels that simcore calls from Python.
+_step_njit = internal_njit(**_STEP)
+#: :data:`kernel` and :func:`step_kernel` for kernels that simcore calls from Python.
 entry_kernel = njit(**_ALLOCATING)
 entry_step_kernel = njit(**_STEP)
 
@@ -62,13 +62,25 @@ stage = njit(inline="always", error_model="numpy", _nrt=False, no_cfunc_wrapper=
              nogil=True)
 
 
-def loop_kernel(func):
-    """:data:`entry_step_kernel` for a time loop: its compiled callees are linked in as they are.
+def step_kernel(func):
+    """A kernel that allocates nothing, called by other kernels only (module docstring), whose
+    library is only linked: its direct callees, each already optimised in its own library, are
+    inlined into it and the argument passing cleaned up, not optimised a second time with it.
 
-    A time loop's callees are the stages of a step, each already optimised in its own library;
-    the loop's library is only linked (its direct callees inlined), not optimised as a whole a
-    second time: the same speed and bits for a shorter cold compile. That is a start-up patch on
-    Numba's internals, :func:`simcore.startup.patches.install_link_only`; without it (switched
-    off, or another Numba) the loop is optimised as any other kernel.
+    Numba optimises each kernel's library as a whole with its callees' libraries linked in, so
+    a kernel several calls above the arithmetic (the compliant step, its smooth stage) would
+    have its callees optimised again in every caller: that lengthens the cold compile and
+    gives slower code for the compliant step (docs/performance.md, "A cold compile", gives both
+    figures). The arithmetic is IEEE without fast-math either way, so the results are the
+    same to the bit. The linking is a start-up patch on Numba's internals
+    (:func:`simcore.startup.patches.install_link_only`); without it (switched off, or another
+    Numba) the kernel is optimised as Numba does.
     """
+    return _step_njit(link_only(func))
+
+
+def loop_kernel(func):
+    """:data:`entry_step_kernel` for a time loop, its library only linked as a
+    :func:`step_kernel`'s: the stages of a step, each already optimised in its own library, are
+    inlined into the loop, not optimised a second time."""
     return entry_step_kernel(link_only(func))

@@ -204,7 +204,7 @@ def internal_njit(**options):
 
     Entries and none cannot share a cache folder (a process with the patch off would find an
     entry missing), so :func:`simcore.startup.numba_cache.configure_cache` names the folder by
-    the patch's state. Saves 1.8 s of wall and 3.7 s of CPU of a cold compile (18.3 s and 30.3 s
+    the patch's state. Saves 1.9 s of wall and 3.8 s of CPU of a cold compile (16.4 s and 25.7 s
     with every patch; ``python benchmarks/bench_patches.py --cold --rounds 3``).
 
     Parameters
@@ -270,15 +270,15 @@ def _internal_kernel_class():
 
 #: (library name, mangled-name prefix) of the functions registered by :func:`link_only`
 _LINK_ONLY: set[tuple[str, str]] = set()
-#: names of the loop libraries this process has linked (:func:`_link`), and of those where the
+#: names of the libraries this process has linked (:func:`_link`), and of those where the
 #: linking failed and Numba's whole optimisation ran instead
 LINKED: list[str] = []
 LINK_FAILED: list[str] = []
 
 
 def link_only(func):
-    """Register the Python function ``func`` (a time loop) so that the library Numba compiles
-    for it is only linked (:func:`install_link_only`); returns ``func``."""
+    """Register the Python function ``func`` (a time loop or a step kernel) so that the library
+    Numba compiles for it is only linked (:func:`install_link_only`); returns ``func``."""
     name = func.__qualname__
     path = func.__module__.split(".") + name.split(".")
     _LINK_ONLY.add((name, "_ZN" + "".join(f"{len(p)}{p}" for p in path)))
@@ -290,20 +290,21 @@ def install_link_only() -> bool:
 
     Numba compiles every function into a library of its own, optimised as a whole with the
     libraries of its callees linked in (so that small callees get inlined), then turned into
-    machine code. A time loop's callees are the stages of a step, each already optimised in its
-    own library with its callees; optimising them all once more inside the loop's library cost
-    a fifth of a cold compile for no faster code. The loop's library is therefore only linked:
-    its direct callees (called once or twice a step) are inlined into the loop and the argument
-    passing cleaned up (the inliner, SROA, instcombine and CFG simplification, about 0.1 s),
-    which keeps the speed of the fully optimised loop; the arithmetic is IEEE without
-    fast-math either way, so the results are the same to the bit.
+    machine code. The time loops and the step kernels (:func:`simcore.kernels.jit.step_kernel`)
+    call functions already optimised in their own libraries with their callees; optimising
+    them all once more inside each caller's library costs compile time and, inside the
+    compliant step, gives slower code. Their libraries are therefore only linked: the direct
+    callees are inlined and the argument passing cleaned up (the inliner, SROA, instcombine and
+    CFG simplification), nothing more; the arithmetic is IEEE without fast-math either way, so
+    the results are the same to the bit.
 
     This replaces a private method of Numba (``CPUCodeLibrary._optimize_final_module``) for the
-    registered loops only; where it is missing or anything in the linking fails, the loop is
-    optimised as any other kernel (:data:`LINK_FAILED` names it).
+    registered functions only; where it is missing or anything in the linking fails, the
+    function is optimised as any other kernel (:data:`LINK_FAILED` names it).
 
-    Saves 4.3 s of wall and 5.4 s of CPU of a cold compile (18.3 s and 30.3 s with every
-    patch; ``python benchmarks/bench_patches.py --cold --rounds 3``).
+    Saves 5.8 s of wall and 9.0 s of CPU of a cold compile (16.4 s and 25.7 s with every patch;
+    ``python benchmarks/bench_patches.py --cold --rounds 3``) and a fifth of the compliant
+    paper case's run time (docs/performance.md, "A cold compile").
 
     Returns
     -------
