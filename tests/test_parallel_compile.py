@@ -49,7 +49,9 @@ def test_the_run_loads_what_the_helper_compiled(tmp_path):
     out = subprocess.run([sys.executable, "-c", RUN_AND_REPORT], env=env, check=True,
                          capture_output=True, text=True).stdout.split("\n")
     *counts, linked = [line.split() for line in out if line]
-    assert linked == ["linked", "integrate_chunk", "-"]  # the loop linked, none failed
+    # the loop and the step kernels compiled here linked, none failed
+    assert linked[0] == "linked" and linked[2] == "-"
+    assert "integrate_chunk" in linked[1].split(",")
     report = {name: (int(hits), int(misses), int(n)) for name, hits, misses, n in counts}
     for name in parallel_compile.HELPER_TASKS:
         assert report[name] == (1, 0, 1), name
