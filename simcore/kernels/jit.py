@@ -39,6 +39,7 @@ _STEP = dict(cache=True, error_model="numpy", _nrt=False, no_cfunc_wrapper=True,
 
 #: Kernels that may allocate arrays, called by other kernels only.
 kernel = internal_njit(**_ALLOCATING)
+#: The compilation of :func:`step_kernel`, which registers its kernels for linking first.
 _step_njit = internal_njit(**_STEP)
 #: :data:`kernel` and :func:`step_kernel` for kernels that simcore calls from Python.
 entry_kernel = njit(**_ALLOCATING)

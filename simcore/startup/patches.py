@@ -1,8 +1,9 @@
 """Every change simcore makes to other libraries' behaviour to start faster, in one place.
 
 Each patch below touches a private part of another library (or Python's garbage collector) to
-save start-up time; none changes a result (``tests/test_startup.py`` runs the paper's case with
-and without them and compares the files byte for byte). :func:`install` puts them in place; it
+save start-up time (``numba_link_only`` also makes the compliant step faster); none changes a
+result (``tests/test_startup.py`` runs the paper's case with and without them and compares the
+files byte for byte). :func:`install` puts them in place; it
 is called once, by ``import simcore``, before any kernel is compiled or loaded. The environment
 variable :data:`SWITCH` chooses which:
 
