@@ -89,6 +89,7 @@ def main() -> None:
     from simcore.kernels.generalized_alpha import (
         WITH_CONTACT_BLOCKS,
         alpha_coefficients,
+        joint_coefficient,
         newton_matrix_into,
         smooth_work,
     )
@@ -197,7 +198,7 @@ def main() -> None:
     def twin_matrix(K, C, arr):
         J = np.zeros_like(K)
         newton_matrix_into(J, K, C, h, coef, arr, WITH_CONTACT_BLOCKS)
-        return J, h * coef[2] * (1.0 - coef[1]) / (1.0 - coef[0])
+        return J, joint_coefficient(h, coef)
 
     print_parts(f"reference point's twin at t = 0.2 s, h = {h:g} s", end["step_state"],
                 end["compliant_state"], twin_model.arrays(), twin_matrix)

@@ -25,6 +25,7 @@ from .generalized_alpha import (
     alpha_coefficients,
     alpha_predict,
     apply_update,
+    joint_coefficient,
     newton_matrix_into,
     smooth_work,
     step_work,
@@ -566,7 +567,6 @@ def compliant_smooth_step(state, acc, t1, h, ratio, coef, st, ma, v_pre, work):
     :data:`CHORD_CONTRACTION`, hands over to Newton (:func:`_newton_iterate`). The first
     iterate is extrapolated from the last two steps (:func:`_first_iterate`). Returns
     (iterations, converged)."""
-    am, af, gam, beta = coef
     lam = state.lam_s
     vdot1 = work.step.vdot1
     sw = work.smooth
@@ -579,7 +579,7 @@ def compliant_smooth_step(state, acc, t1, h, ratio, coef, st, ma, v_pre, work):
     merit_prev = np.inf
     _save_iterate(vdot1, lam, sw)
     halvings = 0
-    cv = h * gam * ((1.0 - af) / (1.0 - am))
+    cv = joint_coefficient(h, coef)
     _prepare(ma, bw)
     chord = bw.reuse[0] == 1  # the updates may use the last step's Newton factors
     for it in range(st.max_iter + 1):

@@ -79,6 +79,15 @@ def alpha_coefficients(rho_inf):
     return am, af, gam, beta
 
 
+@step_kernel
+def joint_coefficient(h, coef):
+    """The coefficient c of the joint rows in the smooth stage's Newton system [J, -G^T; c G, 0]
+    for a step ``h`` [s]: the velocity's change per change of the iterate vdot1, h gamma (1 -
+    alpha_f) / (1 - alpha_m) (``coef``: :func:`alpha_coefficients`) [s]."""
+    am, af, gam, _ = coef
+    return h * gam * ((1.0 - af) / (1.0 - am))
+
+
 @entry_step_kernel
 def initial_acceleration(q, v, t, ma, f_extra, vdot, lam, sw):
     """Smooth acceleration at time ``t`` [s] from M vdot = f + f_extra + G^T lam,
@@ -200,8 +209,7 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, st, ma, stw, sw):
     (q_t, v_t)) and the joint multipliers ``lam``. ``sw``: :func:`smooth_work`. Returns
     (iterations, converged).
     """
-    am, af, gam, beta = coef
-    ca = (1.0 - af) / (1.0 - am)
+    c_joints = joint_coefficient(h, coef)
     n = q.shape[0]
     tol = st.tol
     max_iter = st.max_iter
@@ -224,6 +232,6 @@ def smooth_step(q, v, acc, vdot, lam, t1, h, coef, st, ma, stw, sw):
         # Newton step on [J, -G^T; c G, 0] by the Schur complement of the joints: J is
         # diagonal but for the bodies joined by springs, so only that block is factorised
         newton_matrix_into(sw.J, K_t, C_t, h, coef, ma, SPRING_BLOCKS_ONLY)
-        saddle_point_solve_into(sw.J, sw.G, h * gam * ca, sw.rhs, sw.fac, sw.JG, sw.S, sw.piv)
+        saddle_point_solve_into(sw.J, sw.G, c_joints, sw.rhs, sw.fac, sw.JG, sw.S, sw.piv)
         apply_update(sw.rhs, lam, vdot1)
     return iters, converged
