@@ -11,9 +11,10 @@ Prints, in one run:
   median of N processes each);
 - the warm wall time of the full paper case (0.3 s, h = 1e-4, 3,000 steps): median of N runs
   in one process, one thread, and the steps per second;
-- a profile of a step: the same time loop as ``integrate_chunk`` with a read of the process's
-  CPU clock between the stages (the cost of a clock read, measured on an empty loop, is
-  subtracted), as the share of each stage in the step.
+- a profile of a step, of the paper case and of a steady run (``STEADY_RUN``): the loop of
+  ``integrate_chunk`` where no step is retried, from the run's own start, with a read of the
+  thread's CPU clock between the stages (the cost of a read, measured on an empty loop, is
+  subtracted); it checks that the profiled steps end where the run's do, to the bit.
 
 Wall times are printed with the process's CPU time beside them: on a shared machine the wall
 time includes the time the process waited for a core.
@@ -28,6 +29,7 @@ Usage: python benchmarks/bench_core.py [--repeats 5] [--first-run-only]
 from __future__ import annotations
 
 import argparse
+import ctypes
 import os
 import resource
 import statistics
@@ -46,8 +48,10 @@ ONE_STEP = (
     "print(f'{t1 - t0:.4f} {t2 - t1:.4f}')"
 )
 
-STAGES = ("smooth stage", "position correction", "normal velocities before the jump",
-          "velocity jump", "accept and outputs")
+#: The overrides of config/config.yaml that give the second profiled run.
+STEADY_RUN = ("model.clearance=1e-4", "model.omega0=50.0")
+STAGES = ("save the start, smooth stage", "position correction",
+          "normal velocities before the jump", "velocity jump", "accept and outputs")
 
 
 def _subprocess_times(env_extra: dict) -> tuple[float, float, float]:
@@ -176,98 +180,125 @@ def print_first_run(rows_by_path: dict) -> None:
 
 def _profile_kernel():
     """The stage-timing copy of ``integrate_chunk`` (compiled on first use, not cached)."""
-    from numba import njit, objmode
+    from numba import njit
 
     from simcore.kernels import smooth_step, total_energy
     from simcore.kernels.contact import contact_velocities_into
     from simcore.kernels.generalized_alpha import alpha_coefficients
     from simcore.kernels.nonsmooth_step import (
         _accept_substep,
+        _creates_energy,
         _normal_velocities_before_jump,
+        _record_substep,
+        _save_step_start,
+        _update_energy_scale,
         position_step,
         velocity_step,
     )
 
+    # the thread's CPU time (the machine may be shared) from clock_gettime, called by the kernel
+    # itself: a read costs a quarter of a microsecond, where an object-mode call of
+    # time.process_time() cost a few and disturbed the stages around it
+    clock_gettime = ctypes.CDLL(None, use_errno=True).clock_gettime
+    clock_gettime.argtypes = [ctypes.c_int, ctypes.c_void_p]
+    clock_gettime.restype = ctypes.c_int
+    thread_cpu = time.CLOCK_THREAD_CPUTIME_ID
+
     @njit
-    def clock():
-        with objmode(t="float64"):
-            t = time.process_time()  # CPU time: the machine may be shared
-        return t
+    def clock(now):  # now: a struct timespec (seconds, nanoseconds) to write into
+        clock_gettime(thread_cpu, now.ctypes.data)
+        return now[0] + 1e-9 * now[1]
 
     @njit
     def clock_cost(n):
-        t0 = clock()
+        now = np.zeros(2, dtype=np.int64)
+        t0 = clock(now)
         for _ in range(n):
-            clock()
-        return (clock() - t0) / n
+            clock(now)
+        return (clock(now) - t0) / n
 
-    @njit
-    def profile(n_steps, st, ma, state, work, spent):
-        # the stages of integrate_chunk's whole step (no retries), a clock read between them
+    def profile(n_steps, st, ma, state, out, work, rs, spent, now):
+        # integrate_chunk's loop where no step is retried (the paper case's), its stages
+        # timed; main() checks that it takes the run's steps
         h = st.h
         coef = alpha_coefficients(st.rho_inf)
         q_t, v_t, acc1, vdot1, f_t, K_t, C_t, Ks_t, q1, v1 = work.step
         contact = work.contact
         nu_c, gap, vn_free = contact[0], contact[1], contact[4]
         pwk = work.position
-        nbil = pwk.nu_b.shape[0]
-        energy = 0.0
+        rw = work.retry
+        retried = 0
         for k in range(n_steps):
-            t1 = (k + 1) * h
-            c0 = clock()
-            smooth_step(state.q, state.v, state.acc, state.vdot, state.lam_s, t1, h, coef, st,
-                        ma, work.step, work.smooth)
-            c1 = clock()
-            position_step(q_t, t1, h, st, ma, Ks_t, q1, nu_c, gap, pwk)
-            c2 = clock()
+            t1 = st.t0 + (k + 1) * h
+            c0 = clock(now)
+            _update_energy_scale(k, out.energy, out.q, ma, rw.energy_scale)
+            if rs.max_halvings > 0:
+                _save_step_start(state, rw, nu_c, pwk.nu_b)
+            it_s, ok_s = smooth_step(state.q, state.v, state.acc, state.vdot, state.lam_s, t1,
+                                     h, coef, st, ma, work.step, work.smooth)
+            c1 = clock(now)
+            it_p, ok_p = position_step(q_t, t1, h, st, ma, Ks_t, q1, nu_c, gap, pwk)
+            c2 = clock(now)
             _normal_velocities_before_jump(v_t, pwk.GN, pwk.metric.cols, pwk.metric.ncols,
-                                           nbil, vn_free)
-            c3 = clock()
-            velocity_step(q1, v_t, t1, h, st, ma, f_t, nu_c, gap, state, v1, work.velocity)
-            c4 = clock()
+                                           pwk.nu_b.shape[0], vn_free)
+            c3 = clock(now)
+            it_v, ok_v = velocity_step(q1, v_t, t1, h, st, ma, f_t, nu_c, gap, state, v1,
+                                       work.velocity)
+            c4 = clock(now)
             _accept_substep(state, work.step)
             contact_velocities_into(state.q, state.v, ma, gap, contact[2], contact[3],
                                     pwk.scratch.wN, pwk.scratch.wT, pwk.scratch.trig)
-            energy += total_energy(state.q, state.v, ma)
-            c5 = clock()
+            _record_substep(k, 0, 1, h, (it_s, it_p, it_v), st, state, out, contact,
+                            rw.lam_best)
+            out.energy[k + 1] = total_energy(state.q, state.v, ma)
+            ok = ok_s and ok_p and ok_v
+            if not ok or _creates_energy(k, h, rs, out, rw.energy_scale):
+                retried += 1  # the run would take this step again: the profile is not its
+            out.converged[k + 1] = 1 if ok else 0
+            c5 = clock(now)
             spent[0] += c1 - c0
             spent[1] += c2 - c1
             spent[2] += c3 - c2
             spent[3] += c4 - c3
             spent[4] += c5 - c4
-        return energy
+        return retried
 
-    return clock_cost, profile
+    from simcore.kernels.jit import _STEP
+    from simcore.startup.patches import link_only
+    options = {key: value for key, value in _STEP.items() if key != "cache"}
+    return clock_cost, njit(**options)(link_only(profile))
 
 
-def profile_step(model, s, n_steps: int, repeats: int = 3) -> np.ndarray:
+def profile_step(model, settings, n_steps: int,
+                 repeats: int = 3) -> tuple[np.ndarray, np.ndarray]:
     """Seconds per step spent in each of :data:`STAGES` (minimum over ``repeats`` runs of the
-    first ``n_steps`` steps of the case)."""
-    from simcore import kernels as nb
+    first ``n_steps`` steps of the case), and the coordinates q the last run ends at."""
+    from simcore.model.driver import (
+        _allocate,
+        _kernel_settings,
+        _nonsmooth_outputs,
+        _retry_settings,
+        _start,
+    )
 
     clock_cost, profile = _profile_kernel()
+    retry = _retry_settings(model, settings)
     best = None
     for _ in range(repeats + 1):  # the first run compiles
-        arr = model.arrays()
-        q, v = model.initial_state()
-        n, nc = q.size, arr.ct_type.size
-        nbil = int(nb.joint_row_count(arr.jt_type))
-        acc, vdot, lam_s = np.zeros(n), np.zeros(n), np.zeros(nbil)
-        nb.initial_acceleration(q, v, 0.0, arr, np.zeros(n), vdot, lam_s, nb.smooth_work(n, nbil))
-        acc[:] = vdot
-        gap0, vn0, vt0 = np.zeros(nc), np.zeros(nc), np.zeros(nc)
-        nb.contact_velocities(q, v, arr, gap0, vn0, vt0)
-        st = nb.StepSettings(float(s["dt"]), float(s["rho_inf"]), float(s["tol"]),
-                             int(s["max_iter"]), float(s["proximal"]), int(model.drive_row()),
-                             0.0, 1.0, 1e-3)
-        state = nb.StepState(q, v, acc, vdot, lam_s, np.zeros(nbil), np.zeros(nc),
-                             np.zeros(nc), vn0, vt0)
+        # the run's own start, settings and outputs (those of model.simulate)
+        start = _start(model, settings, None, None, 0.0)
+        out = _allocate(model, settings, start, 0.0)
         spent = np.zeros(len(STAGES))
-        profile(n_steps, st, arr, state, nb.nonsmooth_work(n, nbil, nc), spent)
+        retried = profile(n_steps, _kernel_settings(settings, start.drive_row, 0.0),
+                          start.arrays, start.state, _nonsmooth_outputs(out), start.work, retry,
+                          spent, np.zeros(2, dtype=np.int64))
+        if retried:
+            raise RuntimeError(f"{retried} steps of the profiled case need a retry, which the "
+                               "profile does not take: it would time other steps than the run")
         per_step = spent / n_steps
         best = per_step if best is None else np.minimum(best, per_step)
     cost = min(clock_cost(20000) for _ in range(3))
-    return np.maximum(best - cost, 0.0)
+    return np.maximum(best - cost, 0.0), start.state.q
 
 
 def main() -> None:
@@ -318,12 +349,24 @@ def main() -> None:
     simcore.run(cfg)
     print(f"simcore.run of the paper case incl. model build and Dataset: "
           f"{time.perf_counter() - t0:.3f} s")
-    per_step = profile_step(model, s, n_steps)
-    total = per_step.sum()
-    print(f"profile of a step (CPU time, {n_steps} steps, minimum of 3 runs, clock reads "
-          f"subtracted): {1e6 * total:.1f} us in the stages")
-    for name, sec in zip(STAGES, per_step, strict=True):
-        print(f"  {name:<36s} {1e6 * sec:6.1f} us  {100 * sec / total:5.1f} %")
+    # a run of the default study's kind: several balls loaded at once, more contact rows
+    steady = simcore.load_config("config/config.yaml", overrides=list(STEADY_RUN))
+    profiles = {"paper case (start-up of a free crank)": (cfg, traj),
+                f"steady run ({', '.join(STEADY_RUN)})": (steady, None)}
+    for title, (case, run) in profiles.items():
+        case_model, _ = crank_slider(case["model"])
+        settings = SolverSettings.from_config(case)
+        if run is None:
+            run = case_model.simulate(settings)
+        steps = run.time.size - 1
+        per_step, q_end = profile_step(case_model, settings, steps)
+        total = per_step.sum()
+        # a profile times the run only if it takes the run's steps: the same end, to the bit
+        print(f"profile of a step, {title}: CPU time, {steps} steps, minimum of 3 runs, "
+              f"clock reads subtracted; the steps end where the run's do (max |q difference| "
+              f"{np.abs(q_end - run.q[-1]).max():.1e}): {1e6 * total:.1f} us in the stages")
+        for name, sec in zip(STAGES, per_step, strict=True):
+            print(f"  {name:<36s} {1e6 * sec:6.1f} us  {100 * sec / total:5.1f} %")
 
 
 if __name__ == "__main__":

@@ -25,8 +25,15 @@ from independent_energy import independent_energy_scale
 import simcore
 from simcore import kernels as nb
 from simcore.model import SolverSettings
-from simcore.model.audit import ENERGY_FLOOR_J, drive_rate
-from simcore.model.driver import _allocate, _compliant_state, _kernel_settings, _start
+from simcore.model.audit import ENERGY_FLOOR_J
+from simcore.model.driver import (
+    _allocate,
+    _compliant_state,
+    _kernel_settings,
+    _nonsmooth_outputs,
+    _retry_settings,
+    _start,
+)
 from simcore.model.mechanism import crank_slider
 
 DT, MAX_ITER, T_END = 2e-4, 5, 0.005
@@ -110,11 +117,9 @@ def test_a_retried_step_is_the_sum_of_two_plain_half_steps():
     settings = SolverSettings.from_config(cfg)
     start = _start(model, settings, None, None, 0.0)
     out = _allocate(model, settings, start, 0.0)
-    rows = nb.ChunkOutputs(out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N, out.gap_N,
-                           out.vn_pre, out.vn_post, out.vn_free, out.energy, out.iterations,
-                           out.converged, out.drive_torque, out.halvings)
+    rows = _nonsmooth_outputs(out)
     st = _kernel_settings(settings, start.drive_row, 0.0)
-    retry = nb.RetrySettings(1, float(settings.energy_tol), ENERGY_FLOOR_J, drive_rate(model))
+    retry = _retry_settings(model, settings)._replace(max_halvings=1)
     k = FAILING_STEP
     assert nb.integrate_chunk(0, k, st, start.arrays, start.state, rows, start.work, retry) < 0
     state0, work0 = _clone(start.state), _clone(start.work)

@@ -518,6 +518,21 @@ def _adaptive_state(model, settings: SolverSettings, start: _Start, n_out: int):
         vdot_old_save=np.zeros(mdiag.size), reuse_save=np.zeros(1, np.int64))
 
 
+def _nonsmooth_outputs(out: Trajectory):
+    """The output arrays :func:`~simcore.kernels.integrate_chunk` writes (views of ``out``)."""
+    return nb.ChunkOutputs(out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N, out.gap_N,
+                           out.vn_pre, out.vn_post, out.vn_free, out.energy, out.iterations,
+                           out.converged, out.drive_torque, out.halvings)
+
+
+def _retry_settings(model, settings: SolverSettings):
+    """When :func:`~simcore.kernels.integrate_chunk` takes a step again: at most
+    ``settings.max_halvings`` times, where the step fails or creates energy by the energy
+    audit's own criterion (:meth:`~simcore.model.audit.EnergyAudit.check`'s)."""
+    return nb.RetrySettings(settings.max_halvings, float(settings.energy_tol), ENERGY_FLOOR_J,
+                            drive_rate(model))
+
+
 def _audit_first(gain: int, bad: int, every: int) -> bool:
     """Whether the energy audit's failure at ``gain`` (output row gain + 1) comes before the
     first unconverged step ``bad`` (0-based, -1: none) with ``every`` steps a row.
@@ -561,13 +576,8 @@ class _Loop:
                     self.cstate, outputs, start.work)
         else:
             self.cstate = None
-            outputs = nb.ChunkOutputs(out.q, out.v, out.lambda_N, out.lambda_T, out.nu_N,
-                                      out.gap_N, out.vn_pre, out.vn_post, out.vn_free,
-                                      out.energy, out.iterations, out.converged,
-                                      out.drive_torque, out.halvings)
-            # the energy audit's criterion, for the kernel's retries (EnergyAudit.check's)
-            retry = nb.RetrySettings(settings.max_halvings, float(settings.energy_tol),
-                                     ENERGY_FLOOR_J, drive_rate(model))
+            outputs = _nonsmooth_outputs(out)
+            retry = _retry_settings(model, settings)
             self.chunk = _chunk(settings)
             self._advance = lambda k, k_next: nb.integrate_chunk(
                 k, k_next, kset, start.arrays, start.state, outputs, start.work, retry)
