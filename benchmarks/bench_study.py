@@ -24,8 +24,9 @@ every figure is a warm one. Printed:
   (filter, forces, compliant zooms) and the per-job overhead (process start, imports, Numba
   cache load, writing);
 * the study's estimate (the line it prints before its first job) against the measured wall
-  time, and the measured cost per step of each model, per run and per zoom beside the
-  constants of the estimate (``simcore.study.plan.COST``);
+  time, and the measured costs beside the constants of the estimate
+  (``simcore.study.plan.COST``): a nonsmooth step, the compliant runs' integration, a zoom, the
+  rest of a run and a job's start;
 * the time of each rule (simulate, summarize, figures) summed over its jobs, from the
   Snakemake ``benchmark:`` files, and the simulated time of the runs (steady runs last
   (settle + revolutions) turns at their own speed, so slow points dominate);
@@ -181,10 +182,28 @@ def job_costs(results: Path) -> tuple[list[float], list[list[float]], int]:
     return job_wall, run_wall, n_runs
 
 
-def estimate_check(results: Path, wall: float, out: str) -> list[str]:
+def study_config(configfile: str | None) -> dict:
+    """The study's configuration as Snakemake makes it: ``configfile`` merged over
+    config/config.yaml, validated."""
+    from snakemake.utils import update_config
+
+    import simcore
+    from simcore.config import read_yaml
+
+    cfg = read_yaml(ROOT / "config" / "config.yaml")
+    if configfile:
+        update_config(cfg, read_yaml(ROOT / configfile))
+    return simcore.validate_config(cfg)
+
+
+def estimate_check(results: Path, wall: float, out: str, configfile: str | None) -> list[str]:
     """The study's printed estimate against its wall time, and the measured costs beside the
-    constants of the estimate (simcore.study.plan.COST), from the jobs' TIMING lines."""
-    from simcore.study.plan import COST
+    constants of the estimate (simcore.study.plan.COST), from the jobs' TIMING lines: a
+    nonsmooth step, the adaptive twins' integration (estimated from their planned fixed steps,
+    ``COST.compliant_step`` and ``COST.adaptive_share``), a zoom of those the runs ask for
+    (``analysis.zoom_top``, at most five a run; rows that share an impact share its zoom), the
+    rest of a run and a job's start."""
+    from simcore.study.plan import COST, plan_runs
 
     logs = ROOT / "logs" / "_".join(results.relative_to(results.anchor).parts)
     jobs = [t for t in (_timing(p) for p in sorted((logs / "simulate").glob("*.log")))
@@ -195,21 +214,28 @@ def estimate_check(results: Path, wall: float, out: str) -> list[str]:
         lines.append(f"printed before the first job: {match.group(1)}; measured: {wall:.0f} s")
     if not jobs:
         return lines
-    steps_ns = sum(j.get("steps_nonsmooth", 0) for j in jobs)
-    steps_c = sum(j.get("steps_compliant", 0) for j in jobs)
-    zooms = sum(j.get("zooms", 0) for j in jobs)
+    runs = plan_runs(study_config(configfile))
+    total = {key: sum(j.get(key, 0) for j in jobs) for key in (
+        "steps_nonsmooth", "steps_compliant", "integration_nonsmooth", "integration_compliant",
+        "zoom")}
     n_runs = sum(j["runs"] - j.get("skipped", 0) for j in jobs)
     per_run = sum(j["write_runs"] + j["extract"] + j["write_tables"] + j["table_other"]
                   + j["run_other"] for j in jobs) / max(n_runs, 1)
     per_job = sum(j["imported"] - j["process_start"] + j["numba_load"] for j in jobs) / len(jobs)
-    measured = [("nonsmooth step", sum(j.get("integration_nonsmooth", 0) for j in jobs),
-                 steps_ns, COST.nonsmooth_step, 1e6, "us"),
-                ("compliant step (a step taken)",
-                 sum(j.get("integration_compliant", 0) for j in jobs),
-                 steps_c, COST.compliant_step, 1e6, "us"),
-                ("zoom", sum(j["zoom"] for j in jobs), zooms, COST.per_zoom, 1.0, "s")]
-    parts = [f"{name} {scale * total / count:.3g} {unit} (estimate {scale * const:.3g})"
-             for name, total, count, const, scale, unit in measured if count]
+    asked = sum(min(int(run.config["analysis"].get("zoom_top", 0)), 5) for run in runs
+                if run.model == "nonsmooth")
+    parts = []
+    if total["steps_nonsmooth"]:
+        parts.append(f"nonsmooth step "
+                     f"{1e6 * total['integration_nonsmooth'] / total['steps_nonsmooth']:.3g} us "
+                     f"(estimate {1e6 * COST.nonsmooth_step:.3g})")
+    if total["steps_compliant"]:
+        planned = sum(run.seconds - COST.per_run for run in runs if run.model == "compliant")
+        parts.append(f"compliant runs' integration {total['integration_compliant']:.1f} s "
+                     f"(estimate {planned:.1f} s; a step taken "
+                     f"{1e6 * total['integration_compliant'] / total['steps_compliant']:.3g} us)")
+    if asked:
+        parts.append(f"zoom {total['zoom'] / asked:.3g} s (estimate {COST.per_zoom})")
     parts.append(f"rest of a run {per_run:.3f} s (estimate {COST.per_run})")
     cpu = sum(j.get("cpu", float("nan")) for j in jobs)
     busy = sum(j["end"] - j["process_start"] for j in jobs)
@@ -334,7 +360,7 @@ def main() -> None:
                         f"{rule} {sec:.1f} s" for rule, sec in sorted(rule_costs(results).items()))
                         + f"; simulated time {simulated_time(results):.2f} s", flush=True)
                     for line in breakdown(results, started, wall, cores=jobs) + \
-                            estimate_check(results, wall, out):
+                            estimate_check(results, wall, out, configfile):
                         print(f"{name:8s} -j{jobs}:   {line}", flush=True)
                 walls[jobs] = statistics.median(times)
                 sizes = file_sizes(results)

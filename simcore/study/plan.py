@@ -83,20 +83,22 @@ FIGURE_FILES = ("study_*.png", "pairs_*.png", "life_*.png", "reference_*.png",
 class Cost:
     """Seconds of work of one run on one core (the estimate of :func:`estimate_seconds`).
 
-    Measured with ``python benchmarks/bench_study.py`` (docs/study.md, "Cost"): the job logs'
-    TIMING lines give each stage's time summed over the runs of a study.
+    Measured with ``python benchmarks/bench_study.py --default 1 --large`` (docs/study.md,
+    "Cost"): the job logs' TIMING lines give each part's time summed over the runs of a study,
+    which the script prints per step, run, zoom and job beside these constants.
     """
 
-    nonsmooth_step: float = 28e-6   # integration of one nonsmooth step [s]
-    compliant_step: float = 9e-6    # integration of one compliant step [s]
-    per_run: float = 0.12           # run file, impact extraction, table file [s]
-    per_zoom: float = 0.05          # one compliant zoom of analysis.zoom_top [s]
+    nonsmooth_step: float = 45e-6   # integration of one nonsmooth step of a steady run [s]
+    compliant_step: float = 9e-6    # one fixed compliant step of a steady run [s]
+    per_run: float = 0.17           # run file, impact extraction, table file [s]
+    per_zoom: float = 0.013         # one of the analysis.zoom_top zooms a run asks for [s]
+                                    # (runs share zooms between rows: fewer are made)
     per_job: float = 1.0            # process start, imports, Numba cache load of a job [s]
-    adaptive_share: float = 0.5     # an adaptive twin's integration over the same twin's at
+    adaptive_share: float = 0.3     # an adaptive twin's integration over the same twin's at
                                     # the fixed step of twin_step [-]
     # the jobs after the simulations (the rules' benchmark files, logs/<results>/*.tsv):
     summary_job: float = 1.0        # the summary job's start [s]
-    summary_per_run: float = 0.065  # reading one run's numbers into the summary [s]
+    summary_per_run: float = 0.015  # reading one run's numbers into the summary [s]
     grid_figures: float = 3.0       # the grid's heat maps, two swept axes [s]
     per_axis_pair: float = 2.0      # ... and per pair of axes where three or more are swept
     reference_figures: float = 5.5  # the reference run's figures (beside the grid's) [s]
