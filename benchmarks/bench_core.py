@@ -265,6 +265,7 @@ def _profile_kernel():
 
     from simcore.kernels.jit import _STEP
     from simcore.startup.patches import link_only
+    # the step kernels' options and linking, not cached (the ctypes clock is a dynamic global)
     options = {key: value for key, value in _STEP.items() if key != "cache"}
     return clock_cost, njit(**options)(link_only(profile))
 
@@ -360,11 +361,15 @@ def main() -> None:
             run = case_model.simulate(settings)
         steps = run.time.size - 1
         per_step, q_end = profile_step(case_model, settings, steps)
-        total = per_step.sum()
         # a profile times the run only if it takes the run's steps: the same end, to the bit
+        if not np.array_equal(q_end, run.q[-1]):
+            apart = np.abs(q_end - run.q[-1]).max()
+            raise RuntimeError(f"the profiled steps of the {title} end {apart:.1e} from the "
+                               "run's: the profile is not the run's loop")
+        total = per_step.sum()
         print(f"profile of a step, {title}: CPU time, {steps} steps, minimum of 3 runs, "
-              f"clock reads subtracted; the steps end where the run's do (max |q difference| "
-              f"{np.abs(q_end - run.q[-1]).max():.1e}): {1e6 * total:.1f} us in the stages")
+              f"clock reads subtracted; the steps end where the run's do, to the bit: "
+              f"{1e6 * total:.1f} us in the stages")
         for name, sec in zip(STAGES, per_step, strict=True):
             print(f"  {name:<36s} {1e6 * sec:6.1f} us  {100 * sec / total:5.1f} %")
 
