@@ -99,6 +99,24 @@ def test_clearance_table_invariants():
             assert lo1 <= lo2 and hi1 <= hi2
 
 
+@pytest.mark.parametrize("name", ["bearings.yaml", "clearance_iso5753.yaml"])
+def test_package_data_read_alike_by_both_yaml_parsers(name):
+    """The data's reader (libyaml's parser where PyYAML has it) gives what PyYAML's pure-Python
+    safe loader gives, value for value and in the same order."""
+    from importlib import resources
+
+    import yaml
+
+    from simcore.model.bearing import DATA_LOADER, _data
+
+    text = resources.files("simcore").joinpath("data", name).read_text()
+    reference = yaml.load(text, Loader=yaml.SafeLoader)  # noqa: S506
+    read = _data(name)
+    assert read == reference and repr(read) == repr(reference)
+    if getattr(yaml, "__with_libyaml__", False):
+        assert DATA_LOADER is yaml.CSafeLoader
+
+
 def test_clearance_refusals_name_the_key():
     with pytest.raises(ValueError, match="model.clearance_class: 'C7' is not allowed"):
         clearance_range(60.0, "C7")

