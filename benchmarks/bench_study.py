@@ -183,17 +183,12 @@ def job_costs(results: Path) -> tuple[list[float], list[list[float]], int]:
 
 
 def study_config(configfile: str | None) -> dict:
-    """The study's configuration as Snakemake makes it: ``configfile`` merged over
-    config/config.yaml, validated."""
-    from snakemake.utils import update_config
+    """The study's configuration as the workflow makes it: ``configfile`` merged over
+    config/config.yaml (:func:`simcore.config.read_study_config`), validated."""
+    from simcore.config import read_study_config, validate_config
 
-    import simcore
-    from simcore.config import read_yaml
-
-    cfg = read_yaml(ROOT / "config" / "config.yaml")
-    if configfile:
-        update_config(cfg, read_yaml(ROOT / configfile))
-    return simcore.validate_config(cfg)
+    files = [ROOT / "config" / "config.yaml"] + ([ROOT / configfile] if configfile else [])
+    return validate_config(read_study_config(files))
 
 
 def estimate_check(results: Path, wall: float, out: str, configfile: str | None) -> list[str]:
@@ -203,7 +198,7 @@ def estimate_check(results: Path, wall: float, out: str, configfile: str | None)
     ``COST.compliant_step`` and ``COST.adaptive_share``), a zoom of those the runs ask for
     (``analysis.zoom_top``, at most five a run; rows that share an impact share its zoom), the
     rest of a run and a job's start."""
-    from simcore.study.plan import COST, plan_runs
+    from simcore.study.plan import COST, plan_runs, zooms_counted
 
     logs = ROOT / "logs" / "_".join(results.relative_to(results.anchor).parts)
     jobs = [t for t in (_timing(p) for p in sorted((logs / "simulate").glob("*.log")))
@@ -222,7 +217,7 @@ def estimate_check(results: Path, wall: float, out: str, configfile: str | None)
     per_run = sum(j["write_runs"] + j["extract"] + j["write_tables"] + j["table_other"]
                   + j["run_other"] for j in jobs) / max(n_runs, 1)
     per_job = sum(j["imported"] - j["process_start"] + j["numba_load"] for j in jobs) / len(jobs)
-    asked = sum(min(int(run.config["analysis"].get("zoom_top", 0)), 5) for run in runs
+    asked = sum(zooms_counted(run.config["analysis"].get("zoom_top", 0)) for run in runs
                 if run.model == "nonsmooth")
     parts = []
     if total["steps_nonsmooth"]:

@@ -353,16 +353,22 @@ def twin_config(run_cfg: Mapping[str, Any]) -> dict:
     return twin
 
 
+def zooms_counted(zoom_top: int) -> int:
+    """The zooms the estimate counts for a nonsmooth run of ``analysis.zoom_top``: at most
+    five (its largest impacts share a few distinct times)."""
+    return min(int(zoom_top), 5)
+
+
 def work_seconds(contact_model: str, steps: float, zoom_top: int = 0, adaptive: bool = False,
                  cost: Cost = COST) -> float:
     """Estimated work of one run [s on one core]: its steps times the step cost of its model,
-    plus the files and the impact extraction, plus the zooms of a nonsmooth run (at most five
-    distinct impacts, :data:`COST`). An adaptive compliant run is given the ``steps`` of the
-    fixed step of :func:`twin_step` and costs ``cost.adaptive_share`` of that run."""
+    plus the files and the impact extraction, plus the zooms of a nonsmooth run
+    (:func:`zooms_counted`, :data:`COST`). An adaptive compliant run is given the ``steps`` of
+    the fixed step of :func:`twin_step` and costs ``cost.adaptive_share`` of that run."""
     if contact_model == "compliant":
         share = cost.adaptive_share if adaptive else 1.0
         return cost.per_run + share * steps * cost.compliant_step
-    return cost.per_run + steps * cost.nonsmooth_step + min(int(zoom_top), 5) * cost.per_zoom
+    return cost.per_run + steps * cost.nonsmooth_step + zooms_counted(zoom_top) * cost.per_zoom
 
 
 def estimate_seconds(cfg: Mapping[str, Any], cost: Cost = COST) -> float:
