@@ -311,7 +311,7 @@ def test_next_step_size_keeps_the_plan_inside_its_band(keep):
 def test_crossing_speed_of_a_quadratic_gap():
     """A gap g0 + v0 t + a t^2 / 2 (its cubic Hermite interpolant is itself) crosses zero at
     the root of the quadratic, with speed v0 + a t."""
-    from simcore.kernels.compliant_adaptive import crossing_speed
+    from simcore.kernels.compliant_step import crossing_speed
 
     g0, v0, a, h = 2e-8, -0.01, -4e3, 3e-6
     g1, v1 = g0 + v0 * h + 0.5 * a * h * h, v0 + a * h

@@ -7,6 +7,8 @@ compared with an independent high-accuracy integration of the one-degree-of-free
 (scipy, rtol 1e-10) and with the values quoted in the literature.
 """
 
+import math
+
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -43,6 +45,31 @@ def _drop(v=1.0, m=0.0327, R=0.01, e_N=1.0, law="flores", dt=1e-7, rho_inf=1.0, 
     traj = model.simulate(SolverSettings(dt, 2e-4, contact_model="compliant", damping_law=law,
                                          rho_inf=rho_inf, tol=1e-8))
     return model, traj
+
+
+@pytest.mark.parametrize("onset", ["crossing", "last_open"])
+def test_onset_speed_of_a_ball_falling_onto_a_plane(onset):
+    """A ball let go 0.5 um above a plane falls under gravity alone until its gap crosses zero,
+    half-way through a step of 2 us, at v = sqrt(2 g d) = 3.1 mm/s (the free fall is exact in
+    the generalized-alpha step, constant force). With solver.onset_speed crossing the contact's
+    onset speed (the v_pre of its damping term) is that speed, to the contact force's share of
+    the closing step (about 1e-4 here); with last_open it is the speed at the start of that
+    step, g h / 2 = 9.8e-6 m/s (0.3 %) slower."""
+    g, d, m, R = 9.81, 5e-7, 0.0327, 0.01
+    t_cross = math.sqrt(2 * d / g)
+    h = t_cross / 159.5  # the crossing half-way through the 160th step
+    model = ball_on_plane(radius=R, mass=m, height=R + d, e_N=0.9, gravity=g,
+                          youngs_modulus=E_STEEL)
+    traj = model.simulate(SolverSettings(h, 180 * h, contact_model="compliant", rho_inf=1.0,
+                                         tol=1e-10, onset_speed=onset))
+    assert traj.gap_N[-1, 0] < 0.0  # closed since the 160th step
+    v_pre = traj.extras["compliant_state"].v_pre[0]
+    v_cross = math.sqrt(2 * g * d)
+    if onset == "crossing":
+        assert v_pre == pytest.approx(v_cross, rel=1e-4)
+    else:
+        assert v_pre == pytest.approx(v_cross - 0.5 * g * h, rel=1e-4)
+        assert v_cross - v_pre > 2e-3 * v_cross
 
 
 def test_hertz_stiffness_of_the_elements():

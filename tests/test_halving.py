@@ -272,16 +272,16 @@ def test_a_retried_compliant_step_is_two_plain_half_steps():
     st = _kernel_settings(settings, start.drive_row, 0.0)
     k = C_FAILING_ROW - 1  # the step k -> k + 1 that fails at h
     args = (st, start.arrays, start.state, cs, rows, start.work)
-    assert nb.integrate_compliant_chunk(0, k, 1, 1, *args) < 0
+    assert nb.integrate_compliant_chunk(0, k, 1, 1, True, *args) < 0
     state0, cs0, work0 = _clone((start.state, cs, start.work))
-    assert nb.integrate_compliant_chunk(k, k + 1, 1, 1, *args) < 0
+    assert nb.integrate_compliant_chunk(k, k + 1, 1, 1, True, *args) < 0
     assert out.halvings[k + 1] == 1 and out.converged[k + 1] == 1
     # apart: steps 2k and 2k + 1 of a run at h/2, no retries
     half = _allocate(model, SolverSettings.from_config(_compliant_config(0, C_DT / 2)), start,
                      0.0)
-    assert nb.integrate_compliant_chunk(2 * k, 2 * k + 2, 1, 0, st._replace(h=st.h / 2),
-                                        start.arrays, state0, cs0, _compliant_outputs(half),
-                                        work0) < 0
+    assert nb.integrate_compliant_chunk(2 * k, 2 * k + 2, 1, 0, True,
+                                        st._replace(h=st.h / 2), start.arrays, state0, cs0,
+                                        _compliant_outputs(half), work0) < 0
     a, b = 2 * k + 1, 2 * k + 2
     np.testing.assert_allclose(out.q[k + 1], half.q[b], rtol=0, atol=1e-11)
     np.testing.assert_allclose(out.v[k + 1], half.v[b], rtol=0,

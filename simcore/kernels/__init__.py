@@ -118,7 +118,8 @@ from .springs import (  # noqa: E402
 
 __all__ = [
     "CACHE_DIR", "CONTACT_INSIDE", "CONTACT_OUTSIDE", "CONTACT_PLANE", "JOINT_ANGLE",
-    "JOINT_PRISMATIC", "JOINT_REVOLUTE", "RETRY_VELOCITY_ITERATIONS", "STAGE_POSITION",
+    "JOINT_PRISMATIC", "JOINT_REVOLUTE", "RETRY_VELOCITY_ITERATIONS",
+    "STAGE_POSITION",
     "STAGE_SMOOTH", "STAGE_VELOCITY",
     "ChunkOutputs", "CompliantOutputs", "CompliantState", "ModelArrays", "RetrySettings",
     "StepSettings",

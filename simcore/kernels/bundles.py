@@ -75,11 +75,9 @@ AdaptiveSettings = namedtuple("AdaptiveSettings", ["out_dt", "dt_min", "err_tol"
 #: taken [s]; ``t_flag`` (1) the end time of the first step taken below its need [s] (-1:
 #: none); ``weight`` (n) the error weight of each coordinate (1 for a position, the body's
 #: radius of gyration [m] for its angle); ``row_steps`` (rows) the steps taken in each output
-#: interval; work: ``vdot_old_save`` (n), ``reuse_save`` (1) (the start accelerations and
-#: multipliers of a step taken again are the compliant work's ``retry``).
+#: interval (what a step taken again starts from is the compliant work's ``retry``).
 AdaptiveState = namedtuple("AdaptiveState", ["h", "counts", "h_min", "t_flag", "weight",
-                                             "row_steps",
-                                             "vdot_old_save", "reuse_save"])
+                                             "row_steps"])
 
 #: Per-step outputs (row k + 1 written by step k), see :class:`simcore.model.Trajectory`;
 #: ``halvings`` (int8): the times the step was halved (0: taken whole).

@@ -37,9 +37,8 @@ Before a step, an open contact that approaches and would close within it shorten
 end at its predicted closing (no shorter than its onset step), so that most onsets need no
 redone step. The onset speed of a contact that closes in a step (the v_pre of its damping
 term) is its approach speed where its gap crosses zero, from the gaps and normal velocities at
-the step's ends (:func:`settle_onset_speeds`; the step is redone with it), not that of the last
-open state as with a fixed step: a long step before a slow closing would otherwise set the
-damping of a loaded contact.
+the step's ends (:func:`~.compliant_step.settle_onset_speeds`; the step is redone with it), as
+a fixed step's: the last open state may lie a long step before a slow closing.
 
 Steps land on the output grid (every ``out_dt``): the rest of an interval is cut into equal
 steps no longer than the planned one, so that a steady plan gives steps of one size. There the
@@ -52,7 +51,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from .compliant_step import commit_step, compliant_step_into, start_accelerations, write_sample
+from .compliant_step import (
+    clear_onsets,
+    commit_step,
+    compliant_step_into,
+    restore_step_start,
+    save_step_start,
+    settle_onset_speeds,
+    start_accelerations,
+    write_sample,
+)
 from .contact import contact_rows_cached
 from .generalized_alpha import alpha_coefficients
 from .hertz import hertz_impact_time
@@ -163,78 +171,19 @@ def onset_retry(h, q, cs, cwork, ma, onset_steps, hw, trig):
 
 
 @step_kernel
-def crossing_speed(g0, g1, vn0, vn1, h):
-    """Normal velocity [m/s] where a gap that is ``g0`` >= 0 at the start of a step of size
-    ``h`` [s] and ``g1`` < 0 at its end (rates ``vn0``, ``vn1`` [m/s]) crosses zero: the root of
-    its cubic Hermite interpolant (bisection) and the interpolant's rate there."""
-    d0 = h * vn0
-    d1 = h * vn1
-    lo = 0.0
-    hi = 1.0
-    for _ in range(50):
-        s = 0.5 * (lo + hi)
-        g = ((2.0 * s - 3.0) * s * s + 1.0) * g0 + ((s - 2.0) * s + 1.0) * s * d0 \
-            + (3.0 - 2.0 * s) * s * s * g1 + (s - 1.0) * s * s * d1
-        if g > 0.0:
-            lo = s
-        else:
-            hi = s
-    s = 0.5 * (lo + hi)
-    rate = (6.0 * s * s - 6.0 * s) * g0 + (3.0 * s * s - 4.0 * s + 1.0) * d0 \
-        + (6.0 * s - 6.0 * s * s) * g1 + (3.0 * s * s - 2.0 * s) * d1
-    return rate / h
-
-
-@step_kernel
-def settle_onset_speeds(h, cs, cwork, onset, v_pre_min):
-    """Whether the onset speed of every contact that closed in the step of size ``h`` [s] is
-    its approach speed where its gap crossed zero (:func:`crossing_speed`, from the gaps and
-    normal velocities at the step's start and end), to 1e-3; those that are not get it in
-    ``onset`` for the step to be redone with. (The fixed step takes the approach speed of the
-    last open state, one step before the crossing; a long adaptive step would make that an
-    error of the acceleration times the step, which for a contact that closes slowly, a ball
-    rolling into a loaded contact, changes the damping term by as much as the force.)"""
-    settled = True
-    for k in range(cs.closed.shape[0]):
-        if cs.closed[k] != 0 or not cwork[2, k] < 0.0:
-            continue
-        speed = max(-crossing_speed(max(cs.gap[k], 0.0), cwork[2, k], cs.vn[k], cwork[3, k],
-                                    h), v_pre_min)
-        if abs(speed - cs.v_pre[k]) > 1e-3 * speed:
-            onset[k] = speed
-            settled = False
-    return settled
-
-
-@step_kernel
 def _attempt(t, h, coef, st, ma, state, cs, work, aw):
     """One step of size ``h`` [s] from time ``t`` [s], its end left in the work arrays (the
     state is unchanged but for ``lam_s`` and the smooth stage's records, which
-    :func:`_undo` restores): the start accelerations corrected to the step's size and the
-    step of :func:`~.compliant_step.compliant_step_into`. Returns its (smooth iterations,
-    projection iterations, converged)."""
+    :func:`~.compliant_step.restore_step_start` restores): the start accelerations corrected
+    to the step's size and the step of :func:`~.compliant_step.compliant_step_into`. Returns
+    its (smooth iterations, projection iterations, converged)."""
     ratio = h / aw.h[1]
     rw = work.retry
     start_accelerations(state, ratio, rw.acc_c)
-    for i in range(state.q.shape[0]):
-        aw.vdot_old_save[i] = work.branches.vdot_old[i]
-    for r in range(state.lam_s.shape[0]):
-        rw.lam_save[r] = state.lam_s[r]
-    aw.reuse_save[0] = work.branches.reuse[1]  # (whether the last step converged)
+    save_step_start(state, work)
     it_s, ok_s, it_p, ok_p = compliant_step_into(state, rw.acc_c, t + h, h, ratio, coef, st,
                                                  ma, cs, work, True)
     return it_s, it_p, ok_s and ok_p
-
-
-@step_kernel
-def _undo(state, work, aw):
-    """Restore what a rejected :func:`_attempt` changed of the state and the smooth stage's
-    records."""
-    for r in range(state.lam_s.shape[0]):
-        state.lam_s[r] = work.retry.lam_save[r]
-    for i in range(state.q.shape[0]):
-        work.branches.vdot_old[i] = aw.vdot_old_save[i]
-    work.branches.reuse[1] = aw.reuse_save[0]
 
 
 @step_kernel
@@ -256,19 +205,13 @@ def _accept(t, h, its, flagged, st, state, cs, work, aw):
 @step_kernel
 def _reject(reason, h_next, ad, state, work, aw):
     """Reject the step of :func:`_attempt` for ``reason`` (a ``counts`` entry of
-    :data:`~.bundles.AdaptiveState`): undo it (:func:`_undo`), forget its onset speeds and
-    plan the next attempt at ``h_next`` [s], no shorter than ``ad.dt_min``."""
+    :data:`~.bundles.AdaptiveState`): undo it (:func:`~.compliant_step.restore_step_start`),
+    forget its onset speeds and plan the next attempt at ``h_next`` [s], no shorter than
+    ``ad.dt_min``."""
     aw.counts[reason] += 1
-    _undo(state, work, aw)
-    _clear(work.onset)
+    restore_step_start(state, work)
+    clear_onsets(work.onset)
     aw.h[0] = max(h_next, ad.dt_min)
-
-
-@step_kernel
-def _clear(onset):
-    """No onset speed given (NaN) for any contact."""
-    for k in range(onset.shape[0]):
-        onset[k] = np.nan
 
 
 @step_kernel
@@ -347,14 +290,14 @@ def integrate_compliant_adaptive(row0, row1, st, ad, ma, state, cs, out, work, a
             if retry > 0.0 and not floor:
                 _reject(REJECTED_ONSET, retry, ad, state, work, aw)
                 continue
-            if redos < MAX_ONSET_REDOS and not settle_onset_speeds(h, cs, work.contacts,
-                                                                   work.onset, st.v_pre_min):
+            if redos < MAX_ONSET_REDOS and not settle_onset_speeds(h, ma, cs, work,
+                                                                   st.v_pre_min):
                 redos += 1
                 aw.counts[REJECTED_ONSET] += 1
-                _undo(state, work, aw)
+                restore_step_start(state, work)
                 continue  # the same step, with the onset speeds at the crossings
             redos = 0
-            _clear(work.onset)
+            clear_onsets(work.onset)
             flagged = not ok or not err <= 1.0  # (needed less than dt_min: taken at dt_min)
             _accept(t, h, (it_s, it_p), flagged, st, state, cs, work, aw)
             steps += 1

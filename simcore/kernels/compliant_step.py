@@ -5,9 +5,14 @@ sampling (every ``every`` steps: the peak force, the impulse, the deepest indent
 interval).
 
 Onset of a contact in discrete time: a contact open at the end of a step (g_N >= 0) carries as
-its onset speed the approach speed of that state, v_pre = max(-vn, v_pre_min); the value is
-frozen at the first step that ends closed and kept while the contact stays closed. The error
-against the speed at the exact crossing is at most the change of vn over one step.
+its onset speed the approach speed of that state, v_pre = max(-vn, v_pre_min), into the next
+step. Once a step ends with it closed, its onset speed becomes its approach speed where its gap
+crossed zero (from the cubic through the gaps and normal velocities at the step's ends,
+:func:`onset_speeds_at_crossings`) and is kept while it stays closed; the closing step itself,
+where the indentation is at most a step's travel, keeps the last open state's. Without that
+(``solver.onset_speed: last_open``) the last open state's speed is kept, an error of the change
+of vn over one step, first order in the step. (Adaptive steps take the step again with the
+crossing's speed: :func:`settle_onset_speeds`.)
 """
 
 from __future__ import annotations
@@ -66,17 +71,21 @@ from .springs import WITH_TANGENTS, smooth_forces_into, total_energy
 #: Hertz law's (:func:`~.hertz.hertz_work`), the joint projection's (:data:`ProjectionWork`)
 #: and the friction branches' (:data:`BranchWork`); ``onset`` (nc) an onset speed to use for
 #: a contact that closes in the step instead of the approach speed of the last state (NaN:
-#: none; the adaptive step's, see :func:`~.compliant_adaptive.settle_onset_speeds`); ``retry``
-#: (:data:`RetryWork`) the work of a step taken again (a fixed step's retry, an adaptive
-#: step's rejection).
+#: none; see :func:`settle_onset_speeds`); ``retry`` (:data:`RetryWork`) the work of a step
+#: taken again (a fixed step's retry or onset redo, an adaptive step's rejection).
 CompliantWork = namedtuple("CompliantWork", ["step", "smooth", "contacts", "hertz",
                                              "projection", "branches", "onset", "retry"])
 
 #: Work of a step taken again (the fixed loop's retries, :func:`_retry_in_substeps`, and the
 #: adaptive loop's rejected steps): the start accelerations corrected to another step size
-#: (``acc_c``, n), the joint multipliers at the start of the step (``lam_save``, m) and, for
-#: the fixed loop, the size of the last step taken (``h_last``, 1; 0 before the first) [s].
-RetryWork = namedtuple("RetryWork", ["acc_c", "lam_save", "h_last"])
+#: (``acc_c``, n), what the step changes before it is kept (:func:`save_step_start`: the
+#: joint multipliers ``lam_save`` (m), the start accelerations the first iterate is
+#: extrapolated from ``vdot_old_save`` (n) and whether the last step converged
+#: ``reuse_save`` (1)) and, for the fixed loop, the size of the last step taken (``h_last``,
+#: 1; 0 before the first) [s].
+RetryWork = namedtuple("RetryWork", ["acc_c", "lam_save", "vdot_old_save", "reuse_save",
+                                     "h_last"])
+
 
 #: Work arrays of :func:`project_joints_into`: joint rows g, G (m x n), their velocity terms,
 #: the rows' supports (cols (m x 6), ncols), S = G M^-1 G^T and its LU pivots, a right-hand
@@ -136,6 +145,8 @@ def compliant_work(n, nbil, nc):
                          contacts=contact_records(nc), hertz=hertz_work(),
                          projection=projection_work(n, nbil), onset=np.full(nc, np.nan),
                          retry=RetryWork(acc_c=np.zeros(n), lam_save=np.zeros(nbil),
+                                         vdot_old_save=np.zeros(n),
+                                         reuse_save=np.zeros(1, dtype=np.int64),
                                          h_last=np.zeros(1)),
                          branches=BranchWork(J2=np.zeros((n, n)), r2=np.zeros(n + nbil),
                                              current=np.zeros(nc, dtype=np.int64),
@@ -1043,19 +1054,127 @@ def write_sample(row, state, cs, out, ma, drive_row, trig, duration):
 
 
 @step_kernel
-def _retry_in_substeps(t1, h, h_before, max_halvings, coef, st, ma, state, cs, work, sample):
+def crossing_speed(g0, g1, vn0, vn1, h):
+    """Normal velocity [m/s] where a gap that is ``g0`` >= 0 at the start of a step of size
+    ``h`` [s] and ``g1`` < 0 at its end (rates ``vn0``, ``vn1`` [m/s]) crosses zero: the root of
+    its cubic Hermite interpolant (bisection) and the interpolant's rate there."""
+    d0 = h * vn0
+    d1 = h * vn1
+    lo = 0.0
+    hi = 1.0
+    for _ in range(50):
+        s = 0.5 * (lo + hi)
+        g = ((2.0 * s - 3.0) * s * s + 1.0) * g0 + ((s - 2.0) * s + 1.0) * s * d0 \
+            + (3.0 - 2.0 * s) * s * s * g1 + (s - 1.0) * s * s * d1
+        if g > 0.0:
+            lo = s
+        else:
+            hi = s
+    s = 0.5 * (lo + hi)
+    rate = (6.0 * s * s - 6.0 * s) * g0 + (3.0 * s * s - 4.0 * s + 1.0) * d0 \
+        + (6.0 * s - 6.0 * s * s) * g1 + (3.0 * s * s - 2.0 * s) * d1
+    return rate / h
+
+
+@step_kernel
+def _start_gap_and_speed(k, ma, cs, bw, hw, trig):
+    """Gap [m] and normal velocity [m/s] of contact ``k`` at the start of the step: at the last
+    step's result (``bw.q_ref``, ``bw.v_ref``: the numbers its records hold where it computed
+    the open contacts' velocities, which a fixed step leaves out between output rows), or at a
+    run's first step its records."""
+    if bw.ready[1] == 0:
+        return cs.gap[k], cs.vn[k]
+    g0 = contact_rows_cached(bw.q_ref, k, ma.ct_type, ma.ct_body, ma.ct_geom, hw.wN, hw.wT,
+                             trig)
+    return g0, row_dot(hw.wN, ma.ct_body[k, 0], ma.ct_body[k, 1], bw.v_ref)
+
+
+@step_kernel
+def _crossing_onset_speed(k, h, ma, cs, work, v_pre_min):
+    """The approach speed [m/s] of contact ``k``, open at the start of the step of size ``h``
+    [s] and closed at its end (its result in ``work.contacts``), where its gap crossed zero
+    (:func:`crossing_speed`, from the gaps and normal velocities at the step's ends), at
+    least ``v_pre_min``."""
+    cwork = work.contacts
+    g0, vn0 = _start_gap_and_speed(k, ma, cs, work.branches, work.hertz, work.smooth.trig)
+    return max(-crossing_speed(max(g0, 0.0), cwork[GAP_ROW, k], vn0, cwork[VN_ROW, k], h),
+               v_pre_min)
+
+
+@step_kernel
+def settle_onset_speeds(h, ma, cs, work, v_pre_min):
+    """Whether the onset speed of every contact that closed in the step of size ``h`` [s] (of
+    :func:`compliant_step_into`, its result in ``work.contacts``) is its approach speed where
+    its gap crossed zero (:func:`_crossing_onset_speed`), to 1e-3; those that are not get it
+    in ``work.onset`` for the step to be taken again with (adaptive steps: the last open state
+    may lie a long step before a slow closing)."""
+    settled = True
+    for k in range(cs.closed.shape[0]):
+        if cs.closed[k] != 0 or not work.contacts[GAP_ROW, k] < 0.0:
+            continue
+        speed = _crossing_onset_speed(k, h, ma, cs, work, v_pre_min)
+        if abs(speed - cs.v_pre[k]) > 1e-3 * speed:
+            work.onset[k] = speed
+            settled = False
+    return settled
+
+
+@step_kernel
+def onset_speeds_at_crossings(h, ma, cs, work, v_pre_min):
+    """Give each contact that closed in the step of size ``h`` [s] (of
+    :func:`compliant_step_into`, not yet committed) its approach speed at the crossing
+    (:func:`_crossing_onset_speed`) as its onset speed from the next step on (fixed steps:
+    the step itself took the approach speed of the last open state, where its indentation,
+    at most a step's travel, carries little force)."""
+    for k in range(cs.closed.shape[0]):
+        if cs.closed[k] == 0 and work.contacts[GAP_ROW, k] < 0.0:
+            cs.v_pre[k] = _crossing_onset_speed(k, h, ma, cs, work, v_pre_min)
+
+
+@step_kernel
+def clear_onsets(onset):
+    """No onset speed given (NaN) for any contact."""
+    for k in range(onset.shape[0]):
+        onset[k] = np.nan
+
+
+@step_kernel
+def save_step_start(state, work):
+    """Keep what :func:`compliant_step_into` changes before its step is committed (the joint
+    multipliers, the smooth stage's start accelerations and whether the last step converged)
+    in ``work.retry``, for :func:`restore_step_start`."""
+    rw = work.retry
+    bw = work.branches
+    copy_vector(rw.lam_save, state.lam_s, state.lam_s.shape[0])
+    copy_vector(rw.vdot_old_save, bw.vdot_old, bw.vdot_old.shape[0])
+    rw.reuse_save[0] = bw.reuse[1]
+
+
+@step_kernel
+def restore_step_start(state, work):
+    """Undo what a step not committed changed (:func:`save_step_start`)."""
+    rw = work.retry
+    bw = work.branches
+    copy_vector(state.lam_s, rw.lam_save, state.lam_s.shape[0])
+    copy_vector(bw.vdot_old, rw.vdot_old_save, bw.vdot_old.shape[0])
+    bw.reuse[1] = rw.reuse_save[0]
+
+
+@step_kernel
+def _retry_in_substeps(t1, h, h_before, max_halvings, onset_at_crossing, coef, st, ma, state,
+                       cs, work, sample):
     """Take the step of size ``h`` [s] ending at ``t1`` [s], which did not converge whole, again
     from its start as 2, 4, ... 2^``max_halvings`` substeps: a substep that does not converge is
     taken again as two of half its size, the substeps after it keep that size, and one that
     fails at h / 2^max_halvings is committed as not converged. ``h_before`` [s] is the size of
     the step before, whose accelerations the state holds; ``sample``: whether the step ends at
-    an output row (the last substep then computes the open contacts' velocities). Each
+    an output row (the last substep then computes the open contacts' velocities);
+    ``onset_at_crossing``: as :func:`integrate_compliant_chunk`'s. Each
     substep is committed as a step (:func:`commit_step`): the interval's records hold the
     largest force of the substeps, their impulses and iteration counts. Returns (whether every
     substep converged, the halvings taken, the size of the last substep [s])."""
     rw = work.retry
-    lam = state.lam_s
-    copy_vector(lam, rw.lam_save, lam.shape[0])  # the start's, not the failed iterate
+    restore_step_start(state, work)  # the start's multipliers, not the failed iterate's
     level = 1
     n = 2
     done = 0
@@ -1066,17 +1185,19 @@ def _retry_in_substeps(t1, h, h_before, max_halvings, coef, st, ma, state, cs, w
         last = done == n - 1
         ratio = hs / h_last
         start_accelerations(state, ratio, rw.acc_c)
-        copy_vector(rw.lam_save, lam, lam.shape[0])
+        save_step_start(state, work)
         t_end = t1 if last else t1 - h + (done + 1) * hs
         it_s, ok_s, it_p, ok_p = compliant_step_into(state, rw.acc_c, t_end, hs, ratio, coef, st,
                                                      ma, cs, work, sample and last)
         ok = ok_s and ok_p
         if not ok and level < max_halvings:
-            copy_vector(lam, rw.lam_save, lam.shape[0])
+            restore_step_start(state, work)
             level += 1
             n *= 2
             done *= 2
             continue
+        if ok and onset_at_crossing:
+            onset_speeds_at_crossings(hs, ma, cs, work, st.v_pre_min)
         commit_step(hs, state, cs, work, it_s, it_p, ok, st.drive_row, sample and last)
         all_ok = all_ok and ok
         h_last = hs
@@ -1085,12 +1206,16 @@ def _retry_in_substeps(t1, h, h_before, max_halvings, coef, st, ma, state, cs, w
 
 
 @loop_kernel
-def integrate_compliant_chunk(k0, k1, every, max_halvings, st, ma, state, cs, out, work):
+def integrate_compliant_chunk(k0, k1, every, max_halvings, onset_at_crossing, st, ma, state,
+                              cs, out, work):
     """Advance steps k0 .. k1-1 of the compliant model by the fixed step ``st.h`` (state at
-    t0 + k0 h on entry). A step whose smooth stage or joint projection does not converge is
-    taken again from its start as 2, 4, ... 2^``max_halvings`` substeps
-    (:func:`_retry_in_substeps`; ``out.halvings`` of its interval records the halvings), and
-    the step after the substeps starts from accelerations corrected to its size
+    t0 + k0 h on entry). With ``onset_at_crossing``, a contact that closes in a step takes its
+    approach speed at the crossing as its onset speed from the next step on
+    (:func:`onset_speeds_at_crossings`; otherwise it keeps that of the last open state). A
+    step whose smooth stage or joint projection does not converge is taken again from its
+    start as 2, 4, ... 2^``max_halvings`` substeps (:func:`_retry_in_substeps`;
+    ``out.halvings`` of its interval records the halvings), and the step after the substeps
+    starts from accelerations corrected to its size
     (:func:`start_accelerations`).
 
     Every ``every`` steps the output row (k + 1) // every is written (:func:`write_sample`):
@@ -1123,7 +1248,6 @@ def integrate_compliant_chunk(k0, k1, every, max_halvings, st, ma, state, cs, ou
     first_bad = -1
     rw = work.retry
     h_last = rw.h_last[0] if rw.h_last[0] > 0.0 else h
-    lam = state.lam_s
     for k in range(k0, k1):
         t1 = st.t0 + (k + 1) * h
         # the open contacts' velocities are needed at the output rows only (elsewhere an
@@ -1134,16 +1258,19 @@ def integrate_compliant_chunk(k0, k1, every, max_halvings, st, ma, state, cs, ou
             start_accelerations(state, h / h_last, rw.acc_c)
             acc = rw.acc_c
         if max_halvings > 0:
-            copy_vector(rw.lam_save, lam, lam.shape[0])
+            save_step_start(state, work)
         it_s, ok_s, it_p, ok_p = compliant_step_into(state, acc, t1, h, h / h_last, coef, st,
                                                      ma, cs, work, sample)
         ok = ok_s and ok_p
+        if ok and onset_at_crossing:
+            onset_speeds_at_crossings(h, ma, cs, work, st.v_pre_min)
         if ok or max_halvings == 0:
             commit_step(h, state, cs, work, it_s, it_p, ok, st.drive_row, sample)
             h_last = h
         else:
-            ok, level, h_last = _retry_in_substeps(t1, h, h_last, max_halvings, coef, st,
-                                                   ma, state, cs, work, sample)
+            ok, level, h_last = _retry_in_substeps(t1, h, h_last, max_halvings,
+                                                   onset_at_crossing, coef, st, ma, state, cs,
+                                                   work, sample)
             row = k // every + 1
             out.halvings[row] = max(out.halvings[row], level)
         if not ok and first_bad < 0:

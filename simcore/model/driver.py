@@ -88,7 +88,7 @@ SETTING_KEYS = {
     "max_indentation": "solver.max_indentation", "adaptive": "solver.adaptive",
     "dt_min": "solver.dt_min", "adaptive_tol": "solver.adaptive_tol",
     "adaptive_keep_growth": "solver.adaptive_keep_growth",
-    "adaptive_retries": "solver.adaptive_retries",
+    "adaptive_retries": "solver.adaptive_retries", "onset_speed": "solver.onset_speed",
 }
 
 
@@ -167,6 +167,12 @@ class SolverSettings:
         is run again from its start with ``adaptive_tol`` over :data:`RETRY_TOL_DIVISOR`, at
         most this many times; the audit's failure in the last try, and any other failure,
         stops the run or is flagged. 0: never; at most :data:`MAX_ADAPTIVE_RETRIES`.
+    onset_speed : str
+        Compliant, fixed steps: the onset speed of a contact that closes (the v_pre of its
+        damping term), ``"crossing"`` (its approach speed where its gap crossed zero, from the
+        step after the closing one on) or ``"last_open"`` (the approach speed of the last open
+        state, a step before the crossing: first order in the step). Adaptive steps take the
+        crossing's, in the closing step too.
     """
 
     dt: float
@@ -192,6 +198,7 @@ class SolverSettings:
     onset_steps: float = ONSET_STEPS_DEFAULT
     adaptive_keep_growth: float = KEEP_GROWTH_DEFAULT
     adaptive_retries: int = 1
+    onset_speed: str = "crossing"
 
     def __post_init__(self):
         for name, key in SETTING_KEYS.items():  # each value as a configuration file's
@@ -514,8 +521,7 @@ def _adaptive_state(model, settings: SolverSettings, start: _Start, n_out: int):
     weight[2::3] = np.sqrt(mdiag[2::3] / mdiag[0::3])
     return nb.AdaptiveState(
         h=np.full(2, settings.dt), counts=np.zeros(5, np.int64), h_min=np.full(1, np.inf),
-        t_flag=np.full(1, -1.0), weight=weight, row_steps=np.zeros(n_out, np.int64),
-        vdot_old_save=np.zeros(mdiag.size), reuse_save=np.zeros(1, np.int64))
+        t_flag=np.full(1, -1.0), weight=weight, row_steps=np.zeros(n_out, np.int64))
 
 
 def _nonsmooth_outputs(out: Trajectory):
@@ -571,9 +577,10 @@ class _Loop:
                     k // every, k_next // every, kset, aset, start.arrays, start.state,
                     self.cstate, outputs, start.work, self.adaptive)
             else:
+                at_crossing = settings.onset_speed == "crossing"
                 self._advance = lambda k, k_next: nb.integrate_compliant_chunk(
-                    k, k_next, every, settings.max_halvings, kset, start.arrays, start.state,
-                    self.cstate, outputs, start.work)
+                    k, k_next, every, settings.max_halvings, at_crossing, kset, start.arrays,
+                    start.state, self.cstate, outputs, start.work)
         else:
             self.cstate = None
             outputs = _nonsmooth_outputs(out)
