@@ -28,10 +28,14 @@ measure of cost.
 Points: ``reference`` (the study's reference point: clearance 4e-4 m, mu 0.01, omega0 50
 rad/s, e_N 0.9) and ``small`` (clearance 2e-5 m, mu 0.01, omega0 100 rad/s, e_N 0.7).
 
+``--onset-speed`` is the fixed steps' ``solver.onset_speed`` (docs/compliant.md, "Onset speed
+v_pre"; adaptive steps take the crossing's either way).
+
 Usage: python benchmarks/bench_adaptive.py [--points reference small] [--revolutions 4]
        [--dt-ref 5e-7] [--fixed 2e-6 1e-6 5e-7 2.5e-7 1.25e-7] [--tols 1e-9]
        [--whole-fixed 1e-6 2.5e-7]
        [--dt-max 1e-5] [--output-dt 1e-5] [--window 1e-3] [--lead 5e-4] [--json FILE]
+       [--onset-speed crossing | last_open]
 """
 
 from __future__ import annotations
@@ -84,6 +88,10 @@ def revolution_peaks(traj, omega0: float, n_balls: int, revolutions: int):
     return peaks, rows
 
 
+#: the fixed steps' solver.onset_speed (--onset-speed)
+ONSET_SPEED = {"fixed": "crossing"}
+
+
 def simulate(model, dt, t_end, output_dt, adaptive, tol, dt_max, q0=None, v0=None, t0=0.0,
              v_pre0=None):
     """One compliant run; returns (trajectory, CPU seconds, steps, rejected steps)."""
@@ -93,7 +101,8 @@ def simulate(model, dt, t_end, output_dt, adaptive, tol, dt_max, q0=None, v0=Non
     every = max(1, round(output_dt / step))
     settings = SolverSettings(step, t_end, contact_model="compliant", output_every=every,
                               adaptive=adaptive, adaptive_tol=tol or 1e-9,
-                              on_nonconvergence="warn", chunk=max(500, 10 * every))
+                              on_nonconvergence="warn", chunk=max(500, 10 * every),
+                              onset_speed=ONSET_SPEED["fixed"])
     cpu = time.process_time()
     traj = model.simulate(settings, q0=q0, v0=v0, t0=t0, v_pre0=v_pre0)
     cpu = time.process_time() - cpu
@@ -234,7 +243,9 @@ def main() -> None:
     p.add_argument("--window", type=float, default=1e-3)
     p.add_argument("--lead", type=float, default=5e-4)
     p.add_argument("--json", default=None)
+    p.add_argument("--onset-speed", choices=["crossing", "last_open"], default="crossing")
     args = p.parse_args()
+    ONSET_SPEED["fixed"] = args.onset_speed
     args.fixed = sorted(args.fixed, reverse=True)
 
     import numba

@@ -2,7 +2,7 @@
 
     nice python benchmarks/fuzz.py [--runs 300] [--compliant 40] [--seed 2611] [--t-end 0.05]
                                    [--no-guards] [--adaptive] [--groove] [--timeout 300]
-                                   [--json FILE]
+                                   [--json FILE] [--set KEY=VALUE ...]
 
 Each configuration draws clearance 1e-6..2e-3 m, mu 0..0.5, omega0 1..400 rad/s, e_N and e_T
 0..1, 3..22 balls, cage stiffness 1e3..1e7 N/m, cage damping 0 (one in four) or 1..1e4 N s/m,
@@ -236,6 +236,8 @@ def main(argv=None) -> int:
     p.add_argument("--timeout", type=float, default=300.0,
                    help="seconds after which a run's process is stopped")
     p.add_argument("--json", default=None, help="write every run's record to this file")
+    p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                   help="other settings of every run, e.g. solver.onset_speed=last_open")
     p.add_argument("--one", default=None, help=argparse.SUPPRESS)  # a child: one run
     args = p.parse_args(argv)
     if args.one is not None:
@@ -250,6 +252,7 @@ def main(argv=None) -> int:
         overrides = draw(rng, args.t_end, i in compliant, args.adaptive)
         if args.no_guards:
             overrides.append("model.guard_contacts=false")
+        overrides += args.set
         if args.groove:
             overrides += ["model.contact_geometry=groove", *(
                 f"model.{race}_conformity={groove_rng.uniform(0.505, 0.6)!r}"

@@ -8,9 +8,11 @@ step t_Hertz / :data:`analysis.zoom.ADAPTIVE_STEPS_PER_CONTACT`). Prints, per po
 F_max_zoom and contact_time_zoom of every row and, per variant, the steps and the CPU time of
 all the zooms (median of ``--repeat``, variants alternated) and the largest and median
 relative difference of F_max_zoom from the finest fixed variant. ``--full-window``: every zoom
-runs its whole window (no early stop on the impacts' balls).
+runs its whole window (no early stop on the impacts' balls). ``--set KEY=VALUE``: other
+settings of the runs and their zooms (e.g. ``solver.onset_speed=last_open``).
 
     python benchmarks/zoom_adaptive.py [--fixed 20 40 80] [--revolutions 3] [--full-window]
+                                       [--set KEY=VALUE ...]
 """
 
 from __future__ import annotations
@@ -34,10 +36,11 @@ POINTS = {
 }
 
 
-def study_run(point, revolutions):
-    """The nonsmooth run of a study point, its impact table and the end of its start-up."""
+def study_run(point, revolutions, overrides=()):
+    """The nonsmooth run of a study point (with the configuration's ``overrides``), its impact
+    table and the end of its start-up."""
     cfg = simcore.load_config(overrides=["model.drive=constant", "model.youngs_modulus=2.1e11",
-                                         *point])
+                                         *point, *overrides])
     t_end = (1.0 + revolutions) * 2 * np.pi / abs(cfg["model"]["omega0"])
     cfg["solver"]["t_end"] = float(np.ceil(t_end / cfg["solver"]["dt"]) * cfg["solver"]["dt"])
     run = simcore.run(cfg)
@@ -55,6 +58,8 @@ def main(argv=None) -> int:
     p.add_argument("--full-window", action="store_true",
                    help="zooms run their whole window (no stop once the impacts' balls are "
                         "free, until_released=False)")
+    p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                   help="other settings of the runs and their zooms")
     args = p.parse_args(argv)
     if args.full_window:
         whole = simcore.study.zoom.zoom_trajectory
@@ -62,7 +67,7 @@ def main(argv=None) -> int:
             lambda *a, **kw: whole(*a, **dict(kw, until_released=False)))
     variants = [("fixed", n) for n in args.fixed] + [("adaptive", ADAPTIVE_STEPS_PER_CONTACT)]
     for name, point in POINTS.items():
-        run, table, settle = study_run(point, args.revolutions)
+        run, table, settle = study_run(point, args.revolutions, args.set)
         rows = zoom_rows(table, args.top, settle)
         print(f"\n## {name}: {table.sizes['impact']} impacts, {rows.size} zoomed rows")
         for adaptive in (False, True):  # (compiled kernels loaded before the timings)

@@ -72,7 +72,7 @@ from .springs import WITH_TANGENTS, smooth_forces_into, total_energy
 #: and the friction branches' (:data:`BranchWork`); ``onset`` (nc) an onset speed to use for
 #: a contact that closes in the step instead of the approach speed of the last state (NaN:
 #: none; see :func:`settle_onset_speeds`); ``retry`` (:data:`RetryWork`) the work of a step
-#: taken again (a fixed step's retry or onset redo, an adaptive step's rejection).
+#: taken again (a fixed step's retry, an adaptive step's rejection).
 CompliantWork = namedtuple("CompliantWork", ["step", "smooth", "contacts", "hertz",
                                              "projection", "branches", "onset", "retry"])
 
@@ -85,7 +85,6 @@ CompliantWork = namedtuple("CompliantWork", ["step", "smooth", "contacts", "hert
 #: 1; 0 before the first) [s].
 RetryWork = namedtuple("RetryWork", ["acc_c", "lam_save", "vdot_old_save", "reuse_save",
                                      "h_last"])
-
 
 #: Work arrays of :func:`project_joints_into`: joint rows g, G (m x n), their velocity terms,
 #: the rows' supports (cols (m x 6), ncols), S = G M^-1 G^T and its LU pivots, a right-hand
