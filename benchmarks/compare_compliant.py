@@ -13,10 +13,11 @@ normal force per contact in windows of ``--window`` seconds:
   omega0 = 50 rad/s, E = 2.1e9 Pa, zoomed with compliant contacts on its largest impact,
   2,000 steps of 3.128 us).
 
-Both trajectories are chaotic: a change of the last bit anywhere grows by about 30 times every
-5 ms of the paper's case. So that the comparison says what a difference means, each case is
-also run by the reference with its initial ball position moved by 1e-15 m (``perturbed``):
-window by window, a change of the code that stays at round-off level differs from the
+Both trajectories are chaotic: in the paper's case a change of the last bit anywhere grows to
+a change of tens of per cents of a contact's peak force within 25 ms (docs/compliant.md gives
+the table). So that the comparison says what a difference means, each case is also run by the
+reference with its initial ball position moved by 1e-15 m (``perturbed``): window by window, a
+change of the code that stays at round-off level differs from the
 reference by about as much as that perturbation does.
 
 Usage: python benchmarks/compare_compliant.py [--ref-rev main | --ref-path DIR]
